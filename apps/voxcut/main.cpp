@@ -1,0 +1,123 @@
+// voxcut: the command line. Thin: every step lives in the library.
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <iostream>
+#include <new>
+#include <nlohmann/json.hpp>
+
+#include "ModelOptions.h"
+#include "voxcut/core/Parallel.h"
+#include "voxcut/io/SurfaceWriter.h"
+
+namespace voxcut::app {
+namespace {
+
+nlohmann::json toJson(const std::string& name, const ModelBuild& b, int threads) {
+  const auto& g = b.grid;
+  const auto& s = b.stats;
+  nlohmann::json j;
+  j["model"] = name;
+  j["grid"] = {g.dims().x, g.dims().y, g.dims().z};
+  j["voxel_size"] = g.voxelSize();
+  j["origin"] = {g.origin().x(), g.origin().y(), g.origin().z()};
+  j["voxels"] = s.voxels;
+  nlohmann::json perMat = nlohmann::json::object();
+  for (const auto& [m, n] : s.voxelsPerMaterial) perMat[m] = n;
+  j["voxels_per_material"] = perMat;
+  j["links"] = s.connectedLinks;
+  j["disconnected_links"] = s.surfaceLinks + s.cutLinks;
+  j["disconnected_links_by_kind"] = {{"surface", s.surfaceLinks}, {"cut", s.cutLinks}};
+  j["interface_links"] = s.interfaceLinks;
+  j["surface_vertices"] = b.surface.positions.size();
+  j["surface_triangles"] = b.surface.triangles.size();
+  j["surface_closed"] = s.topology.closed;
+  j["surface_manifold"] = s.topology.manifold;
+  j["surface_pieces"] = s.topology.pieces;
+  j["surface_genus"] = s.topology.genusSum;
+  j["pieces"] = s.pieces;
+  j["bytes_per_voxel"] = static_cast<double>(s.bytes) / static_cast<double>(g.voxelCount());
+  j["threads"] = threads;
+  nlohmann::json t = nlohmann::json::object();
+  for (const auto& [stage, ms] : b.timings) t[stage] = ms;
+  j["timings_ms"] = t;
+  return j;
+}
+
+void printText(const std::string& name, const ModelBuild& b) {
+  const auto& g = b.grid;
+  const auto& s = b.stats;
+  std::printf("model               %s\n", name.c_str());
+  std::printf("grid                %d x %d x %d (%zu voxels, padding included)\n", g.dims().x,
+              g.dims().y, g.dims().z, g.voxelCount());
+  std::printf("voxel size          %.6g m\n", g.voxelSize());
+  std::printf("voxels              %zu\n", s.voxels);
+  for (const auto& [m, n] : s.voxelsPerMaterial) std::printf("  %-17s %zu\n", m.c_str(), n);
+  std::printf("links (connected)   %zu, of which %zu between materials\n", s.connectedLinks,
+              s.interfaceLinks);
+  std::printf("disconnected links  %zu surface, %zu cut\n", s.surfaceLinks, s.cutLinks);
+  std::printf("surface             %zu vertices, %zu triangles, %s, %d piece(s), genus %d\n",
+              b.surface.positions.size(), b.surface.triangles.size(),
+              s.topology.closed ? (s.topology.manifold ? "closed 2-manifold" : "closed, not manifold")
+                                : "NOT closed",
+              s.topology.pieces, s.topology.genusSum);
+  std::printf("pieces              %d\n", s.pieces);
+  std::printf("memory              %.1f bytes per voxel\n",
+              static_cast<double>(s.bytes) / static_cast<double>(g.voxelCount()));
+  std::printf("time (ms)          ");
+  for (const auto& [stage, ms] : b.timings) std::printf(" %s %.1f", stage.c_str(), ms);
+  std::printf("\n");
+}
+
+int run(int argc, char** argv) {
+  CLI::App app{"voxcut: interactive cutting of deformable objects modeled as linked voxels"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "voxcut 0.1.0");
+
+  ModelOptions infoOpt;
+  auto* info = app.add_subcommand("info", "Voxelize a model and print its linked voxel model and surface");
+  addModelOptions(*info, infoOpt);
+
+  ModelOptions surfOpt;
+  std::string output;
+  auto* surface = app.add_subcommand("surface", "Voxelize a model and write its dual-contoured surface");
+  addModelOptions(*surface, surfOpt);
+  surface->add_option("-o,--output", output, "Output surface, .obj or .ply")->required();
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  ModelOptions& opt = info->parsed() ? infoOpt : surfOpt;
+  ThreadLimit limit(opt.threads);
+  std::string name;
+  const ModelBuild b = buildFromOptions(opt, name);
+  if (surface->parsed()) writeSurface(b.surface, output);
+  if (opt.json)
+    std::cout << toJson(name, b, ThreadLimit::current()).dump(2) << "\n";
+  else if (info->parsed())
+    printText(name, b);
+  else
+    std::printf("wrote %s: %zu vertices, %zu triangles\n", output.c_str(), b.surface.positions.size(),
+                b.surface.triangles.size());
+  return 0;
+}
+
+}  // namespace
+}  // namespace voxcut::app
+
+int main(int argc, char** argv) {
+  try {
+    return voxcut::app::run(argc, argv);
+  } catch (const voxcut::InputError& e) {
+    std::fprintf(stderr, "voxcut: error: %s\n", e.what());
+    return 2;
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "voxcut: error: out of memory\n");
+    return 3;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "voxcut: error: %s\n", e.what());
+    return 4;
+  }
+}

@@ -1,0 +1,24 @@
+# Warnings as an INTERFACE target every voxcut target links.
+add_library(voxcut_warnings INTERFACE)
+target_compile_options(voxcut_warnings INTERFACE
+  -Wall -Wextra -Wpedantic -Wshadow -Wconversion -Wno-sign-conversion
+  -Wnon-virtual-dtor -Wold-style-cast -Woverloaded-virtual -Wnull-dereference)
+
+# voxcut_add_module(name SOURCES ... DEPS ...): one library per module.
+function(voxcut_add_module name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})
+  add_library(voxcut_${name} ${ARG_SOURCES})
+  add_library(voxcut::${name} ALIAS voxcut_${name})
+  target_include_directories(voxcut_${name} PUBLIC ${PROJECT_SOURCE_DIR}/src)
+  target_link_libraries(voxcut_${name} PUBLIC ${ARG_DEPS} PRIVATE voxcut_warnings ${ARG_PRIVATE_DEPS})
+endfunction()
+
+# voxcut_add_test(name SOURCES ... DEPS ...): a GoogleTest executable registered with CTest.
+function(voxcut_add_test name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main voxcut_warnings)
+  target_compile_definitions(${name} PRIVATE VOXCUT_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
+                             VOXCUT_BINARY_DIR="${PROJECT_BINARY_DIR}")
+  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60 PROPERTIES TIMEOUT 600)
+endfunction()

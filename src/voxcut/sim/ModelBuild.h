@@ -1,0 +1,54 @@
+#pragma once
+/// @file ModelBuild.h
+/// The path from material meshes to a linked voxel model and its surface: voxelize, apply
+/// planar cuts, dual-contour, count pieces, with the time of each stage. What `voxcut info`
+/// and `voxcut surface` run; a library function so that every front end gets the same thing.
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "voxcut/core/Timer.h"
+#include "voxcut/surface/SurfaceMesh.h"
+#include "voxcut/voxel/PlaneCut.h"
+#include "voxcut/voxel/Voxelizer.h"
+
+namespace voxcut {
+
+/// Settings of buildModel.
+struct ModelBuildParams {
+  VoxelizeParams voxelize;
+  std::vector<Plane> cuts;
+  bool threaded = true;
+};
+
+/// Counts describing a voxel model and its surface.
+struct ModelStats {
+  std::vector<std::pair<std::string, std::size_t>> voxelsPerMaterial;
+  std::size_t voxels = 0;
+  std::size_t connectedLinks = 0;
+  std::size_t surfaceLinks = 0;    ///< disconnected, material on one side only
+  std::size_t cutLinks = 0;        ///< disconnected, material on both sides
+  std::size_t interfaceLinks = 0;  ///< connected, two different materials
+  int pieces = 0;                  ///< connected voxel components
+  SurfaceTopology topology;
+  std::size_t bytes = 0;           ///< memory held by the voxel grid
+};
+
+/// A built model.
+struct ModelBuild {
+  VoxelGrid grid;
+  SurfaceMesh surface;
+  ModelStats stats;
+  VoxelizeReport voxelizeReport;
+  StageTimings timings;  ///< voxelize, cut, contour, pieces, topology (ms)
+};
+
+/// Counts links by kind and voxels by material. Deterministic.
+[[nodiscard]] ModelStats countModel(const VoxelGrid& grid, bool threaded = true);
+
+/// Runs the whole path. Throws InputError on bad input (see voxelize, cutWithPlane).
+[[nodiscard]] ModelBuild buildModel(const std::vector<MaterialMesh>& materials,
+                                    const ModelBuildParams& params);
+
+}  // namespace voxcut

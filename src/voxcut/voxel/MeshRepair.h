@@ -1,0 +1,29 @@
+#pragma once
+/// @file MeshRepair.h
+/// Cleans an imperfect triangle mesh before voxelizing: welds coincident vertices, drops
+/// degenerate and duplicate faces, and makes the orientation consistent per connected patch.
+
+#include "voxcut/core/TriangleMesh.h"
+
+namespace voxcut {
+
+/// What repairMesh found and did.
+struct RepairReport {
+  int weldedVertices = 0;     ///< vertices merged into an identical earlier one
+  int degenerateFaces = 0;    ///< faces dropped for repeated vertex indices
+  int duplicateFaces = 0;     ///< faces dropped for using the same three vertices as another
+  int flippedFaces = 0;       ///< faces whose winding was reversed to agree with their patch
+  int boundaryEdges = 0;      ///< edges with one face (holes)
+  int nonManifoldEdges = 0;   ///< edges with three or more faces
+  /// Closed and consistently oriented: every edge has exactly two faces, used in opposite
+  /// directions. Then the crossing-count winding number is exact.
+  bool watertight = false;
+};
+
+/// Returns the repaired mesh. Orientation: faces are flipped to agree with their neighbours
+/// across manifold edges; each connected patch then keeps the orientation of the (area-weighted)
+/// majority of its original faces, so a few flipped faces are fixed while a deliberately
+/// inverted shell (a cavity) stays inverted.
+[[nodiscard]] TriangleMesh repairMesh(const TriangleMesh& in, RepairReport* report = nullptr);
+
+}  // namespace voxcut
