@@ -40,10 +40,21 @@ void addModelOptions(CLI::App& cmd, ModelOptions& opt) {
   cmd.add_option("--material", opt.materials,
                  "NAME=MESH, repeatable, in order, instead of MODEL; later materials win inside "
                  "themselves (a tumor after its liver)");
-  auto* res = cmd.add_option("--resolution", opt.resolution,
+  auto* res = cmd.add_option_function<int>(
+      "--resolution",
+      [&opt](const int& n) {
+        opt.resolution = n;
+        opt.resolutionGiven = true;
+      },
                              "Voxels along the longest side, padding included (default: the "
                              "model's own, 101 for meshes)");
-  auto* size = cmd.add_option("--voxel-size", opt.voxelSize, "Voxel size in metres (instead of --resolution)");
+  auto* size = cmd.add_option_function<double>(
+      "--voxel-size",
+      [&opt](const double& h) {
+        opt.voxelSize = h;
+        opt.voxelSizeGiven = true;
+      },
+      "Voxel size in metres (instead of --resolution)");
   res->excludes(size);
   cmd.add_option("--cut-plane", opt.cutPlanes,
                  "NX,NY,NZ,D: disconnect every link the plane n.x = d crosses (repeatable)");
@@ -71,12 +82,12 @@ ModelBuild buildFromOptions(const ModelOptions& opt, std::string& modelName) {
   modelName = model.name;
 
   ModelBuildParams params;
-  if (opt.voxelSize != 0.0) {
-    params.voxelize.resolution.voxelSize = opt.voxelSize;
+  if (opt.voxelSizeGiven) {
     if (!(opt.voxelSize > 0) || !std::isfinite(opt.voxelSize))
       throw InputError("--voxel-size must be a positive number of metres");
+    params.voxelize.resolution.voxelSize = opt.voxelSize;
   } else {
-    params.voxelize.resolution.resolution = opt.resolution != 0 ? opt.resolution : model.defaultResolution;
+    params.voxelize.resolution.resolution = opt.resolutionGiven ? opt.resolution : model.defaultResolution;
   }
   for (const auto& p : opt.cutPlanes) params.cuts.push_back(parsePlane(p));
   if (isatty(STDERR_FILENO)) {

@@ -13,8 +13,10 @@ namespace voxcut::app {
 struct ModelOptions {
   std::string model;
   std::vector<std::string> materials;  // NAME=MESH
-  int resolution = 0;                  // 0: the model's default
-  double voxelSize = 0.0;
+  int resolution = 0;                  // used when resolutionGiven
+  double voxelSize = 0.0;              // used when voxelSizeGiven
+  bool resolutionGiven = false;
+  bool voxelSizeGiven = false;
   std::vector<std::string> cutPlanes;  // NX,NY,NZ,D
   int threads = 0;                     // 0: all cores
   bool json = false;

@@ -86,23 +86,56 @@ int dualCellComponents(const DualCell& cell, std::array<std::int8_t, 8>& comp) {
   return n;
 }
 
-int dualCellPatches(const DualCell& cell, std::array<std::int8_t, 24>& patch) {
+int dualCellPatches(const DualCell& cell, std::array<std::int8_t, 24>& patch,
+                    const NeighbourCell& neighbour, std::array<FaceSegments, 6>* segments) {
   auto occ = [&](int c) { return (cell.occupied >> c) & 1; };
   auto conn = [&](int e) { return (cell.connected >> e) & 1; };
   auto slot = [](int e, int corner) { return 2 * e + cornerBit(corner, e / 4); };
   std::array<std::int8_t, 24> parent;
   for (int s = 0; s < 24; ++s) parent[s] = static_cast<std::int8_t>(s);
+  auto join = [&](int s0, int s1) {
+    const int a = find(parent, s0), b = find(parent, s1);
+    if (a != b) parent[std::max(a, b)] = static_cast<std::int8_t>(std::min(a, b));
+  };
+  std::array<std::int8_t, 8> comp{};
+  bool haveComp = false;
   for (int f = 0; f < 6; ++f) {
     const int* q = kTables.faceCorner[f];
     const int* ed = kTables.faceEdge[f];  // ed[i] joins q[i] and q[i+1]
+    // Runs: (first corner, start slot, last corner, end slot).
+    int nRuns = 0;
+    int runCorner[4], runStart[4], runEnd[4];
     for (int i = 0; i < 4; ++i) {
       const int prev = ed[(i + 3) % 4];
       if (!occ(q[i]) || conn(prev)) continue;
-      // A run of occupied corners starts at q[i]; follow connected face edges to its end.
       int j = i;
       while (conn(ed[j])) j = (j + 1) % 4;
-      const int a = find(parent, slot(prev, q[i])), b = find(parent, slot(ed[j], q[j]));
-      if (a != b) parent[std::max(a, b)] = static_cast<std::int8_t>(std::min(a, b));
+      runCorner[nRuns] = q[i];
+      runStart[nRuns] = slot(prev, q[i]);
+      runEnd[nRuns] = slot(ed[j], q[j]);
+      ++nRuns;
+    }
+    bool ring = false;
+    if (nRuns == 2) {
+      if (!haveComp) {
+        dualCellComponents(cell, comp);
+        haveComp = true;
+      }
+      if (comp[runCorner[0]] == comp[runCorner[1]]) {
+        const DualCell other = neighbour(f);
+        std::array<std::int8_t, 8> otherComp;
+        dualCellComponents(other, otherComp);
+        const int flip = 1 << (f / 2);  // the same corner seen from the other cell
+        const int c0 = otherComp[runCorner[0] ^ flip], c1 = otherComp[runCorner[1] ^ flip];
+        ring = c0 >= 0 && c0 == c1;
+      }
+    }
+    if (segments) (*segments)[f].count = nRuns;
+    for (int r = 0; r < nRuns; ++r) {
+      const int start = ring ? runStart[(r + 1) % 2] : runStart[r];
+      join(runEnd[r], start);
+      if (segments)
+        (*segments)[f].slots[r] = {static_cast<std::int8_t>(runEnd[r]), static_cast<std::int8_t>(start)};
     }
   }
   int n = 0;

@@ -11,6 +11,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 
 #include "voxcut/voxel/VoxelGrid.h"
 
@@ -37,11 +38,28 @@ struct DualCell {
 /// empty corner. Returns n. Components are numbered in order of their lowest corner.
 int dualCellComponents(const DualCell& cell, std::array<std::int8_t, 8>& comp);
 
+/// The cell across face f = 2*a + s (s = 0: the -a side, 1: the +a side); an empty cell when
+/// it lies outside the grid.
+using NeighbourCell = std::function<DualCell(int face)>;
+
 /// Surface patches: patch[slot] = 0..n-1 for every incidence (a disconnected edge seen from an
-/// occupied end), -1 otherwise. Two incidences share a patch when, on a face of the cell, they
-/// bound the same run of occupied corners joined by connected face edges; this depends on the
-/// face alone, so the two cells sharing a face agree, and each patch is one disk of surface.
-/// Returns n. Patches are numbered in order of their lowest slot.
-int dualCellPatches(const DualCell& cell, std::array<std::int8_t, 24>& patch);
+/// occupied end), -1 otherwise. On each face, the surface joins the two incidences that bound a
+/// run of occupied corners joined by connected face edges, so two incidences share a patch
+/// when a chain of such joins links them; each patch is then one disk of surface, and the two
+/// cells sharing a face agree because the rule reads only that face. One exception keeps the
+/// contour free of doubled edges: when a face has exactly two runs and they are connected
+/// through the cell on each side of it (a ring of voxels around the face centre), the surface
+/// joins the end of each run to the start of the other instead. `neighbour` supplies the cell
+/// across a face for that test (only called for such faces). Returns n; patches are numbered
+/// in order of their lowest slot.
+/// Surface segments on one face of a dual cell: each joins two incidence slots.
+struct FaceSegments {
+  int count = 0;
+  std::array<std::array<std::int8_t, 2>, 4> slots{};
+};
+
+int dualCellPatches(const DualCell& cell, std::array<std::int8_t, 24>& patch,
+                    const NeighbourCell& neighbour,
+                    std::array<FaceSegments, 6>* segments = nullptr);
 
 }  // namespace voxcut

@@ -33,8 +33,18 @@ GridFrame gridFrameFor(const std::array<Vec3d, 2>& bounds, const Resolution& res
   f.voxelSize = h;
   double total = 1.0;
   for (int a = 0; a < 3; ++a) {
-    // Voxel centres cover the extent with half a voxel or more to spare on each side.
-    const double n = std::ceil(ext[a] / h * (1.0 - 1e-12)) + 2.0;
+    // The grid is centred on the model, so its voxel centres sit at integer offsets from the
+    // centre when n is odd and at half-integer offsets when n is even. Take the parity whose
+    // count of centres inside the extent is nearest ext/h (ties: the larger), then one voxel
+    // of padding on each side: flat faces are then not all rounded outward.
+    const double m = ext[a] / h;
+    const double oddCount = 2.0 * std::ceil(m / 2.0 - 1e-9) - 1.0;
+    const double evenCount = 2.0 * std::ceil((m - 1.0) / 2.0 - 1e-9);
+    const double inside = std::abs(oddCount - m) < std::abs(evenCount - m) ||
+                                  (std::abs(oddCount - m) == std::abs(evenCount - m) && oddCount > evenCount)
+                              ? oddCount
+                              : evenCount;
+    const double n = std::max(inside, 0.0) + 2.0;
     total *= n;
     if (n > 2e9 || total > static_cast<double>(maxVoxels)) {
       std::ostringstream os;

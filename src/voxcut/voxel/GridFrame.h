@@ -23,8 +23,9 @@ struct Resolution {
   double voxelSize = 0.0;
 };
 
-/// Grid frame for models within `bounds` ({min, max}, metres), centred on them, with at
-/// least half a voxel of empty space between the bounds and the outer voxel centres. Throws
+/// Grid frame for models within `bounds` ({min, max}, metres), centred on them: along each
+/// axis the number of voxel centres inside the bounds is the nearest achievable to
+/// extent / voxel size, and one more voxel on each side is padding, outside the bounds. Throws
 /// InputError for a resolution below 3, a non-positive or non-finite voxel size, empty or
 /// non-finite bounds, or a grid over `maxVoxels` voxels.
 [[nodiscard]] GridFrame gridFrameFor(const std::array<Vec3d, 2>& bounds, const Resolution& res,

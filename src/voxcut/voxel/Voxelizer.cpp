@@ -187,7 +187,6 @@ VoxelGrid voxelize(const std::vector<MaterialMesh>& materials, const VoxelizePar
         if (inside[v]) mat[v] = id;
     }, params.threaded);
   }
-  // Padding stays empty whatever the labels said.
   const Index3 d = frame.dims;
   reportProgress(params.progress, "voxelize", (2.0 * nMat) / steps);
 
@@ -195,20 +194,31 @@ VoxelGrid voxelize(const std::vector<MaterialMesh>& materials, const VoxelizePar
   std::uint8_t* links = grid.linkData();
   std::vector<std::vector<std::pair<std::uint64_t, Hermite>>> slices(static_cast<std::size_t>(d.z));
   std::vector<std::size_t> holeLinks(static_cast<std::size_t>(d.z), 0);
-  parallelFor(0, static_cast<std::size_t>(d.z), 1, [&](std::size_t z0, std::size_t z1) {
-    for (std::size_t z = z0; z < z1; ++z)
-      for (int y = 0; y < d.y; ++y)
-        for (int x = 0; x < d.x; ++x) {
-          const Index3 c{x, y, static_cast<int>(z)};
-          const std::size_t v = grid.index(c);
-          const bool pad = x == 0 || y == 0 || z == 0 || x == d.x - 1 || y == d.y - 1 ||
-                           static_cast<int>(z) == d.z - 1;
-          if (pad) mat[v] = 0;
-        }
+  // Padding stays empty whatever the labels said; then note which voxel rows hold material.
+  for (int a = 0; a < 3; ++a)
+    for (int side = 0; side < 2; ++side) {
+      const int u = (a + 1) % 3, w = (a + 2) % 3;
+      Index3 c;
+      c[a] = side ? d[a] - 1 : 0;
+      for (c[w] = 0; c[w] < d[w]; ++c[w])
+        for (c[u] = 0; c[u] < d[u]; ++c[u]) mat[grid.index(c)] = 0;
+    }
+  const std::size_t nRows = static_cast<std::size_t>(d.y) * static_cast<std::size_t>(d.z);
+  std::vector<std::uint8_t> rowOccupied(nRows, 0);
+  parallelFor(0, nRows, 256, [&](std::size_t r0, std::size_t r1) {
+    for (std::size_t r = r0; r < r1; ++r) {
+      const std::uint8_t* row = mat + r * static_cast<std::size_t>(d.x);
+      rowOccupied[r] = std::any_of(row, row + d.x, [](std::uint8_t m) { return m != 0; });
+    }
   }, params.threaded);
   parallelFor(0, static_cast<std::size_t>(d.z), 1, [&](std::size_t z0, std::size_t z1) {
     for (std::size_t z = z0; z < z1; ++z)
-      for (int y = 0; y < d.y; ++y)
+      for (int y = 0; y < d.y; ++y) {
+        // A row's links reach its own row, the next in y and the next in z.
+        const std::size_t row = static_cast<std::size_t>(y) + static_cast<std::size_t>(d.y) * z;
+        const bool busy = rowOccupied[row] || (y + 1 < d.y && rowOccupied[row + 1]) ||
+                          (static_cast<int>(z) + 1 < d.z && rowOccupied[row + static_cast<std::size_t>(d.y)]);
+        if (!busy) continue;
         for (int x = 0; x < d.x; ++x) {
           const Index3 c{x, y, static_cast<int>(z)};
           const std::size_t v = grid.index(c);
@@ -226,6 +236,7 @@ VoxelGrid voxelize(const std::vector<MaterialMesh>& materials, const VoxelizePar
           }
           links[v] = bits;
         }
+      }
   }, params.threaded);
   std::size_t total = 0;
   for (const auto& s : slices) total += s.size();

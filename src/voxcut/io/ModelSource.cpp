@@ -1,0 +1,128 @@
+#include "voxcut/io/ModelSource.h"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <filesystem>
+#include <string_view>
+
+#include "voxcut/core/Error.h"
+#include "voxcut/io/BunnyData.h"
+#include "voxcut/io/MeshReader.h"
+#include "voxcut/voxel/BuiltinModels.h"
+
+namespace voxcut {
+namespace {
+
+constexpr std::string_view kBoxPrefix = "box:";
+constexpr std::string_view kSpherePrefix = "sphere:";
+constexpr int kSphereSubdivisions = 5;
+// Voxels along the longest side: the paper's grids for the liver (100x62x88) and the starfish
+// (180x166x30); 101 for every other model.
+constexpr int kDefaultResolution = 101;
+constexpr int kLiverResolution = 100;
+constexpr int kStarfishResolution = 180;
+
+std::string_view trimmed(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
+  return s;
+}
+
+/// Parses the comma-separated sizes after a primitive's prefix: exactly `count` numbers, each
+/// positive and finite (metres). `form` is the primitive's syntax for messages.
+std::vector<double> parseSizes(const std::string& spec, std::string_view list, std::size_t count,
+                               std::string_view form) {
+  const std::string bad = "bad model '" + spec + "': ";
+  std::vector<double> sizes;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = list.find(',', start);
+    const std::string_view field =
+        trimmed(list.substr(start, comma == std::string_view::npos ? comma : comma - start));
+    double value = 0.0;
+    const auto [end, ec] = std::from_chars(field.data(), field.data() + field.size(), value);
+    const bool whole = !field.empty() && end == field.data() + field.size();
+    if (!whole || (ec != std::errc() && ec != std::errc::result_out_of_range))
+      throw InputError(bad + "'" + std::string(field) + "' is not a number (expected " +
+                       std::string(form) + " in metres)");
+    if (ec == std::errc::result_out_of_range || !std::isfinite(value) || value <= 0.0)
+      throw InputError(bad + "sizes must be positive and finite, got '" + std::string(field) + "'");
+    sizes.push_back(value);
+    if (comma == std::string_view::npos) break;
+    start = comma + 1;
+  }
+  if (sizes.size() != count)
+    throw InputError(bad + std::string(form) + " takes " + std::to_string(count) +
+                     (count == 1 ? " number" : " numbers") + ", got " +
+                     std::to_string(sizes.size()));
+  return sizes;
+}
+
+/// A model of one material named "default".
+Model singleMaterial(std::string name, TriangleMesh mesh, int resolution) {
+  Model model{std::move(name), {}, resolution};
+  model.materials.push_back({"default", std::move(mesh)});
+  return model;
+}
+
+}  // namespace
+
+std::vector<std::string> builtinModelNames() {
+  return {"bunny", "liver", "starfish"};
+}
+
+Model loadModel(const std::string& spec) {
+  if (spec == "bunny")
+    return singleMaterial("bunny", readMeshFromMemory(detail::kBunnyObj, "obj"),
+                          kDefaultResolution);
+  if (spec == "liver") return {"liver", makeLiver(), kLiverResolution};
+  if (spec == "starfish") return {"starfish", makeStarfish(), kStarfishResolution};
+
+  const std::string_view view = spec;
+  if (view.starts_with(kBoxPrefix)) {
+    const auto s = parseSizes(spec, view.substr(kBoxPrefix.size()), 3, "box:LX,LY,LZ");
+    return singleMaterial("box", makeBox(Vec3d(s[0], s[1], s[2])), kDefaultResolution);
+  }
+  if (view.starts_with(kSpherePrefix)) {
+    const auto s = parseSizes(spec, view.substr(kSpherePrefix.size()), 1, "sphere:R");
+    return singleMaterial("sphere", makeSphere(s[0], kSphereSubdivisions), kDefaultResolution);
+  }
+
+  std::error_code ec;
+  if (!spec.empty() && std::filesystem::exists(spec, ec)) {
+    std::string stem = std::filesystem::path(spec).stem().string();
+    if (stem.empty()) stem = "default";
+    TriangleMesh mesh = readMesh(spec);
+    Model model{stem, {}, kDefaultResolution};
+    model.materials.push_back({std::move(stem), std::move(mesh)});
+    return model;
+  }
+  if (spec == "box" || spec == "sphere")
+    throw InputError("model '" + spec + "' needs its size in metres: " +
+                     (spec == "box" ? "box:LX,LY,LZ" : "sphere:R"));
+  throw InputError("unknown model '" + spec +
+                   "': not a built-in (bunny, liver, starfish, box:LX,LY,LZ, sphere:R) and no "
+                   "such file");
+}
+
+Model loadMaterials(const std::vector<std::pair<std::string, std::string>>& nameAndMesh) {
+  if (nameAndMesh.empty()) throw InputError("no materials given");
+  Model model{"", {}, 0};
+  for (const auto& [name, spec] : nameAndMesh) {
+    if (name.empty()) throw InputError("material for model '" + spec + "' has an empty name");
+    const bool repeated = std::any_of(model.materials.begin(), model.materials.end(),
+                                      [&](const MaterialMesh& m) { return m.name == name; });
+    if (repeated) throw InputError("material '" + name + "' is given twice");
+    Model part = loadModel(spec);
+    if (part.materials.size() != 1)
+      throw InputError("material '" + name + "': model '" + spec + "' has " +
+                       std::to_string(part.materials.size()) + " materials, not one");
+    model.materials.push_back({name, std::move(part.materials.front().mesh)});
+    model.name += (model.name.empty() ? "" : "+") + name;
+    model.defaultResolution = std::max(model.defaultResolution, part.defaultResolution);
+  }
+  return model;
+}
+
+}  // namespace voxcut
