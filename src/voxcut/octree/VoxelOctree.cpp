@@ -1,0 +1,313 @@
+#include "voxcut/octree/VoxelOctree.h"
+
+#include <algorithm>
+#include <atomic>
+
+#include "voxcut/core/Parallel.h"
+
+namespace voxcut {
+namespace {
+
+// A potential cube of some level: geometrically valid (all voxels occupied, all links
+// connected), and which materials it holds.
+struct Candidate {
+  bool valid = false;
+  bool mixed = false;
+  std::uint8_t material = 0;      // when not mixed
+  std::int16_t minBoundary = 0;   // when mixed: smallest boundary limit of its materials
+};
+
+struct LevelGrid {
+  Index3 n;  // candidates per axis
+  std::vector<Candidate> cand;
+  [[nodiscard]] std::size_t index(int x, int y, int z) const {
+    return static_cast<std::size_t>(x) + static_cast<std::size_t>(n.x) *
+                                             (static_cast<std::size_t>(y) + static_cast<std::size_t>(n.y) * static_cast<std::size_t>(z));
+  }
+};
+
+void orInto(std::uint8_t& byte, std::uint8_t bits) {
+  std::atomic_ref<std::uint8_t>(byte).fetch_or(bits, std::memory_order_relaxed);
+}
+
+Candidate merge(const Candidate& a, const Candidate& b, const OctreeParams& p) {
+  if (!a.valid || !b.valid) return {};
+  auto boundaryOf = [&](const Candidate& c) {
+    return c.mixed ? c.minBoundary : static_cast<std::int16_t>(p.maxBoundaryLevel[c.material - 1]);
+  };
+  Candidate out;
+  out.valid = true;
+  if (!a.mixed && !b.mixed && a.material == b.material) {
+    out.material = a.material;
+    return out;
+  }
+  out.mixed = true;
+  out.minBoundary = std::min(boundaryOf(a), boundaryOf(b));
+  return out;
+}
+
+bool passes(const Candidate& c, int level, const OctreeParams& p) {
+  if (!c.valid) return false;
+  if (c.mixed) return level <= c.minBoundary;
+  return level <= p.maxInternalLevel[c.material - 1];
+}
+
+// Level-1 candidate with origin o: 27 voxels and the 54 links between them.
+Candidate levelOne(const VoxelGrid& g, const Index3& o, const OctreeParams& p) {
+  Candidate c;
+  c.valid = true;
+  for (int dz = 0; dz <= 2; ++dz)
+    for (int dy = 0; dy <= 2; ++dy)
+      for (int dx = 0; dx <= 2; ++dx) {
+        const std::size_t v = g.index(o.x + dx, o.y + dy, o.z + dz);
+        const std::uint8_t m = g.material(v);
+        if (m == 0) return {};
+        const int d[3] = {dx, dy, dz};
+        for (int a = 0; a < 3; ++a)
+          if (d[a] < 2 && !g.connected(v, a)) return {};
+        Candidate single;
+        single.valid = true;
+        single.material = m;
+        c = (dx | dy | dz) ? merge(c, single, p) : single;
+      }
+  return c;
+}
+
+}  // namespace
+
+OctreeParams OctreeParams::uniform(std::size_t materials, int internal, int boundary) {
+  OctreeParams p;
+  p.maxInternalLevel.assign(materials, internal);
+  p.maxBoundaryLevel.assign(materials, boundary);
+  return p;
+}
+
+std::vector<std::size_t> VoxelOctree::cubesPerLevel() const {
+  std::vector<std::size_t> n;
+  for (const OctreeCube& c : cubes) {
+    if (c.deleted) continue;
+    if (n.size() < c.level) n.resize(c.level, 0);
+    ++n[c.level - 1];
+  }
+  return n;
+}
+
+std::size_t VoxelOctree::activeLinkCount() const {
+  std::size_t n = 0;
+  for (std::uint8_t s : state) n += (s & 1u) + ((s >> 1) & 1u) + ((s >> 2) & 1u);
+  return n;
+}
+
+void activateCubeFrame(VoxelOctree& octree, const VoxelGrid& grid, const OctreeCube& cube) {
+  const int size = 1 << cube.level;
+  for (int a = 0; a < 3; ++a) {
+    const int u = (a + 1) % 3, w = (a + 2) % 3;
+    for (int cu = 0; cu <= size; cu += size)
+      for (int cw = 0; cw <= size; cw += size) {
+        Index3 p = cube.origin;
+        p[u] += cu;
+        p[w] += cw;
+        for (int i = 0; i < size; ++i, ++p[a]) {
+          const std::size_t v = grid.index(p);
+          orInto(octree.state[v], static_cast<std::uint8_t>((1u << a) | kActiveVoxel));
+          orInto(octree.state[v + grid.stride(a)], kActiveVoxel);
+        }
+      }
+  }
+}
+
+VoxelOctree buildVoxelOctree(const VoxelGrid& grid, const OctreeParams& params, bool threaded) {
+  const std::size_t nMat = grid.materialNames().size();
+  if (params.maxInternalLevel.size() < nMat || params.maxBoundaryLevel.size() < nMat)
+    throw InputError("octree levels must be given for every material");
+  for (std::size_t m = 0; m < nMat; ++m)
+    if (params.maxInternalLevel[m] < 0 || params.maxBoundaryLevel[m] < 0 ||
+        params.maxInternalLevel[m] > 16 || params.maxBoundaryLevel[m] > 16)
+      throw InputError("octree levels must lie in 0..16");
+  VoxelOctree oct;
+  const Index3 d = grid.dims();
+  oct.dims = d;
+  int top = 0;
+  for (std::size_t m = 0; m < nMat; ++m)
+    top = std::max({top, params.maxInternalLevel[m], params.maxBoundaryLevel[m]});
+  while (top > 0 && ((d.x - 1) >> top) < 1 && ((d.y - 1) >> top) < 1 && ((d.z - 1) >> top) < 1) --top;
+
+  // Candidates, level by level: level 1 from voxels and links, higher from 8 children.
+  std::vector<LevelGrid> levels(static_cast<std::size_t>(top) + 1);
+  for (int L = 1; L <= top; ++L) {
+    LevelGrid& lg = levels[L];
+    for (int a = 0; a < 3; ++a) lg.n[a] = (d[a] - 1) >> L;
+    lg.cand.assign(static_cast<std::size_t>(lg.n.x) * lg.n.y * lg.n.z, {});
+    parallelFor(0, static_cast<std::size_t>(lg.n.z), 1, [&](std::size_t z0, std::size_t z1) {
+      for (int z = static_cast<int>(z0); z < static_cast<int>(z1); ++z)
+        for (int y = 0; y < lg.n.y; ++y)
+          for (int x = 0; x < lg.n.x; ++x) {
+            Candidate& c = lg.cand[lg.index(x, y, z)];
+            if (L == 1) {
+              c = levelOne(grid, {2 * x, 2 * y, 2 * z}, params);
+              continue;
+            }
+            const LevelGrid& child = levels[L - 1];
+            Candidate acc;
+            for (int k = 0; k < 8; ++k) {
+              const Candidate& ch = child.cand[child.index(2 * x + (k & 1), 2 * y + ((k >> 1) & 1), 2 * z + (k >> 2))];
+              acc = k == 0 ? ch : merge(acc, ch, params);
+              if (!acc.valid) break;
+            }
+            c = acc;
+          }
+    }, threaded);
+  }
+
+  // Keep the largest cubes: top down, a cube inside a kept cube is not kept.
+  std::vector<std::vector<std::uint8_t>> covered(static_cast<std::size_t>(top) + 2);
+  for (int L = top; L >= 1; --L) {
+    const LevelGrid& lg = levels[L];
+    covered[L].assign(lg.cand.size(), 0);
+    for (int z = 0; z < lg.n.z; ++z)
+      for (int y = 0; y < lg.n.y; ++y)
+        for (int x = 0; x < lg.n.x; ++x) {
+          const std::size_t i = lg.index(x, y, z);
+          bool cov = false;
+          if (L < top) {
+            const LevelGrid& up = levels[L + 1];
+            if (x / 2 < up.n.x && y / 2 < up.n.y && z / 2 < up.n.z) cov = covered[L + 1][up.index(x / 2, y / 2, z / 2)];
+          }
+          if (!cov && passes(lg.cand[i], L, params)) {
+            oct.cubes.push_back({{x << L, y << L, z << L}, static_cast<std::uint8_t>(L), false});
+            cov = true;
+          }
+          covered[L][i] = cov;
+        }
+  }
+
+  // Cube map over unit cells.
+  oct.cellCube.assign(grid.voxelCount(), -1);
+  parallelFor(0, oct.cubes.size(), 16, [&](std::size_t c0, std::size_t c1) {
+    for (std::size_t c = c0; c < c1; ++c) {
+      const OctreeCube& cube = oct.cubes[c];
+      const int s = 1 << cube.level;
+      for (int z = 0; z < s; ++z)
+        for (int y = 0; y < s; ++y)
+          for (int x = 0; x < s; ++x)
+            oct.cellCube[grid.index(cube.origin.x + x, cube.origin.y + y, cube.origin.z + z)] =
+                static_cast<std::int32_t>(c);
+    }
+  }, threaded);
+
+  // Activation steps (2)-(4).
+  oct.state.assign(grid.voxelCount(), 0);
+  auto covers = [&](const Index3& cell) {
+    for (int a = 0; a < 3; ++a)
+      if (cell[a] < 0 || cell[a] + 1 >= d[a]) return false;
+    return oct.cellCube[grid.index(cell)] >= 0;
+  };
+  parallelFor(0, static_cast<std::size_t>(d.z), 1, [&](std::size_t z0, std::size_t z1) {
+    for (int z = static_cast<int>(z0); z < static_cast<int>(z1); ++z)
+      for (int y = 0; y < d.y; ++y)
+        for (int x = 0; x < d.x; ++x) {
+          const Index3 c{x, y, z};
+          const std::size_t v = grid.index(c);
+          std::uint8_t bits = 0;
+          for (int a = 0; a < 3; ++a) {
+            if (!grid.connected(v, a)) continue;
+            const int u = (a + 1) % 3, w = (a + 2) % 3;
+            bool surrounded = true;
+            for (int k = 0; k < 4 && surrounded; ++k) {
+              Index3 cell = c;
+              cell[u] -= k & 1;
+              cell[w] -= k >> 1;
+              surrounded = covers(cell);
+            }
+            if (!surrounded) bits = static_cast<std::uint8_t>(bits | (1u << a));
+          }
+          oct.state[v] = bits;
+        }
+  }, threaded);
+  parallelFor(0, oct.cubes.size(), 16, [&](std::size_t c0, std::size_t c1) {
+    for (std::size_t c = c0; c < c1; ++c) activateCubeFrame(oct, grid, oct.cubes[c]);
+  }, threaded);
+  // Step (4): voxels touching an active link (own links or links from the -a neighbours).
+  std::vector<std::uint8_t> touched(grid.voxelCount(), 0);
+  parallelFor(0, static_cast<std::size_t>(d.z), 1, [&](std::size_t z0, std::size_t z1) {
+    for (int z = static_cast<int>(z0); z < static_cast<int>(z1); ++z)
+      for (int y = 0; y < d.y; ++y)
+        for (int x = 0; x < d.x; ++x) {
+          const Index3 c{x, y, z};
+          const std::size_t v = grid.index(c);
+          bool t = (oct.state[v] & 7u) != 0;
+          for (int a = 0; a < 3 && !t; ++a)
+            t = c[a] > 0 && ((oct.state[v - grid.stride(a)] >> a) & 1u);
+          touched[v] = t;
+        }
+  }, threaded);
+  parallelFor(0, grid.voxelCount(), 1 << 16, [&](std::size_t b, std::size_t e) {
+    for (std::size_t v = b; v < e; ++v)
+      if (touched[v]) oct.state[v] = static_cast<std::uint8_t>(oct.state[v] | kActiveVoxel);
+  }, threaded);
+  rebuildActiveVoxels(oct, threaded);
+  return oct;
+}
+
+VoxelOctree allActive(const VoxelGrid& grid, bool threaded) {
+  VoxelOctree oct;
+  oct.dims = grid.dims();
+  oct.cellCube.assign(grid.voxelCount(), -1);
+  oct.state.assign(grid.voxelCount(), 0);
+  parallelFor(0, grid.voxelCount(), 1 << 16, [&](std::size_t b, std::size_t e) {
+    for (std::size_t v = b; v < e; ++v) {
+      if (!grid.occupied(v)) continue;
+      std::uint8_t s = kActiveVoxel;
+      for (int a = 0; a < 3; ++a)
+        if (grid.connected(v, a)) s = static_cast<std::uint8_t>(s | (1u << a));
+      oct.state[v] = s;
+    }
+  }, threaded);
+  rebuildActiveVoxels(oct, threaded);
+  return oct;
+}
+
+void compactCubes(VoxelOctree& oct, bool threaded) {
+  std::vector<std::int32_t> remap(oct.cubes.size(), -1);
+  std::vector<OctreeCube> kept;
+  for (std::size_t c = 0; c < oct.cubes.size(); ++c)
+    if (!oct.cubes[c].deleted) {
+      remap[c] = static_cast<std::int32_t>(kept.size());
+      kept.push_back(oct.cubes[c]);
+    }
+  if (kept.size() == oct.cubes.size()) return;
+  oct.cubes = std::move(kept);
+  parallelFor(0, oct.cellCube.size(), 1 << 16, [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i)
+      if (oct.cellCube[i] >= 0) oct.cellCube[i] = remap[static_cast<std::size_t>(oct.cellCube[i])];
+  }, threaded);
+  std::vector<std::uint32_t> fresh;
+  for (std::uint32_t c : oct.newCubes)
+    if (remap[c] >= 0) fresh.push_back(static_cast<std::uint32_t>(remap[c]));
+  oct.newCubes = std::move(fresh);
+}
+
+void activateNewCubeFrames(VoxelOctree& oct, const VoxelGrid& grid, bool threaded) {
+  parallelFor(0, oct.newCubes.size(), 16, [&](std::size_t c0, std::size_t c1) {
+    for (std::size_t i = c0; i < c1; ++i) {
+      const OctreeCube& cube = oct.cubes[oct.newCubes[i]];
+      if (!cube.deleted) activateCubeFrame(oct, grid, cube);
+    }
+  }, threaded);
+  oct.newCubes.clear();
+}
+
+void rebuildActiveVoxels(VoxelOctree& oct, bool threaded) {
+  const std::size_t n = oct.state.size();
+  constexpr std::size_t kChunk = 1 << 16;
+  std::vector<std::vector<std::uint32_t>> parts((n + kChunk - 1) / kChunk);
+  parallelFor(0, parts.size(), 1, [&](std::size_t p0, std::size_t p1) {
+    for (std::size_t p = p0; p < p1; ++p)
+      for (std::size_t v = p * kChunk; v < std::min(n, (p + 1) * kChunk); ++v)
+        if (oct.state[v] & kActiveVoxel) parts[p].push_back(static_cast<std::uint32_t>(v));
+  }, threaded);
+  oct.activeVoxels.clear();
+  for (const auto& p : parts) oct.activeVoxels.insert(oct.activeVoxels.end(), p.begin(), p.end());
+}
+
+}  // namespace voxcut

@@ -1,0 +1,82 @@
+#pragma once
+/// @file VoxelOctree.h
+/// The pseudo voxel octree (paper §3.1): cubes of 2^L voxels on a side, built bottom-up on the
+/// linked voxel grid, used only to mark which voxels and links take part in the cutting tool's
+/// collision. Voxels and links inside cubes of level >= 1 are inactive; links that are not
+/// completely surrounded by such cubes (the protective shell) and links on cube edges (the
+/// protective frame) are active, and so are the voxels they touch.
+///
+/// A level-L cube with origin o (voxel coordinates, multiples of 2^L) holds voxels o..o+2^L on
+/// each axis and covers the 2^L unit cells (cubes of 8 voxels, indexed by their min voxel)
+/// starting at o. Level-0 cubes are not stored.
+
+#include <cstdint>
+#include <vector>
+
+#include "voxcut/voxel/VoxelGrid.h"
+
+namespace voxcut {
+
+/// Per-material level limits (paper §3.1), indexed by material - 1.
+struct OctreeParams {
+  std::vector<int> maxInternalLevel;  ///< largest level of a cube of that material alone
+  std::vector<int> maxBoundaryLevel;  ///< largest level of a cube mixing it with others
+  /// The same limits for every material: internal `internal`, boundary `boundary`.
+  static OctreeParams uniform(std::size_t materials, int internal, int boundary);
+};
+
+/// One stored cube (level >= 1).
+struct OctreeCube {
+  Index3 origin;
+  std::uint8_t level = 1;
+  bool deleted = false;
+};
+
+/// Per-voxel state bits.
+enum VoxelState : std::uint8_t {
+  kActiveLinkX = 1u << 0,  ///< link (v, 0) is active
+  kActiveLinkY = 1u << 1,
+  kActiveLinkZ = 1u << 2,
+  kActiveVoxel = 1u << 3,
+};
+
+/// The octree and the activity marks it implies. Owns its arrays; not thread-safe for writes
+/// except through the atomic helpers the subdivision uses.
+struct VoxelOctree {
+  Index3 dims;
+  std::vector<OctreeCube> cubes;       ///< stored cubes; deleted ones until compaction
+  std::vector<std::int32_t> cellCube;  ///< per unit cell (its min voxel): covering cube or -1
+  std::vector<std::uint8_t> state;     ///< per voxel: VoxelState bits
+  std::vector<std::uint32_t> activeVoxels;  ///< sorted indices of active voxels
+  std::vector<std::uint32_t> newCubes;      ///< cubes created since the last frame activation
+
+  [[nodiscard]] bool linkActive(std::size_t v, int a) const { return (state[v] >> a) & 1u; }
+  [[nodiscard]] bool voxelActive(std::size_t v) const { return state[v] & kActiveVoxel; }
+  /// Cubes per level: element L-1 counts level L (L >= 1). Deleted cubes are not counted.
+  [[nodiscard]] std::vector<std::size_t> cubesPerLevel() const;
+  /// Active links (all three bits over all voxels).
+  [[nodiscard]] std::size_t activeLinkCount() const;
+};
+
+/// Builds the octree (paper §3.1): a level-L cube exists where all (2^L+1)^3 voxels are
+/// occupied and all its links connected, and L is within the material limits; only the
+/// largest cubes are kept. Then marks active links and voxels (steps (1)-(4)). Deterministic.
+[[nodiscard]] VoxelOctree buildVoxelOctree(const VoxelGrid& grid, const OctreeParams& params,
+                                           bool threaded = true);
+
+/// All links active and all occupied voxels active: the baseline without an octree.
+[[nodiscard]] VoxelOctree allActive(const VoxelGrid& grid, bool threaded = true);
+
+/// Deferred update (a): removes deleted cubes and renumbers the cube map.
+void compactCubes(VoxelOctree& octree, bool threaded = true);
+/// Deferred update (b): activates the voxels and links on the edges of cubes created since the
+/// last call (the protective frame of new cubes).
+void activateNewCubeFrames(VoxelOctree& octree, const VoxelGrid& grid, bool threaded = true);
+/// Deferred update (c): rebuilds the sorted active voxel index array.
+void rebuildActiveVoxels(VoxelOctree& octree, bool threaded = true);
+
+/// Activates the links on the 12 edges of a cube and their voxels (atomic: callable from
+/// several threads on cubes that share edges).
+void activateCubeFrame(VoxelOctree& octree, const VoxelGrid& grid, const OctreeCube& cube);
+
+}  // namespace voxcut
