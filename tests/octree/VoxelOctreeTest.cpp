@@ -61,7 +61,9 @@ TEST(VoxelOctree, CubesAreSolidDisjointAndMaximal) {
           ASSERT_TRUE(g.occupied(v));
           const int d[3] = {x, y, z};
           for (int a = 0; a < 3; ++a) {
-            if (d[a] < s) ASSERT_TRUE(g.connected(v, a));
+            if (d[a] < s) {
+              ASSERT_TRUE(g.connected(v, a));
+            }
           }
           if (x < s && y < s && z < s) {
             ++cover[v];

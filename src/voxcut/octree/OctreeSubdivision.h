@@ -1,0 +1,52 @@
+#pragma once
+/// @file OctreeSubdivision.h
+/// Recursive subdivision of voxel octree cubes with newly cut links on their boundary
+/// (paper §3.2, sub-steps (1)-(6) and (5-1)-(5-6)). After the blade has been tested against
+/// the active links, every cube of level >= 1 with a newly disconnected link on an edge or a
+/// face is split until no cube has one or level 0 is reached; the voxels and links uncovered
+/// on the way are positioned and tested against the blade, so the cut is exactly as detailed
+/// as without the octree.
+
+#include <functional>
+#include <optional>
+#include <vector>
+
+#include "voxcut/octree/VoxelOctree.h"
+
+namespace voxcut {
+
+/// A link the blade crossed, with its Hermite data in the rest frame.
+struct LinkCut {
+  std::uint64_t link = 0;
+  Hermite hermite;
+};
+
+/// What subdivision needs from the cutting step. Both may be called from several threads at
+/// once, on disjoint voxel lists / links.
+struct SubdivisionHooks {
+  /// Computes the current positions of these voxels (where testLink will read them).
+  std::function<void(const std::vector<std::uint32_t>& voxels)> updatePositions;
+  /// Blade test of link (v, a): its Hermite data (rest frame) when the blade crosses it.
+  std::function<std::optional<Hermite>(std::size_t v, int a)> testLink;
+};
+
+/// Counts of one subdivision run.
+struct SubdivisionStats {
+  int rounds = 0;                 ///< passes through sub-steps (1)-(6)
+  std::size_t affectedCubes = 0;  ///< cubes marked in sub-step (1), summed over rounds
+  std::size_t testedLinks = 0;    ///< inactive links tested against the blade
+  std::size_t cutLinks = 0;       ///< of which crossed
+  std::size_t positionedVoxels = 0;
+};
+
+/// Runs sub-steps (1)-(6). `cuts` holds the links cut so far this frame (already disconnected
+/// in `grid`, Hermite data set); the links this step cuts are disconnected, given Hermite data
+/// and appended. Cubes are split in place: a split cube keeps its slot for its first remaining
+/// sub-cube, new sub-cubes are appended and listed in octree.newCubes, level-1 cubes that
+/// split are marked deleted after activating their 27 voxels and 54 links. The deferred
+/// updates (compactCubes, activateNewCubeFrames, rebuildActiveVoxels) are left to the caller.
+/// Deterministic for any thread count.
+SubdivisionStats subdivideCutCubes(VoxelOctree& octree, VoxelGrid& grid, std::vector<LinkCut>& cuts,
+                                   const SubdivisionHooks& hooks, bool threaded = true);
+
+}  // namespace voxcut

@@ -1,0 +1,184 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <mutex>
+#include <random>
+
+#include "voxcut/core/Parallel.h"
+#include "voxcut/io/ModelSource.h"
+#include "voxcut/octree/OctreeSubdivision.h"
+#include "voxcut/voxel/PlaneCut.h"
+#include "voxcut/voxel/Voxelizer.h"
+
+namespace voxcut {
+namespace {
+
+VoxelGrid model(const char* name, int resolution) {
+  VoxelizeParams p;
+  p.resolution.resolution = resolution;
+  return voxelize(loadModel(name).materials, p);
+}
+
+// The plane n.x = d as a "blade" on rest positions, decided like cutWithPlane.
+std::optional<Hermite> planeTest(const VoxelGrid& g, const Vec3d& n, double d, std::size_t v, int a) {
+  const double s0 = n.dot(g.position(v)) - d, s1 = n.dot(g.position(v + g.stride(a))) - d;
+  if ((s0 < 0) == (s1 < 0)) return std::nullopt;
+  Hermite h;
+  h.t = std::clamp(static_cast<float>(s0 / (s0 - s1)), 1e-3f, 1.f - 1e-3f);
+  const float sg = n[a] < 0 ? -1.f : 1.f;
+  for (int i = 0; i < 3; ++i) h.n[i] = sg * static_cast<float>(n[i]);
+  return h;
+}
+
+// Cuts with the octree: active links first, then subdivision; returns the stats.
+SubdivisionStats cutWithOctree(VoxelGrid& g, VoxelOctree& oct, const Vec3d& n, double d,
+                               std::vector<std::uint32_t>& positioned) {
+  std::vector<std::uint8_t> hasPosition(g.voxelCount(), 0);
+  for (std::uint32_t v : oct.activeVoxels) hasPosition[v] = 1;
+  std::vector<LinkCut> cuts;
+  for (std::uint32_t v : oct.activeVoxels)
+    for (int a = 0; a < 3; ++a)
+      if (oct.linkActive(v, a) && g.connected(v, a))
+        if (const auto h = planeTest(g, n, d, v, a)) cuts.push_back({VoxelGrid::linkId(v, a), *h});
+  for (const LinkCut& c : cuts) {
+    g.setConnected(static_cast<std::size_t>(c.link / 3), static_cast<int>(c.link % 3), false);
+    g.hermite().set(c.link, c.hermite);
+  }
+  SubdivisionHooks hooks;
+  std::mutex m;
+  hooks.updatePositions = [&](const std::vector<std::uint32_t>& vs) {
+    for (std::uint32_t v : vs) hasPosition[v] = 1;  // distinct voxels per call: no race
+    std::lock_guard<std::mutex> lock(m);
+    positioned.insert(positioned.end(), vs.begin(), vs.end());
+  };
+  hooks.testLink = [&](std::size_t v, int a) -> std::optional<Hermite> {
+    EXPECT_TRUE(hasPosition[v]);
+    EXPECT_TRUE(hasPosition[v + g.stride(a)]);
+    return planeTest(g, n, d, v, a);
+  };
+  const SubdivisionStats s = subdivideCutCubes(oct, g, cuts, hooks);
+  activateNewCubeFrames(oct, g);
+  compactCubes(oct);
+  rebuildActiveVoxels(oct);
+  return s;
+}
+
+void expectOctreeConsistent(const VoxelGrid& g, const VoxelOctree& oct) {
+  std::vector<std::int32_t> cover(g.voxelCount(), -1);
+  for (std::size_t c = 0; c < oct.cubes.size(); ++c) {
+    const OctreeCube& cube = oct.cubes[c];
+    ASSERT_FALSE(cube.deleted);
+    const int s = 1 << cube.level;
+    for (int z = 0; z <= s; ++z)
+      for (int y = 0; y <= s; ++y)
+        for (int x = 0; x <= s; ++x) {
+          const Index3 p{cube.origin.x + x, cube.origin.y + y, cube.origin.z + z};
+          const std::size_t v = g.index(p);
+          const int d[3] = {x, y, z};
+          for (int a = 0; a < 3; ++a) {
+            // A surviving cube has no cut link, and its frame is active.
+            if (d[a] < s) {
+              ASSERT_TRUE(g.connected(v, a));
+            }
+            const int u = (a + 1) % 3, w = (a + 2) % 3;
+            if (d[a] < s && (d[u] == 0 || d[u] == s) && (d[w] == 0 || d[w] == s)) {
+              ASSERT_TRUE(oct.linkActive(v, a));
+            }
+          }
+          if (x < s && y < s && z < s) {
+            ASSERT_EQ(cover[v], -1);
+            cover[v] = static_cast<std::int32_t>(c);
+          }
+        }
+  }
+  ASSERT_EQ(cover, oct.cellCube);
+  // Every connected link not surrounded by cubes is active.
+  for (std::size_t v = 0; v < g.voxelCount(); ++v) {
+    const Index3 c = g.coord(v);
+    for (int a = 0; a < 3; ++a) {
+      if (!g.connected(v, a)) continue;
+      const int u = (a + 1) % 3, w = (a + 2) % 3;
+      bool surrounded = true;
+      for (int k = 0; k < 4; ++k) {
+        Index3 cell = c;
+        cell[u] -= k & 1;
+        cell[w] -= k >> 1;
+        surrounded = surrounded && cell[u] >= 0 && cell[w] >= 0 && oct.cellCube[g.index(cell)] >= 0;
+      }
+      if (!surrounded) {
+        ASSERT_TRUE(oct.linkActive(v, a));
+      }
+    }
+  }
+}
+
+TEST(OctreeSubdivision, PlanarCutsEqualTheBaselineLinkForLink) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  for (const char* name : {"bunny", "liver"}) {
+    const VoxelGrid rest = model(name, 64);
+    const Vec3d centre = rest.origin() + 0.5 * rest.voxelSize() *
+                                             Vec3d(rest.dims().x - 1, rest.dims().y - 1, rest.dims().z - 1);
+    for (int trial = 0; trial < 4; ++trial) {
+      const Vec3d n = Vec3d(U(rng), U(rng), U(rng)).normalized();
+      const double d = n.dot(centre) + 0.2 * U(rng) * rest.voxelSize() * 10;
+      VoxelGrid base = rest;
+      cutWithPlane(base, {n, d});
+      VoxelGrid g = rest;
+      VoxelOctree oct = buildVoxelOctree(g, OctreeParams::uniform(g.materialNames().size(), 4, 0));
+      const std::size_t before = oct.activeVoxels.size();
+      std::vector<std::uint32_t> positioned;
+      const SubdivisionStats s = cutWithOctree(g, oct, n, d, positioned);
+      EXPECT_GT(s.rounds, 0);
+      EXPECT_GT(oct.activeVoxels.size(), before);
+      for (std::size_t v = 0; v < g.voxelCount(); ++v)
+        for (int a = 0; a < 3; ++a) ASSERT_EQ(g.connected(v, a), base.connected(v, a)) << name << " " << trial;
+      ASSERT_EQ(g.hermite().sortedLinks(), base.hermite().sortedLinks());
+      expectOctreeConsistent(g, oct);
+      // No voxel was positioned twice within one round's work.
+      std::sort(positioned.begin(), positioned.end());
+      EXPECT_LT(positioned.size(), g.voxelCount());
+    }
+  }
+}
+
+TEST(OctreeSubdivision, SameResultForAnyThreadCount) {
+  const VoxelGrid rest = model("bunny", 64);
+  const Vec3d n = Vec3d(0.3, 1.0, 0.2).normalized();
+  const double d = n.dot(rest.origin() + rest.voxelSize() * Vec3d(32, 30, 25));
+  VoxelGrid g1 = rest, g2 = rest;
+  VoxelOctree o1 = buildVoxelOctree(g1, OctreeParams::uniform(1, 4, 0));
+  VoxelOctree o2 = o1;
+  std::vector<std::uint32_t> p1, p2;
+  {
+    ThreadLimit one(1);
+    cutWithOctree(g1, o1, n, d, p1);
+  }
+  {
+    ThreadLimit two(2);
+    cutWithOctree(g2, o2, n, d, p2);
+  }
+  ASSERT_EQ(o1.cubes.size(), o2.cubes.size());
+  for (std::size_t c = 0; c < o1.cubes.size(); ++c) {
+    ASSERT_EQ(o1.cubes[c].origin, o2.cubes[c].origin);
+    ASSERT_EQ(o1.cubes[c].level, o2.cubes[c].level);
+  }
+  ASSERT_EQ(o1.state, o2.state);
+  ASSERT_EQ(g1.hermite().sortedLinks(), g2.hermite().sortedLinks());
+}
+
+TEST(OctreeSubdivision, NothingHappensWithoutCuts) {
+  VoxelGrid g = model("bunny", 48);
+  VoxelOctree oct = buildVoxelOctree(g, OctreeParams::uniform(1, 3, 0));
+  const auto before = oct.cubesPerLevel();
+  std::vector<LinkCut> cuts;
+  SubdivisionHooks hooks;
+  hooks.updatePositions = [](const std::vector<std::uint32_t>&) { FAIL(); };
+  hooks.testLink = [](std::size_t, int) -> std::optional<Hermite> { return std::nullopt; };
+  const SubdivisionStats s = subdivideCutCubes(oct, g, cuts, hooks);
+  EXPECT_EQ(s.rounds, 0);
+  EXPECT_EQ(oct.cubesPerLevel(), before);
+}
+
+}  // namespace
+}  // namespace voxcut
