@@ -2,11 +2,10 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
-
-#include "voxcut/io/ModelSource.h"
 
 namespace voxcut::app {
 namespace {
@@ -31,9 +30,49 @@ Plane parsePlane(const std::string& text) {
   return {Vec3d(v[0], v[1], v[2]), v[3]};
 }
 
+// Applies "L" (every material) or "NAME=L" entries to levels (indexed like materials).
+void applyLevels(const std::vector<std::string>& entries, const char* option,
+                 const std::vector<std::string>& materials, std::vector<int>& levels) {
+  for (const std::string& e : entries) {
+    const auto eq = e.find('=');
+    const std::string value = eq == std::string::npos ? e : e.substr(eq + 1);
+    int level = -1;
+    std::size_t used = 0;
+    try {
+      level = std::stoi(value, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != value.size() || level < 0 || level > 16)
+      throw InputError(std::string(option) + " '" + e + "': expected a level 0..16, or NAME=LEVEL");
+    if (eq == std::string::npos) {
+      std::fill(levels.begin(), levels.end(), level);
+      continue;
+    }
+    const std::string name = e.substr(0, eq);
+    const auto it = std::find(materials.begin(), materials.end(), name);
+    if (it == materials.end())
+      throw InputError(std::string(option) + " '" + e + "': no material named '" + name + "'");
+    levels[static_cast<std::size_t>(it - materials.begin())] = level;
+  }
+}
+
 }  // namespace
 
-void addModelOptions(CLI::App& cmd, ModelOptions& opt) {
+OctreeParams octreeParams(const ModelOptions& opt, const std::vector<std::string>& materials) {
+  OctreeParams p = OctreeParams::uniform(materials.size(), 4, 0);
+  // Plain values first, then per-material ones, whatever their order on the command line.
+  std::vector<std::string> plainMax, namedMax, plainB, namedB;
+  for (const auto& e : opt.maxLevel) (e.find('=') == std::string::npos ? plainMax : namedMax).push_back(e);
+  for (const auto& e : opt.boundaryLevel) (e.find('=') == std::string::npos ? plainB : namedB).push_back(e);
+  applyLevels(plainMax, "--max-level", materials, p.maxInternalLevel);
+  applyLevels(namedMax, "--max-level", materials, p.maxInternalLevel);
+  applyLevels(plainB, "--boundary-level", materials, p.maxBoundaryLevel);
+  applyLevels(namedB, "--boundary-level", materials, p.maxBoundaryLevel);
+  return p;
+}
+
+void addModelOptions(CLI::App& cmd, ModelOptions& opt, bool cutPlanes) {
   cmd.add_option("model", opt.model,
                  "Built-in model (bunny, liver, starfish, box:LX,LY,LZ, sphere:R; metres) or a "
                  "mesh file (OBJ, STL, PLY, OFF, ...)");
@@ -56,15 +95,21 @@ void addModelOptions(CLI::App& cmd, ModelOptions& opt) {
       },
       "Voxel size in metres (instead of --resolution)");
   res->excludes(size);
-  cmd.add_option("--cut-plane", opt.cutPlanes,
-                 "NX,NY,NZ,D: disconnect every link the plane n.x = d crosses (repeatable)");
+  if (cutPlanes)
+    cmd.add_option("--cut-plane", opt.cutPlanes,
+                   "NX,NY,NZ,D: disconnect every link the plane n.x = d crosses (repeatable)");
+  cmd.add_option("--max-level", opt.maxLevel,
+                 "Voxel octree maximum internal level, for every material or NAME=L for one "
+                 "(repeatable; default 4)");
+  cmd.add_option("--boundary-level", opt.boundaryLevel,
+                 "Voxel octree maximum inter-material boundary level, B or NAME=B (repeatable; "
+                 "default 0)");
   cmd.add_option("--threads", opt.threads, "Worker threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
   cmd.add_flag("--json", opt.json, "Print one JSON object on stdout");
 }
 
-ModelBuild buildFromOptions(const ModelOptions& opt, std::string& modelName) {
-  Model model;
+Model loadFromOptions(const ModelOptions& opt) {
   if (!opt.materials.empty()) {
     if (!opt.model.empty()) throw InputError("give either MODEL or --material, not both");
     std::vector<std::pair<std::string, std::string>> pairs;
@@ -74,24 +119,23 @@ ModelBuild buildFromOptions(const ModelOptions& opt, std::string& modelName) {
         throw InputError("--material '" + m + "': expected NAME=MESH");
       pairs.emplace_back(m.substr(0, eq), m.substr(eq + 1));
     }
-    model = loadMaterials(pairs);
-  } else {
-    if (opt.model.empty()) throw InputError("no model given (try 'bunny', or see --help)");
-    model = loadModel(opt.model);
+    return loadMaterials(pairs);
   }
-  modelName = model.name;
+  if (opt.model.empty()) throw InputError("no model given (try 'bunny', or see --help)");
+  return loadModel(opt.model);
+}
 
-  ModelBuildParams params;
+VoxelizeParams voxelizeParams(const ModelOptions& opt, const Model& model) {
+  VoxelizeParams vp;
   if (opt.voxelSizeGiven) {
     if (!(opt.voxelSize > 0) || !std::isfinite(opt.voxelSize))
       throw InputError("--voxel-size must be a positive number of metres");
-    params.voxelize.resolution.voxelSize = opt.voxelSize;
+    vp.resolution.voxelSize = opt.voxelSize;
   } else {
-    params.voxelize.resolution.resolution = opt.resolutionGiven ? opt.resolution : model.defaultResolution;
+    vp.resolution.resolution = opt.resolutionGiven ? opt.resolution : model.defaultResolution;
   }
-  for (const auto& p : opt.cutPlanes) params.cuts.push_back(parsePlane(p));
   if (isatty(STDERR_FILENO)) {
-    params.voxelize.progress = [](std::string_view stage, double f) {
+    vp.progress = [](std::string_view stage, double f) {
       std::fprintf(stderr, "\r%.*s %3d%%", static_cast<int>(stage.size()), stage.data(),
                    static_cast<int>(std::lround(100 * f)));
       if (f >= 1.0) std::fprintf(stderr, "\r\033[K");
@@ -99,6 +143,18 @@ ModelBuild buildFromOptions(const ModelOptions& opt, std::string& modelName) {
       return true;
     };
   }
+  return vp;
+}
+
+ModelBuild buildFromOptions(const ModelOptions& opt, std::string& modelName) {
+  const Model model = loadFromOptions(opt);
+  modelName = model.name;
+  ModelBuildParams params;
+  params.voxelize = voxelizeParams(opt, model);
+  std::vector<std::string> names;
+  for (const auto& m : model.materials) names.push_back(m.name);
+  params.octree = octreeParams(opt, names);
+  for (const auto& p : opt.cutPlanes) params.cuts.push_back(parsePlane(p));
   return buildModel(model.materials, params);
 }
 

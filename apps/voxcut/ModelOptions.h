@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "voxcut/io/ModelSource.h"
 #include "voxcut/sim/ModelBuild.h"
 
 namespace voxcut::app {
@@ -18,12 +19,23 @@ struct ModelOptions {
   bool resolutionGiven = false;
   bool voxelSizeGiven = false;
   std::vector<std::string> cutPlanes;  // NX,NY,NZ,D
+  std::vector<std::string> maxLevel;       // L or NAME=L
+  std::vector<std::string> boundaryLevel;  // B or NAME=B
   int threads = 0;                     // 0: all cores
   bool json = false;
 };
 
-/// Adds the model options to a subcommand.
-void addModelOptions(CLI::App& cmd, ModelOptions& opt);
+/// Adds the model options to a subcommand (the cut-plane option only when `cutPlanes`).
+void addModelOptions(CLI::App& cmd, ModelOptions& opt, bool cutPlanes = true);
+
+/// Loads MODEL or the --material meshes. Throws InputError.
+Model loadFromOptions(const ModelOptions& opt);
+
+/// Voxelizer settings from the options (resolution, voxel size, progress on a terminal).
+VoxelizeParams voxelizeParams(const ModelOptions& opt, const Model& model);
+
+/// Voxel octree levels per material from --max-level / --boundary-level (defaults 4 and 0).
+OctreeParams octreeParams(const ModelOptions& opt, const std::vector<std::string>& materials);
 
 /// Loads the model, voxelizes, cuts and contours it; progress on stderr when it is a terminal.
 /// `modelName` receives the name to report. Throws InputError.

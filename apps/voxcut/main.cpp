@@ -6,6 +6,7 @@
 #include <new>
 #include <nlohmann/json.hpp>
 
+#include "CutCommand.h"
 #include "ModelOptions.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/io/SurfaceWriter.h"
@@ -37,6 +38,12 @@ nlohmann::json toJson(const std::string& name, const ModelBuild& b, int threads)
   j["surface_genus"] = s.topology.genusSum;
   j["pieces"] = s.pieces;
   j["bytes_per_voxel"] = static_cast<double>(s.bytes) / static_cast<double>(g.voxelCount());
+  j["octree_cubes"] = s.octreeCubes;
+  j["active_voxels"] = s.activeVoxels;
+  j["active_links"] = s.activeLinks;
+  j["deformation_elements"] = s.deformationElements;
+  j["deformation_nodes"] = s.deformationNodes;
+  j["hanging_nodes"] = s.hangingNodes;
   j["threads"] = threads;
   nlohmann::json t = nlohmann::json::object();
   for (const auto& [stage, ms] : b.timings) t[stage] = ms;
@@ -62,6 +69,14 @@ void printText(const std::string& name, const ModelBuild& b) {
                                 : "NOT closed",
               s.topology.pieces, s.topology.genusSum);
   std::printf("pieces              %d\n", s.pieces);
+  std::printf("voxel octree        cubes per level (1 up):");
+  for (std::size_t n : s.octreeCubes) std::printf(" %zu", n);
+  std::printf("; %zu active voxels, %zu active links\n", s.activeVoxels, s.activeLinks);
+  std::printf("deformation octree  elements per level (0 up):");
+  for (std::size_t n : s.deformationElements) std::printf(" %zu", n);
+  std::printf("; nodes per level:");
+  for (std::size_t n : s.deformationNodes) std::printf(" %zu", n);
+  std::printf(" (%zu hanging)\n", s.hangingNodes);
   std::printf("memory              %.1f bytes per voxel\n",
               static_cast<double>(s.bytes) / static_cast<double>(g.voxelCount()));
   std::printf("time (ms)          ");
@@ -84,11 +99,20 @@ int run(int argc, char** argv) {
   addModelOptions(*surface, surfOpt);
   surface->add_option("-o,--output", output, "Output surface, .obj or .ply")->required();
 
+  CutOptions cutOpt;
+  CLI::App* cut = nullptr;
+  addCutCommand(app, cutOpt, cut);
+  BenchOptions benchOpt;
+  CLI::App* bench = nullptr;
+  addBenchCommand(app, benchOpt, bench);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
+  if (cut->parsed()) return runCut(cutOpt);
+  if (bench->parsed()) return runBench(benchOpt);
   ModelOptions& opt = info->parsed() ? infoOpt : surfOpt;
   ThreadLimit limit(opt.threads);
   std::string name;

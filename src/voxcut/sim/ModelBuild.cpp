@@ -81,6 +81,24 @@ ModelBuild buildModel(const std::vector<MaterialMesh>& materials, const ModelBui
   timer.restart();
   out.stats.topology = surfaceTopology(out.surface);
   out.timings.emplace_back("topology", timer.ms());
+
+  timer.restart();
+  OctreeParams op = params.octree;
+  if (op.maxInternalLevel.empty()) op = OctreeParams::uniform(materials.size(), 4, 0);
+  const VoxelOctree octree = buildVoxelOctree(out.grid, op, params.threaded);
+  out.stats.octreeCubes = octree.cubesPerLevel();
+  out.stats.activeVoxels = octree.activeVoxels.size();
+  out.stats.activeLinks = octree.activeLinkCount();
+  out.timings.emplace_back("voxel_octree", timer.ms());
+
+  timer.restart();
+  DeformationOctreeParams dp = params.deformation;
+  dp.threaded = params.threaded;
+  const DeformationOctree def = buildDeformationOctree(out.grid, dp);
+  out.stats.deformationElements = def.elementCountPerLevel();
+  out.stats.deformationNodes = def.nodeCountPerLevel();
+  out.stats.hangingNodes = def.hangingNodeCount();
+  out.timings.emplace_back("deformation_octree", timer.ms());
   return out;
 }
 

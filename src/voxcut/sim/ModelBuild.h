@@ -9,6 +9,8 @@
 #include <vector>
 
 #include "voxcut/core/Timer.h"
+#include "voxcut/fem/DeformationOctree.h"
+#include "voxcut/octree/VoxelOctree.h"
 #include "voxcut/surface/SurfaceMesh.h"
 #include "voxcut/voxel/PlaneCut.h"
 #include "voxcut/voxel/Voxelizer.h"
@@ -19,6 +21,8 @@ namespace voxcut {
 struct ModelBuildParams {
   VoxelizeParams voxelize;
   std::vector<Plane> cuts;
+  OctreeParams octree;                   ///< empty: max internal level 4, boundary level 0
+  DeformationOctreeParams deformation;
   bool threaded = true;
 };
 
@@ -33,6 +37,11 @@ struct ModelStats {
   int pieces = 0;                  ///< connected voxel components
   SurfaceTopology topology;
   std::size_t bytes = 0;           ///< memory held by the voxel grid
+  std::vector<std::size_t> octreeCubes;          ///< voxel octree cubes, level 1 up
+  std::size_t activeVoxels = 0, activeLinks = 0;  ///< marked by the voxel octree
+  std::vector<std::size_t> deformationElements;  ///< per level, level 0 up
+  std::vector<std::size_t> deformationNodes;     ///< per level (finest adjacent element)
+  std::size_t hangingNodes = 0;
 };
 
 /// A built model.
@@ -41,7 +50,7 @@ struct ModelBuild {
   SurfaceMesh surface;
   ModelStats stats;
   VoxelizeReport voxelizeReport;
-  StageTimings timings;  ///< voxelize, cut, contour, pieces, topology (ms)
+  StageTimings timings;  ///< voxelize, cut, contour, pieces, topology, octrees (ms)
 };
 
 /// Counts links by kind and voxels by material. Deterministic.

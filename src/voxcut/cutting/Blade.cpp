@@ -1,0 +1,193 @@
+#include "voxcut/cutting/Blade.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "voxcut/core/Error.h"
+#include "voxcut/core/Predicates.h"
+
+namespace voxcut {
+namespace {
+
+// Symbolic key groups: voxels (segment endpoints) rank before blade corners, so a voxel on
+// the blade's plane is decided by its own displacement (see Blade.h).
+constexpr std::uint64_t kVoxelGroup = 0;
+constexpr std::uint64_t kBladeGroup = 1;
+
+constexpr double kMinT = 1e-6;
+constexpr double kMaxT = 1.0 - 1e-6;
+
+// Relative size of the allowances for rounding in the box tests (the computations err by a
+// few units of 2^-53 relative to the coordinates' magnitude).
+constexpr double kRelativeSlack = 1e-12;
+
+/// Unit normal (q - p) x (r - p), or nullopt when the triangle is degenerate to working
+/// precision (sine of its angle at p below 1e-12).
+std::optional<Vec3d> triangleNormal(const Vec3d& p, const Vec3d& q, const Vec3d& r) {
+  const Vec3d u = q - p, v = r - p;
+  const Vec3d n = u.cross(v);
+  const double len = n.norm();
+  if (!(len > 1e-12 * u.norm() * v.norm()) || !std::isfinite(len)) return std::nullopt;
+  return n / len;
+}
+
+Vec3d perpendicularTo(const Vec3d& d) {
+  if (d.squaredNorm() > 0.0 && d.allFinite()) return d.unitOrthogonal();
+  return Vec3d::UnitZ();
+}
+
+}  // namespace
+
+BladeSweep makeSweep(const BladePose& from, const BladePose& to, std::uint64_t frame) {
+  VOXCUT_ASSERT(frame < (std::uint64_t{1} << 62), "makeSweep: frame index too large");
+  BladeSweep s;
+  s.frame = frame;
+  s.corners = {from.a, from.b, to.b, to.a};
+  s.ids = {2 * frame, 2 * frame + 1, 2 * frame + 3, 2 * frame + 2};
+  std::array<std::optional<Vec3d>, 2> n;
+  for (int t = 0; t < 2; ++t) {
+    const auto& idx = BladeSweep::kTriangles[t];
+    const Vec3d& p = s.corners[idx[0]];
+    const Vec3d& q = s.corners[idx[1]];
+    const Vec3d& r = s.corners[idx[2]];
+    s.bounds[t] = Eigen::AlignedBox3d(p);
+    s.bounds[t].extend(q);
+    s.bounds[t].extend(r);
+    n[t] = triangleNormal(p, q, r);
+  }
+  const Vec3d blade = (from.b - from.a).squaredNorm() > 0.0 ? Vec3d(from.b - from.a)
+                                                             : Vec3d(to.b - to.a);
+  for (int t = 0; t < 2; ++t) {
+    s.normals[t] = n[t] ? *n[t] : (n[1 - t] ? *n[1 - t] : perpendicularTo(blade));
+  }
+  return s;
+}
+
+std::optional<SweepHit> intersectTriangle(const BladeSweep& sweep, int triangle,
+                                          const Vec3d& p0, const Vec3d& p1, std::uint64_t id0,
+                                          std::uint64_t id1) {
+  VOXCUT_ASSERT(triangle == 0 || triangle == 1, "intersectTriangle: triangle is 0 or 1");
+  VOXCUT_ASSERT(id0 != id1, "intersectTriangle: the segment's ends need distinct ids");
+  // Exact rejection: boxes separated by a positive gap stay separated under the
+  // infinitesimal perturbation, so this never changes the decision below.
+  const Eigen::AlignedBox3d& box = sweep.bounds[triangle];
+  for (int k = 0; k < 3; ++k) {
+    if (std::max(p0[k], p1[k]) < box.min()[k] || std::min(p0[k], p1[k]) > box.max()[k]) {
+      return std::nullopt;
+    }
+  }
+  const auto& idx = BladeSweep::kTriangles[triangle];
+  const Vec3d& a = sweep.corners[idx[0]];
+  const Vec3d& b = sweep.corners[idx[1]];
+  const Vec3d& c = sweep.corners[idx[2]];
+  const SymbolicKey ka{kBladeGroup, sweep.ids[idx[0]]};
+  const SymbolicKey kb{kBladeGroup, sweep.ids[idx[1]]};
+  const SymbolicKey kc{kBladeGroup, sweep.ids[idx[2]]};
+  const SymbolicKey k0{kVoxelGroup, id0};
+  const SymbolicKey k1{kVoxelGroup, id1};
+
+  // The ends must lie strictly on opposite sides of the plane (never 0 under perturbation).
+  const int s0 = orient3dSoS(a, b, c, p0, ka, kb, kc, k0);
+  const int s1 = orient3dSoS(a, b, c, p1, ka, kb, kc, k1);
+  if (s0 == s1) return std::nullopt;
+  // The line p0 p1 must pass on the same side of the three directed edges.
+  const int e0 = orient3dSoS(p0, p1, a, b, k0, k1, ka, kb);
+  if (orient3dSoS(p0, p1, b, c, k0, k1, kb, kc) != e0) return std::nullopt;
+  if (orient3dSoS(p0, p1, c, a, k0, k1, kc, ka) != e0) return std::nullopt;
+
+  // Decided: only now the parameter, in floating point, against the triangle's plane.
+  SweepHit hit;
+  hit.triangle = triangle;
+  hit.normal = sweep.normals[triangle];
+  const double d0 = hit.normal.dot(p0 - a);
+  const double d1 = hit.normal.dot(p1 - a);
+  double t = 0.5;
+  if (d0 != d1) {
+    t = d0 / (d0 - d1);
+    if (!std::isfinite(t)) t = 0.5;
+  }
+  hit.t = std::clamp(t, kMinT, kMaxT);
+  return hit;
+}
+
+std::optional<SweepHit> intersectSegment(const BladeSweep& sweep, const Vec3d& p0,
+                                         const Vec3d& p1, std::uint64_t id0, std::uint64_t id1) {
+  const std::optional<SweepHit> h0 = intersectTriangle(sweep, 0, p0, p1, id0, id1);
+  const std::optional<SweepHit> h1 = intersectTriangle(sweep, 1, p0, p1, id0, id1);
+  if (h0 && h1) return h1->t < h0->t ? h1 : h0;
+  return h0 ? h0 : h1;
+}
+
+Obb sweepObb(const BladeSweep& sweep, double margin) {
+  VOXCUT_ASSERT(margin >= 0.0, "sweepObb: margin must be non-negative");
+  const auto& c = sweep.corners;
+  const Vec3d blade = (c[1] - c[0]) + (c[2] - c[3]);   // b0 - a0 + b1 - a1
+  const Vec3d motion = (c[3] - c[0]) + (c[2] - c[1]);  // a1 - a0 + b1 - b0
+  // Any orthonormal frame bounds the corners correctly; these axes make the box tight.
+  Vec3d e1 = Vec3d::UnitX();
+  if (blade.squaredNorm() > 0.0 && blade.allFinite()) {
+    e1 = blade.normalized();
+  } else if (motion.squaredNorm() > 0.0 && motion.allFinite()) {
+    e1 = motion.normalized();
+  }
+  const Vec3d m = motion - motion.dot(e1) * e1;
+  Vec3d e2 = (m.squaredNorm() > 0.0 && m.allFinite()) ? Vec3d(m.normalized()) : perpendicularTo(e1);
+  const Vec3d e3 = e1.cross(e2).normalized();
+  e2 = e3.cross(e1);  // re-orthogonalise against rounding in m
+
+  Obb obb;
+  obb.axes.col(0) = e1;
+  obb.axes.col(1) = e2;
+  obb.axes.col(2) = e3;
+  Vec3d lo = Vec3d::Constant(std::numeric_limits<double>::infinity());
+  Vec3d hi = -lo;
+  double scale = 0.0;
+  for (const Vec3d& p : c) {
+    const Vec3d s = obb.axes.transpose() * p;
+    lo = lo.cwiseMin(s);
+    hi = hi.cwiseMax(s);
+    scale = std::max(scale, p.cwiseAbs().maxCoeff());
+  }
+  obb.centre = obb.axes * (0.5 * (lo + hi));
+  const Vec3d half = 0.5 * (hi - lo);
+  const double slack = kRelativeSlack * (scale + half.sum());
+  obb.halfExtents = half + Vec3d::Constant(margin + slack);
+  return obb;
+}
+
+bool overlaps(const Obb& obb, const Eigen::AlignedBox3d& box) {
+  if (box.isEmpty()) return false;
+  const Vec3d ca = box.center();
+  const Vec3d ea = 0.5 * box.sizes();
+  const Vec3d t = obb.centre - ca;
+  const Eigen::Matrix3d& b = obb.axes;
+  const Vec3d& eb = obb.halfExtents;
+  const double tol = kRelativeSlack * (ca.cwiseAbs().maxCoeff() + obb.centre.cwiseAbs().maxCoeff() +
+                                       ea.sum() + eb.sum());
+  // Separated along L when the projected centre distance exceeds the projected radii. Any
+  // direction L is a valid test, so rounding in L itself is harmless; `tol` covers the
+  // rounding of the projections (scaled by |L|_1), so touching boxes are never separated.
+  const auto separatedAlong = [&](const Vec3d& l) {
+    const double ra = ea.dot(l.cwiseAbs());
+    const double rb = eb.dot((b.transpose() * l).cwiseAbs());
+    return std::abs(t.dot(l)) > ra + rb + tol * l.cwiseAbs().sum();
+  };
+  for (int i = 0; i < 3; ++i) {
+    if (separatedAlong(Vec3d::Unit(i)) || separatedAlong(b.col(i))) return false;
+  }
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      if (separatedAlong(Vec3d::Unit(i).cross(b.col(j)))) return false;
+    }
+  }
+  return true;
+}
+
+bool contains(const Obb& obb, const Vec3d& p) {
+  const Vec3d s = obb.axes.transpose() * (p - obb.centre);
+  const double tol = kRelativeSlack * (obb.centre.cwiseAbs().maxCoeff() + obb.halfExtents.sum());
+  return (s.cwiseAbs() - obb.halfExtents).maxCoeff() <= tol;
+}
+
+}  // namespace voxcut

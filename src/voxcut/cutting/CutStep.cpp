@@ -1,0 +1,177 @@
+#include "voxcut/cutting/CutStep.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "voxcut/core/Parallel.h"
+#include "voxcut/core/Timer.h"
+
+namespace voxcut {
+namespace {
+
+// Deformation gradient F = dx/dX of element e at trilinear coordinates xi (rest frame).
+Eigen::Matrix3d deformationGradient(const DeformationOctree& d, std::uint32_t e, const Vec3d& xi) {
+  const OctreeElement& el = d.element(e);
+  const double H = d.voxelSize() * el.size();
+  Eigen::Matrix3d F = Eigen::Matrix3d::Zero();
+  for (int c = 0; c < 8; ++c) {
+    const int b[3] = {c & 1, (c >> 1) & 1, (c >> 2) & 1};
+    Vec3d grad;
+    for (int i = 0; i < 3; ++i) {
+      double g = b[i] ? 1.0 : -1.0;
+      for (int j = 0; j < 3; ++j)
+        if (j != i) g *= b[j] ? xi[j] : 1.0 - xi[j];
+      grad[i] = g / H;
+    }
+    F += d.positions()[el.nodes[c]] * grad.transpose();
+  }
+  return F;
+}
+
+// Blade test of link (v, a) on current positions; Hermite data in the rest frame.
+std::optional<Hermite> testLink(const CutBody& b, const BladeSweep& sweep, std::size_t v, int a) {
+  const std::size_t w = v + b.grid.stride(a);
+  const auto hit = intersectSegment(sweep, b.positions[v], b.positions[w], v, w);
+  if (!hit) return std::nullopt;
+  // Pull the normal back with the element holding the nearer end.
+  const std::size_t near = hit->t < 0.5 ? v : w;
+  const std::uint32_t e = b.deformation.owner(near);
+  Vec3d xi = b.deformation.localCoordinates(near);
+  xi[a] += (near == v ? hit->t : hit->t - 1.0) / b.deformation.element(e).size();
+  Vec3d n = deformationGradient(b.deformation, e, xi).transpose() * hit->normal;
+  const double len = n.norm();
+  n = len > 0 ? Vec3d(n / len) : hit->normal;
+  if (n[a] < 0) n = -n;
+  Hermite h;
+  h.t = static_cast<float>(std::clamp(hit->t, 1e-3, 1.0 - 1e-3));
+  for (int i = 0; i < 3; ++i) h.n[i] = static_cast<float>(n[i]);
+  return h;
+}
+
+void positionVoxels(CutBody& b, const std::vector<std::uint32_t>& voxels, bool threaded) {
+  parallelFor(0, voxels.size(), 2048, [&](std::size_t i0, std::size_t i1) {
+    for (std::size_t i = i0; i < i1; ++i) b.positions[voxels[i]] = b.deformation.voxelPosition(voxels[i]);
+  }, threaded);
+}
+
+}  // namespace
+
+CutBody makeCutBody(VoxelGrid grid, const CutBodyParams& params, bool threaded) {
+  CutBody b;
+  b.grid = std::move(grid);
+  DeformationOctreeParams dp = params.deformation;
+  dp.threaded = threaded;
+  b.deformation = buildDeformationOctree(b.grid, dp);
+  b.useOctree = params.useOctree;
+  if (params.useOctree) {
+    OctreeParams op = params.octree;
+    const std::size_t n = b.grid.materialNames().size();
+    if (op.maxInternalLevel.empty()) op = OctreeParams::uniform(n, 4, 0);
+    b.activity = buildVoxelOctree(b.grid, op, threaded);
+  } else {
+    b.activity = allActive(b.grid, threaded);
+  }
+  b.obbMargin = params.obbMargin > 0 ? params.obbMargin : 0.5 * b.grid.voxelSize();
+  b.positions.assign(b.grid.voxelCount(), Vec3d::Zero());
+  return b;
+}
+
+CutStepResult cutStep(CutBody& b, const BladeSweep& sweep, bool threaded) {
+  CutStepResult r;
+  VoxelGrid& g = b.grid;
+
+  // Voxel position update: the active voxels only.
+  Timer timer;
+  positionVoxels(b, b.activity.activeVoxels, threaded);
+  r.positionUpdateMs = timer.ms();
+
+  // Intersection test: hash of element boxes, elements under the sweep's OBB, their active
+  // connected links.
+  timer.restart();
+  b.deformation.updateElementBounds(b.elementBoxes, threaded);
+  b.hash.build(b.elementBoxes, 0.0, threaded);
+  const Obb obb = sweepObb(sweep, b.obbMargin);
+  Eigen::AlignedBox3d obbBounds;
+  for (int k = 0; k < 8; ++k) {
+    Vec3d corner = obb.centre;
+    for (int i = 0; i < 3; ++i) corner += ((k >> i) & 1 ? 1.0 : -1.0) * obb.halfExtents[i] * obb.axes.col(i);
+    obbBounds.extend(corner);
+  }
+  std::vector<std::uint8_t> marked;
+  b.hash.markElements(obbBounds, [&](const Eigen::AlignedBox3d& cell) { return overlaps(obb, cell); }, marked);
+  for (std::uint8_t m : marked) r.markedElements += m;
+  const std::vector<std::uint32_t>& active = b.activity.activeVoxels;
+  constexpr std::size_t kChunk = 4096;
+  std::vector<std::vector<LinkCut>> found((active.size() + kChunk - 1) / kChunk);
+  std::vector<std::size_t> tested(found.size(), 0);
+  parallelFor(0, found.size(), 1, [&](std::size_t c0, std::size_t c1) {
+    for (std::size_t c = c0; c < c1; ++c)
+      for (std::size_t i = c * kChunk; i < std::min(active.size(), (c + 1) * kChunk); ++i) {
+        const std::size_t v = active[i];
+        const std::uint32_t e = b.deformation.owner(v);
+        if (e == kNoElement || !marked[e]) continue;
+        const Index3 p = g.coord(v);
+        for (int a = 0; a < 3; ++a) {
+          // Own links, and links from a -a neighbour whose element is not marked (tested
+          // here so that each link is tested once).
+          for (int dir = 0; dir < 2; ++dir) {
+            std::size_t from = v;
+            if (dir == 1) {
+              if (p[a] == 0) continue;
+              from = v - g.stride(a);
+              const std::uint32_t fe = b.deformation.owner(from);
+              if (fe != kNoElement && marked[fe]) continue;
+            }
+            if (!b.activity.linkActive(from, a) || !g.connected(from, a)) continue;
+            ++tested[c];
+            if (const auto h = testLink(b, sweep, from, a)) found[c].push_back({VoxelGrid::linkId(from, a), *h});
+          }
+        }
+      }
+  }, threaded);
+  for (std::size_t c = 0; c < found.size(); ++c) {
+    r.testedLinks += tested[c];
+    r.cuts.insert(r.cuts.end(), found[c].begin(), found[c].end());
+  }
+  for (const LinkCut& lc : r.cuts) {
+    g.setConnected(static_cast<std::size_t>(lc.link / 3), static_cast<int>(lc.link % 3), false);
+    g.hermite().set(lc.link, lc.hermite);
+  }
+  r.intersectionMs = timer.ms();
+
+  // Octree subdivision around the new cuts.
+  if (b.useOctree) {
+    timer.restart();
+    SubdivisionHooks hooks;
+    hooks.updatePositions = [&](const std::vector<std::uint32_t>& voxels) { positionVoxels(b, voxels, false); };
+    hooks.testLink = [&](std::size_t v, int a) { return testLink(b, sweep, v, a); };
+    r.subdivision = subdivideCutCubes(b.activity, g, r.cuts, hooks, threaded);
+    r.subdivisionMs = timer.ms();
+    timer.restart();
+    activateNewCubeFrames(b.activity, g, threaded);
+    compactCubes(b.activity, threaded);
+    rebuildActiveVoxels(b.activity, threaded);
+    r.deferredMs = timer.ms();
+  }
+  std::sort(r.cuts.begin(), r.cuts.end(), [](const LinkCut& x, const LinkCut& y) { return x.link < y.link; });
+  return r;
+}
+
+std::uint64_t cutSetHash(std::vector<LinkCut> cuts) {
+  std::sort(cuts.begin(), cuts.end(), [](const LinkCut& x, const LinkCut& y) { return x.link < y.link; });
+  std::uint64_t h = 0xcbf29ce484222325ULL;
+  auto mix = [&](std::int64_t value) {
+    for (int i = 0; i < 8; ++i) {
+      h ^= static_cast<std::uint64_t>(value >> (8 * i)) & 0xffu;
+      h *= 0x100000001b3ULL;
+    }
+  };
+  for (const LinkCut& c : cuts) {
+    mix(static_cast<std::int64_t>(c.link));
+    mix(std::llround(static_cast<double>(c.hermite.t) * 1e6));
+    for (int i = 0; i < 3; ++i) mix(std::llround(static_cast<double>(c.hermite.n[i]) * 1e6));
+  }
+  return h;
+}
+
+}  // namespace voxcut

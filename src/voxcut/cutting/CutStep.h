@@ -1,0 +1,62 @@
+#pragma once
+/// @file CutStep.h
+/// The cutting tool's collision for one frame (paper §3.1-3.2, DESIGN.md "One frame"):
+/// voxel position update, intersection test of the blade sweep against active connected links
+/// (culled by the spatial hash of element AABBs and the sweep's approximate OBB), then, with
+/// the octree, subdivision of the cubes the new cuts touch; the deferred updates follow.
+/// The baseline ("previous method") is the same code with every link active and no octree.
+
+#include <cstdint>
+#include <vector>
+
+#include "voxcut/collision/SpatialHash.h"
+#include "voxcut/cutting/Blade.h"
+#include "voxcut/fem/DeformationOctree.h"
+#include "voxcut/octree/OctreeSubdivision.h"
+#include "voxcut/octree/VoxelOctree.h"
+
+namespace voxcut {
+
+/// How a body is set up for cutting.
+struct CutBodyParams {
+  bool useOctree = true;            ///< false: the baseline, every link active
+  OctreeParams octree;              ///< per-material levels (filled from defaults when empty)
+  DeformationOctreeParams deformation;
+  double obbMargin = 0.0;           ///< metres added around the sweep's OBB (0: half a voxel)
+};
+
+/// A body being cut: voxels, activity marks, deformation octree and collision structures.
+/// Copyable: the single-frame test runs each repetition on a fresh copy.
+struct CutBody {
+  VoxelGrid grid;
+  DeformationOctree deformation;
+  VoxelOctree activity;             ///< the pseudo voxel octree, or everything active
+  bool useOctree = true;
+  double obbMargin = 0.0;
+  std::vector<Vec3d> positions;     ///< per voxel, current; valid where positioned this frame
+  std::vector<Eigen::AlignedBox3d> elementBoxes;
+  SpatialHash hash;
+};
+
+/// Builds the deformation octree and the activity marks of `grid`.
+[[nodiscard]] CutBody makeCutBody(VoxelGrid grid, const CutBodyParams& params, bool threaded = true);
+
+/// Timings (ms) and counts of one frame's cutting tool collision.
+struct CutStepResult {
+  std::vector<LinkCut> cuts;        ///< every link cut this frame, sorted by link id
+  double positionUpdateMs = 0, intersectionMs = 0, subdivisionMs = 0, deferredMs = 0;
+  std::size_t markedElements = 0;
+  std::size_t testedLinks = 0;      ///< in the intersection test
+  SubdivisionStats subdivision;
+  [[nodiscard]] double totalMs() const { return positionUpdateMs + intersectionMs + subdivisionMs; }
+};
+
+/// Runs one frame of cutting tool collision on `body` for the blade sweep. Cut links are
+/// disconnected and get Hermite data in the rest frame (t along the link; normal pulled back
+/// as F^T n, normalised). Deterministic for any thread count.
+CutStepResult cutStep(CutBody& body, const BladeSweep& sweep, bool threaded = true);
+
+/// 64-bit FNV-1a hash of the cuts sorted by link id, with t and normals rounded to 1e-6.
+[[nodiscard]] std::uint64_t cutSetHash(std::vector<LinkCut> cuts);
+
+}  // namespace voxcut

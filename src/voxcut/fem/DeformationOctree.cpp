@@ -1,0 +1,372 @@
+#include "voxcut/fem/DeformationOctree.h"
+
+#include <algorithm>
+#include <initializer_list>
+#include <string>
+#include <utility>
+
+#include "voxcut/core/Error.h"
+#include "voxcut/core/Parallel.h"
+
+namespace voxcut {
+
+// ---------------------------------------------------------------------------------------------
+// DeformationOctree
+// ---------------------------------------------------------------------------------------------
+
+DeformationOctree::DeformationOctree(const VoxelGrid& grid, int maxLevel, std::vector<OctreeElement> elements,
+                                     std::vector<Index3> nodeCoords,
+                                     std::vector<HangingNode> hanging,
+                                     std::vector<VoxelEmbedding> embedding)
+    : dims_(grid.dims()),
+      origin_(grid.origin()),
+      voxelSize_(grid.voxelSize()),
+      maxLevel_(maxLevel),
+      elements_(std::move(elements)),
+      nodeCoords_(std::move(nodeCoords)),
+      hanging_(std::move(hanging)),
+      embedding_(std::move(embedding)) {
+  VOXCUT_ASSERT(embedding_.size() == grid.voxelCount(), "one embedding per grid voxel");
+  restPositions_.resize(nodeCoords_.size());
+  for (std::size_t n = 0; n < nodeCoords_.size(); ++n)
+    restPositions_[n] = nodeGridPosition(nodeCoords_[n]);
+  positions_ = restPositions_;
+  hangingFlag_.assign(nodeCoords_.size(), 0);
+  for (const HangingNode& hn : hanging_) {
+    VOXCUT_ASSERT(hn.node < nodeCoords_.size(), "hanging node id out of range");
+    VOXCUT_ASSERT(hn.masterCount == 2 || hn.masterCount == 4, "a hanging node has 2 or 4 masters");
+    hangingFlag_[hn.node] = 1;
+  }
+  for (const OctreeElement& e : elements_) {
+    VOXCUT_ASSERT(e.level >= 0 && e.level <= maxLevel_, "element level out of range");
+    for (std::uint32_t n : e.nodes) VOXCUT_ASSERT(n < nodeCoords_.size(), "element node id out of range");
+  }
+  for (std::size_t v = 0; v < embedding_.size(); ++v) {
+    if (embedding_[v].element == kNoElement) continue;
+    VOXCUT_ASSERT(embedding_[v].element < elements_.size(), "voxel owner out of range");
+    ++occupiedVoxels_;
+    restVoxelBounds_.extend(grid.position(v));
+  }
+}
+
+void DeformationOctree::updateHangingNodes() {
+  // Ordered coarse first: a master that is itself hanging is already resolved.
+  for (const HangingNode& hn : hanging_) {
+    Vec3d sum = Vec3d::Zero();
+    for (int m = 0; m < hn.masterCount; ++m) sum += positions_[hn.masters[m]];
+    positions_[hn.node] = sum / static_cast<double>(hn.masterCount);
+  }
+}
+
+Vec3d DeformationOctree::localCoordinates(std::size_t v) const {
+  const VoxelEmbedding& em = embedding_[v];
+  VOXCUT_ASSERT(em.element != kNoElement, "voxel is empty");
+  const double inv = 1.0 / static_cast<double>(elements_[em.element].size());
+  return {(em.offset[0] + 0.5) * inv, (em.offset[1] + 0.5) * inv, (em.offset[2] + 0.5) * inv};
+}
+
+std::array<double, 8> DeformationOctree::weights(std::size_t v) const {
+  const Vec3d t = localCoordinates(v);
+  std::array<double, 8> w{};
+  for (int c = 0; c < 8; ++c)
+    w[c] = ((c & 1) ? t.x() : 1 - t.x()) * ((c & 2) ? t.y() : 1 - t.y()) *
+           ((c & 4) ? t.z() : 1 - t.z());
+  return w;
+}
+
+Vec3d DeformationOctree::pointInElement(std::uint32_t e, const Vec3d& t) const {
+  const auto& n = elements_[e].nodes;
+  const std::vector<Vec3d>& p = positions_;
+  // Seven lerps: along x on the four x-edges, then y, then z.
+  const Vec3d x00 = p[n[0]] + t.x() * (p[n[1]] - p[n[0]]);
+  const Vec3d x10 = p[n[2]] + t.x() * (p[n[3]] - p[n[2]]);
+  const Vec3d x01 = p[n[4]] + t.x() * (p[n[5]] - p[n[4]]);
+  const Vec3d x11 = p[n[6]] + t.x() * (p[n[7]] - p[n[6]]);
+  const Vec3d y0 = x00 + t.y() * (x10 - x00);
+  const Vec3d y1 = x01 + t.y() * (x11 - x01);
+  return y0 + t.z() * (y1 - y0);
+}
+
+Vec3d DeformationOctree::voxelPosition(std::size_t v) const {
+  return pointInElement(embedding_[v].element, localCoordinates(v));
+}
+
+void DeformationOctree::updateVoxelPositions(const std::vector<std::uint32_t>& voxels,
+                                             std::vector<Vec3d>& out, bool threaded) const {
+  out.resize(voxels.size());
+  parallelFor(0, voxels.size(), 4096, [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) out[i] = voxelPosition(voxels[i]);
+  }, threaded);
+}
+
+Eigen::AlignedBox3d DeformationOctree::elementBounds(std::uint32_t e) const {
+  Eigen::AlignedBox3d box;
+  for (std::uint32_t n : elements_[e].nodes) box.extend(positions_[n]);
+  return box;
+}
+
+void DeformationOctree::updateElementBounds(std::vector<Eigen::AlignedBox3d>& out,
+                                            bool threaded) const {
+  out.resize(elements_.size());
+  parallelFor(0, elements_.size(), 256, [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) out[i] = elementBounds(static_cast<std::uint32_t>(i));
+  }, threaded);
+}
+
+std::vector<std::size_t> DeformationOctree::elementCountPerLevel() const {
+  std::vector<std::size_t> count(static_cast<std::size_t>(maxLevel_) + 1, 0);
+  for (const OctreeElement& e : elements_) ++count[static_cast<std::size_t>(e.level)];
+  return count;
+}
+
+std::vector<std::size_t> DeformationOctree::nodeCountPerLevel() const {
+  std::vector<int> finest(nodeCoords_.size(), maxLevel_);
+  for (const OctreeElement& e : elements_)
+    for (std::uint32_t n : e.nodes) finest[n] = std::min(finest[n], e.level);
+  std::vector<std::size_t> count(static_cast<std::size_t>(maxLevel_) + 1, 0);
+  for (int l : finest) ++count[static_cast<std::size_t>(l)];
+  return count;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Build
+// ---------------------------------------------------------------------------------------------
+
+namespace {
+
+/// A dense grid of per-block flags at one level.
+struct LevelGrid {
+  Index3 dims;
+  std::vector<std::uint8_t> flag;
+  [[nodiscard]] bool inside(const Index3& b) const {
+    return b.x >= 0 && b.y >= 0 && b.z >= 0 && b.x < dims.x && b.y < dims.y && b.z < dims.z;
+  }
+  [[nodiscard]] std::size_t index(const Index3& b) const {
+    return static_cast<std::size_t>(b.x) +
+           static_cast<std::size_t>(dims.x) *
+               (static_cast<std::size_t>(b.y) + static_cast<std::size_t>(dims.y) * static_cast<std::size_t>(b.z));
+  }
+  [[nodiscard]] bool at(const Index3& b) const { return inside(b) && flag[index(b)] != 0; }
+  [[nodiscard]] Index3 coord(std::size_t i) const {
+    const auto nx = static_cast<std::size_t>(dims.x), ny = static_cast<std::size_t>(dims.y);
+    return {static_cast<int>(i % nx), static_cast<int>((i / nx) % ny), static_cast<int>(i / (nx * ny))};
+  }
+};
+
+int ceilShift(int n, int level) { return (n + (1 << level) - 1) >> level; }
+Index3 shiftDown(const Index3& c, int s) { return {c.x >> s, c.y >> s, c.z >> s}; }
+Index3 child(const Index3& p, int c) {
+  return {2 * p.x + (c & 1), 2 * p.y + ((c >> 1) & 1), 2 * p.z + ((c >> 2) & 1)};
+}
+
+/// leaf[L] flags the elements of level L (L in [S, M]; entries below S are unused).
+struct Leaves {
+  int S = 0, M = 0;
+  std::vector<LevelGrid> leaf;   ///< elements
+  std::vector<LevelGrid> full;   ///< blocks whose voxels are all occupied (M > S only)
+};
+
+/// Occupied and full blocks at startLevel, full blocks above, and the merged leaves.
+Leaves initialLeaves(const VoxelGrid& grid, int S, int M, bool threaded) {
+  Leaves lv;
+  lv.S = S;
+  lv.M = M;
+  lv.leaf.resize(static_cast<std::size_t>(M) + 1);
+  lv.full.resize(static_cast<std::size_t>(M) + 1);
+  for (int L = S; L <= M; ++L) {
+    const Index3 d{ceilShift(grid.dims().x, L), ceilShift(grid.dims().y, L), ceilShift(grid.dims().z, L)};
+    for (auto* g : {&lv.leaf[static_cast<std::size_t>(L)], &lv.full[static_cast<std::size_t>(L)]}) {
+      g->dims = d;
+      g->flag.assign(static_cast<std::size_t>(d.x) * d.y * d.z, 0);
+    }
+  }
+  // Occupied-voxel counts per startLevel block; one task per block slab in z, so each block is
+  // written by one task only.
+  LevelGrid& base = lv.leaf[static_cast<std::size_t>(S)];
+  std::vector<std::uint32_t> count(base.flag.size(), 0);
+  const Index3 gd = grid.dims();
+  parallelFor(0, static_cast<std::size_t>(base.dims.z), 1, [&](std::size_t zb, std::size_t ze) {
+    for (int z = static_cast<int>(zb) << S; z < std::min(gd.z, static_cast<int>(ze) << S); ++z)
+      for (int y = 0; y < gd.y; ++y)
+        for (int x = 0; x < gd.x; ++x)
+          if (grid.occupied(grid.index(x, y, z))) ++count[base.index({x >> S, y >> S, z >> S})];
+  }, threaded);
+  const std::uint32_t fullCount = 1u << (3 * S);
+  for (std::size_t b = 0; b < count.size(); ++b) {
+    base.flag[b] = count[b] > 0;
+    lv.full[static_cast<std::size_t>(S)].flag[b] = count[b] == fullCount;
+  }
+  for (int L = S + 1; L <= M; ++L) {
+    LevelGrid& f = lv.full[static_cast<std::size_t>(L)];
+    const LevelGrid& fc = lv.full[static_cast<std::size_t>(L) - 1];
+    for (std::size_t b = 0; b < f.flag.size(); ++b) {
+      bool all = true;
+      for (int c = 0; c < 8 && all; ++c) all = fc.at(child(f.coord(b), c));
+      f.flag[b] = all;
+    }
+  }
+  // Coarsest full block wins: top down, a full block not inside a coarser element is one.
+  for (int L = M; L > S; --L) {
+    LevelGrid& g = lv.leaf[static_cast<std::size_t>(L)];
+    const LevelGrid& f = lv.full[static_cast<std::size_t>(L)];
+    for (std::size_t b = 0; b < g.flag.size(); ++b) {
+      if (!f.flag[b]) continue;
+      bool covered = false;
+      for (int m = L + 1; m <= M && !covered; ++m)
+        covered = lv.leaf[static_cast<std::size_t>(m)].at(shiftDown(g.coord(b), m - L));
+      g.flag[b] = !covered;
+    }
+  }
+  for (std::size_t b = 0; b < base.flag.size(); ++b) {
+    if (!base.flag[b]) continue;
+    for (int m = S + 1; m <= M; ++m)
+      if (lv.leaf[static_cast<std::size_t>(m)].at(shiftDown(base.coord(b), m - S))) base.flag[b] = 0;
+  }
+  return lv;
+}
+
+/// Refines coarse elements until every two touching elements differ by at most one level.
+/// Checked from the finer side: for each element and each of its 26 neighbouring blocks of
+/// the same size, an element two or more levels coarser containing that block is split into
+/// its 8 children (all full, so all elements). Repeats until nothing changes.
+void balance(Leaves& lv) {
+  bool changed = true;
+  while (changed) {
+    changed = false;
+    for (int L = lv.S; L + 2 <= lv.M; ++L) {
+      const LevelGrid& g = lv.leaf[static_cast<std::size_t>(L)];
+      for (std::size_t b = 0; b < g.flag.size(); ++b) {
+        if (!g.flag[b]) continue;
+        const Index3 c = g.coord(b);
+        for (int d = 0; d < 27; ++d) {
+          if (d == 13) continue;
+          const Index3 nb{c.x + d % 3 - 1, c.y + (d / 3) % 3 - 1, c.z + d / 9 - 1};
+          if (!g.inside(nb)) continue;
+          for (int m = L + 2; m <= lv.M; ++m) {
+            LevelGrid& coarse = lv.leaf[static_cast<std::size_t>(m)];
+            const Index3 p = shiftDown(nb, m - L);
+            if (!coarse.at(p)) continue;
+            coarse.flag[coarse.index(p)] = 0;
+            LevelGrid& fine = lv.leaf[static_cast<std::size_t>(m) - 1];
+            for (int k = 0; k < 8; ++k) fine.flag[fine.index(child(p, k))] = 1;
+            changed = true;
+          }
+        }
+      }
+    }
+  }
+}
+
+}  // namespace
+
+DeformationOctree buildDeformationOctree(const VoxelGrid& grid, const DeformationOctreeParams& params) {
+  const int S = params.startLevel;
+  const int M = params.merge ? params.maxLevel : params.startLevel;
+  if (S < 0 || S > 7)
+    throw InputError("deformation octree start level must be in [0, 7], got " + std::to_string(S));
+  if (params.maxLevel < S || params.maxLevel > 7)
+    throw InputError("deformation octree max level must be in [start level, 7], got " +
+                     std::to_string(params.maxLevel));
+
+  Leaves lv = initialLeaves(grid, S, M, params.threaded);
+  balance(lv);
+
+  // Elements, ordered by their first voxel's index (unique: elements do not overlap).
+  std::vector<std::pair<std::size_t, OctreeElement>> keyed;
+  for (int L = S; L <= M; ++L) {
+    const LevelGrid& g = lv.leaf[static_cast<std::size_t>(L)];
+    for (std::size_t b = 0; b < g.flag.size(); ++b) {
+      if (!g.flag[b]) continue;
+      OctreeElement e;
+      e.coord = g.coord(b);
+      e.level = L;
+      keyed.emplace_back(grid.index(e.firstVoxel()), e);
+    }
+  }
+  std::sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<OctreeElement> elements(keyed.size());
+  for (std::size_t i = 0; i < keyed.size(); ++i) elements[i] = keyed[i].second;
+  keyed.clear();
+
+  // Nodes: the node grid spans every startLevel block (elements may overhang the voxel grid).
+  LevelGrid nodeGrid;
+  nodeGrid.dims = {(ceilShift(grid.dims().x, S) << S) + 1, (ceilShift(grid.dims().y, S) << S) + 1,
+                   (ceilShift(grid.dims().z, S) << S) + 1};
+  std::vector<std::uint32_t> nodeId(static_cast<std::size_t>(nodeGrid.dims.x) * nodeGrid.dims.y * nodeGrid.dims.z,
+                                    kNoElement);
+  auto corner = [](const OctreeElement& e, int c) {
+    const Index3 f = e.firstVoxel();
+    const int s = e.size();
+    return Index3{f.x + (c & 1) * s, f.y + ((c >> 1) & 1) * s, f.z + ((c >> 2) & 1) * s};
+  };
+  for (const OctreeElement& e : elements)
+    for (int c = 0; c < 8; ++c) nodeId[nodeGrid.index(corner(e, c))] = 0;
+  std::vector<Index3> nodeCoords;
+  for (std::size_t i = 0; i < nodeId.size(); ++i) {
+    if (nodeId[i] == kNoElement) continue;
+    nodeId[i] = static_cast<std::uint32_t>(nodeCoords.size());
+    nodeCoords.push_back(nodeGrid.coord(i));
+  }
+  for (OctreeElement& e : elements)
+    for (int c = 0; c < 8; ++c) e.nodes[static_cast<std::size_t>(c)] = nodeId[nodeGrid.index(corner(e, c))];
+
+  // Hanging nodes: a node at a coarse element's edge midpoint or face centre. Only a finer
+  // element can put a corner there, and the point's coordinates fix the coarse level, so
+  // every record of one node is the same; keep the first.
+  std::vector<HangingNode> hanging;
+  std::vector<std::uint8_t> seen(nodeCoords.size(), 0);
+  auto record = [&](const OctreeElement& e, std::initializer_list<int> cs) {
+    Index3 sum{0, 0, 0};
+    for (int c : cs) {
+      const Index3 p = corner(e, c);
+      sum = {sum.x + p.x, sum.y + p.y, sum.z + p.z};
+    }
+    const int k = static_cast<int>(cs.size());
+    const std::uint32_t n = nodeId[nodeGrid.index({sum.x / k, sum.y / k, sum.z / k})];
+    if (n == kNoElement || seen[n]) return;
+    seen[n] = 1;
+    HangingNode hn;
+    hn.node = n;
+    hn.masterCount = static_cast<std::uint8_t>(k);
+    hn.coarseLevel = static_cast<std::uint8_t>(e.level);
+    int i = 0;
+    for (int c : cs) hn.masters[static_cast<std::size_t>(i++)] = e.nodes[static_cast<std::size_t>(c)];
+    hanging.push_back(hn);
+  };
+  for (const OctreeElement& e : elements) {
+    if (e.level == 0) continue;
+    for (int a = 0; a < 3; ++a) {
+      const int u = 1 << ((a + 1) % 3), w = 1 << ((a + 2) % 3), s = 1 << a;
+      for (int c : {0, u, w, u | w}) record(e, {c, c | s});      // the 4 edges along axis a
+      for (int side : {0, s}) record(e, {side, side | u, side | w, side | u | w});  // 2 faces
+    }
+  }
+  std::sort(hanging.begin(), hanging.end(), [](const HangingNode& a, const HangingNode& b) {
+    return a.coarseLevel != b.coarseLevel ? a.coarseLevel > b.coarseLevel : a.node < b.node;
+  });
+
+  // Embedding: each element writes the voxels it covers, so no two tasks write one voxel.
+  std::vector<VoxelEmbedding> embedding(grid.voxelCount());
+  const Index3 gd = grid.dims();
+  parallelFor(0, elements.size(), 16, [&](std::size_t b, std::size_t end) {
+    for (std::size_t i = b; i < end; ++i) {
+      const OctreeElement& e = elements[i];
+      const Index3 f = e.firstVoxel();
+      const int s = e.size();
+      for (int z = f.z; z < std::min(f.z + s, gd.z); ++z)
+        for (int y = f.y; y < std::min(f.y + s, gd.y); ++y)
+          for (int x = f.x; x < std::min(f.x + s, gd.x); ++x) {
+            const std::size_t v = grid.index(x, y, z);
+            if (!grid.occupied(v)) continue;
+            embedding[v].element = static_cast<std::uint32_t>(i);
+            embedding[v].offset = {static_cast<std::uint8_t>(x - f.x), static_cast<std::uint8_t>(y - f.y),
+                                   static_cast<std::uint8_t>(z - f.z)};
+          }
+    }
+  }, params.threaded);
+
+  return DeformationOctree(grid, M, std::move(elements), std::move(nodeCoords), std::move(hanging),
+                           std::move(embedding));
+}
+
+}  // namespace voxcut

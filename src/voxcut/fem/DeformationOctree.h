@@ -1,0 +1,182 @@
+#pragma once
+/// @file DeformationOctree.h
+/// The deformation octree (DESIGN.md part 3), structure only: a restricted (2:1) octree of
+/// hexahedral elements on the voxel grid offset by half a voxel, its corner nodes with rest and
+/// current positions, hanging-node constraints, and each occupied voxel's embedding (owning
+/// element and trilinear coordinates). The dynamics (stiffness, mass, solver) live elsewhere.
+///
+/// Geometry. Element-grid node (i, j, k) sits at origin + h * ((i, j, k) - 0.5), h the voxel
+/// size (metres). A level-L element with integer coordinates E covers the voxels
+/// [E * 2^L, (E + 1) * 2^L) along each axis and has its corner nodes at node-grid coordinates
+/// E * 2^L and (E + 1) * 2^L. A level-0 element is one voxel, centred on the voxel's centre.
+/// Corner c in 0..7 of an element is offset by (c & 1, (c >> 1) & 1, (c >> 2) & 1).
+///
+/// 2:1 rule: the levels of two elements that touch at all (share a face, an edge or only a
+/// vertex) differ by at most one (vertex adjacency, the strictest choice). It makes every fine
+/// element's corner that lies on a coarse neighbour sit at that neighbour's edge midpoint or
+/// face centre, so hanging nodes have 2 or 4 masters. A master can itself be hanging (next to
+/// empty space the 2:1 rule does not rule this out); hangingNodes() is ordered so that
+/// resolving it front to back sees masters already resolved.
+///
+/// Not yet: an element whose occupied voxels form several disconnected parts (two lobes passing
+/// through one coarse element) should be duplicated, one copy per part, with node copies shared
+/// only where voxels stay connected (DESIGN.md part 4, algorithms.md "components of a dual
+/// cell"). Today every such element is one element and glues its parts together.
+///
+/// Thread-safety: const member functions may run concurrently with each other; anything that
+/// moves nodes (positions(), updateHangingNodes()) must not run concurrently with readers.
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "voxcut/core/Types.h"
+#include "voxcut/voxel/VoxelGrid.h"
+
+namespace voxcut {
+
+/// Marks a voxel without an owning element (an empty voxel).
+inline constexpr std::uint32_t kNoElement = 0xffffffffu;
+
+/// One hexahedral element of the deformation octree.
+struct OctreeElement {
+  Index3 coord;                          ///< integer coordinates at its level
+  int level = 0;                         ///< edge length 2^level voxels
+  std::array<std::uint32_t, 8> nodes{};  ///< corner node ids, corner c at offset (c&1, c>>1&1, c>>2&1)
+
+  /// Edge length in voxels.
+  [[nodiscard]] int size() const { return 1 << level; }
+  /// Grid coordinates of the first voxel it covers (also its corner node 0's node coordinates).
+  [[nodiscard]] Index3 firstVoxel() const {
+    return {coord.x << level, coord.y << level, coord.z << level};
+  }
+};
+
+/// A node constrained to the mean of its masters: the midpoint of a coarse element's edge
+/// (2 masters, the edge's ends) or the centre of its face (4 masters, the face's corners).
+struct HangingNode {
+  std::uint32_t node = 0;
+  std::uint8_t masterCount = 0;             ///< 2 or 4
+  std::uint8_t coarseLevel = 0;             ///< level of the element whose edge or face it lies on
+  std::array<std::uint32_t, 4> masters{};   ///< the first masterCount entries are used
+};
+
+/// Where an occupied voxel lives: its owning element and its offset in voxels from the
+/// element's first voxel (each in [0, 2^level)). Its trilinear (local) coordinates are
+/// (offset + 0.5) / 2^level, exact in floating point.
+struct VoxelEmbedding {
+  std::uint32_t element = kNoElement;
+  std::array<std::uint8_t, 3> offset{};
+};
+
+/// Build settings.
+struct DeformationOctreeParams {
+  int startLevel = 3;  ///< level of the elements that first cover the occupied voxels
+  int maxLevel = 4;    ///< coarsest level merging may reach (>= startLevel)
+  bool merge = true;   ///< merge 8 full siblings into their parent, up to maxLevel
+  bool threaded = true;
+};
+
+/// The deformation octree. Owns its arrays; copyable (tests and later cut steps copy it).
+class DeformationOctree {
+ public:
+  DeformationOctree() = default;
+  /// Assembles an octree from its parts (the builder's job; checks sizes by assertion).
+  /// `grid` gives the geometry and dims; `nodeCoords` are node-grid coordinates; rest and
+  /// current positions are set from them; `embedding` has one entry per grid voxel;
+  /// `maxLevel` is the coarsest level the build allowed (sizes the per-level counts).
+  DeformationOctree(const VoxelGrid& grid, int maxLevel, std::vector<OctreeElement> elements,
+                    std::vector<Index3> nodeCoords, std::vector<HangingNode> hanging,
+                    std::vector<VoxelEmbedding> embedding);
+
+  [[nodiscard]] const std::vector<OctreeElement>& elements() const { return elements_; }
+  [[nodiscard]] const OctreeElement& element(std::uint32_t e) const { return elements_[e]; }
+  [[nodiscard]] std::size_t elementCount() const { return elements_.size(); }
+  [[nodiscard]] std::size_t nodeCount() const { return nodeCoords_.size(); }
+
+  /// Node-grid coordinates of node n.
+  [[nodiscard]] const Index3& nodeCoord(std::uint32_t n) const { return nodeCoords_[n]; }
+  /// Rest positions of the nodes (metres), #nodes.
+  [[nodiscard]] const std::vector<Vec3d>& restPositions() const { return restPositions_; }
+  /// Current positions of the nodes (metres), #nodes. Move free nodes through the mutable
+  /// overload, then call updateHangingNodes().
+  [[nodiscard]] const std::vector<Vec3d>& positions() const { return positions_; }
+  std::vector<Vec3d>& positions() { return positions_; }
+
+  /// Hanging nodes, ordered by coarseLevel descending then node id (masters before dependants).
+  [[nodiscard]] const std::vector<HangingNode>& hangingNodes() const { return hanging_; }
+  [[nodiscard]] bool isHanging(std::uint32_t n) const { return hangingFlag_[n] != 0; }
+  /// Sets every hanging node's current position to the mean of its masters', so voxel
+  /// positions are continuous across fine/coarse faces. Serial; O(#hanging).
+  void updateHangingNodes();
+
+  /// Embedding of grid voxel v (element kNoElement for an empty voxel).
+  [[nodiscard]] const VoxelEmbedding& embedding(std::size_t v) const { return embedding_[v]; }
+  [[nodiscard]] std::uint32_t owner(std::size_t v) const { return embedding_[v].element; }
+  /// Trilinear coordinates of occupied voxel v in its owning element, each in (0, 1).
+  [[nodiscard]] Vec3d localCoordinates(std::size_t v) const;
+  /// The 8 trilinear weights of occupied voxel v, for the element's corners 0..7; sum 1.
+  [[nodiscard]] std::array<double, 8> weights(std::size_t v) const;
+  /// Current position of occupied voxel v (metres): sum of weights * current corner positions.
+  [[nodiscard]] Vec3d voxelPosition(std::size_t v) const;
+  /// Current position of a point with trilinear coordinates `t` in element e (metres).
+  [[nodiscard]] Vec3d pointInElement(std::uint32_t e, const Vec3d& t) const;
+  /// out[i] = voxelPosition(voxels[i]) for every i (out is resized), in parallel; every
+  /// listed voxel must be occupied. Deterministic for any thread count.
+  void updateVoxelPositions(const std::vector<std::uint32_t>& voxels, std::vector<Vec3d>& out,
+                            bool threaded = true) const;
+
+  /// Axis-aligned bounds of element e's current corners (metres); they hold all its voxels.
+  [[nodiscard]] Eigen::AlignedBox3d elementBounds(std::uint32_t e) const;
+  /// out[e] = elementBounds(e) for every element (out is resized), in parallel.
+  void updateElementBounds(std::vector<Eigen::AlignedBox3d>& out, bool threaded = true) const;
+
+  /// Elements per level, indexed by level; size: the build's effective maxLevel + 1
+  /// (startLevel + 1 without merging).
+  [[nodiscard]] std::vector<std::size_t> elementCountPerLevel() const;
+  /// Nodes per level: entry L counts the nodes whose finest adjacent element has level L
+  /// (sums to nodeCount()).
+  [[nodiscard]] std::vector<std::size_t> nodeCountPerLevel() const;
+  [[nodiscard]] std::size_t hangingNodeCount() const { return hanging_.size(); }
+  [[nodiscard]] std::size_t occupiedVoxelCount() const { return occupiedVoxels_; }
+
+  /// Grid geometry the octree was built on.
+  [[nodiscard]] const Index3& gridDims() const { return dims_; }
+  [[nodiscard]] const Vec3d& origin() const { return origin_; }
+  [[nodiscard]] double voxelSize() const { return voxelSize_; }
+  /// Rest position of node-grid point (i, j, k): origin + h * ((i, j, k) - 0.5).
+  [[nodiscard]] Vec3d nodeGridPosition(const Index3& c) const {
+    return origin_ + voxelSize_ * (Vec3d(c.x, c.y, c.z) - Vec3d::Constant(0.5));
+  }
+  /// Bounds of the occupied voxels' rest centres (metres); empty box when none.
+  [[nodiscard]] const Eigen::AlignedBox3d& restVoxelBounds() const { return restVoxelBounds_; }
+
+ private:
+  Index3 dims_;
+  Vec3d origin_ = Vec3d::Zero();
+  double voxelSize_ = 1.0;
+  int maxLevel_ = 0;
+  std::vector<OctreeElement> elements_;
+  std::vector<Index3> nodeCoords_;
+  std::vector<Vec3d> restPositions_;
+  std::vector<Vec3d> positions_;
+  std::vector<HangingNode> hanging_;
+  std::vector<std::uint8_t> hangingFlag_;
+  std::vector<VoxelEmbedding> embedding_;
+  std::size_t occupiedVoxels_ = 0;
+  Eigen::AlignedBox3d restVoxelBounds_;
+};
+
+/// Builds the deformation octree over the occupied voxels of `grid`: elements of level
+/// startLevel over every occupied voxel; 8 full siblings (every voxel they cover occupied)
+/// merged into their parent, repeatedly up to maxLevel when `merge`; then coarse elements
+/// refined until the 2:1 rule holds (vertex adjacency). Elements are ordered by their first
+/// voxel's index, nodes by their node-grid index: the result is deterministic for any thread
+/// count. Throws InputError for startLevel outside [0, 7] or maxLevel outside
+/// [startLevel, 7]. Thread-safe (reads `grid` only).
+[[nodiscard]] DeformationOctree buildDeformationOctree(const VoxelGrid& grid,
+                                                       const DeformationOctreeParams& params = {});
+
+}  // namespace voxcut
