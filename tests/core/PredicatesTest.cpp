@@ -130,15 +130,17 @@ TEST(Orient3d, SignConvention) {
   EXPECT_EQ(orient3d(o, o, y, z), 0);
 }
 
-// Integer points (up to 2^53, so differences are not always representable) around a line:
+// Integer points (beyond 2^53, so neither the points nor their differences are always exact
+// integers; the reference takes the doubles as they are) around a line:
 // b - a = e, c - a = 2e + r1, d - a = 3e + r2 with tiny r: the determinant det[e, r1, r2] is
 // tiny against the products, and naive floating point often gets its sign wrong.
 TEST(Orient3d, NearlyCollinearIntegerPointsMatchExactReference) {
   std::mt19937_64 rng(1);
   int naiveWrong = 0, zeros = 0;
   for (int i = 0; i < 20000; ++i) {
-    const Vec3d a = randomInts(rng, std::int64_t{1} << (i % 2 == 0 ? 51 : 4));
-    const Vec3d e = randomInts(rng, std::int64_t{1} << 49);
+    // Large a and e make differences up to 2^54 that doubles cannot hold exactly.
+    const Vec3d a = randomInts(rng, std::int64_t{1} << (i % 2 == 0 ? 52 : 4));
+    const Vec3d e = randomInts(rng, std::int64_t{1} << (i % 2 == 0 ? 51 : 49));
     const Vec3d b = a + e;
     const Vec3d c = a + 2 * e + randomInts(rng, 2);
     const Vec3d d = a + 3 * e + randomInts(rng, 2);
@@ -162,7 +164,7 @@ TEST(Orient3d, PerturbedCoplanarLatticePoints) {
     const Vec3d u = randomInts(rng, std::int64_t{1} << 24);
     const Vec3d v = randomInts(rng, std::int64_t{1} << 24);
     const double i = static_cast<double>(rng() % 64), j = static_cast<double>(rng() % 64);
-    const Vec3d d = a + i * u + j * v + (n % 3 == 0 ? Vec3d::Zero() : randomInts(rng, 1));
+    const Vec3d d = n % 3 == 0 ? Vec3d(a + i * u + j * v) : Vec3d(a + i * u + j * v + randomInts(rng, 1));
     const int ref = referenceOrient3d(a, a + u, a + v, d);
     ASSERT_EQ(orient3d(a, a + u, a + v, d), ref);
     naiveWrong += naiveOrient3d(a, a + u, a + v, d) != ref;
@@ -174,7 +176,7 @@ TEST(Orient3d, PerturbedCoplanarLatticePoints) {
 // the products overflow or underflow (the exact path rescales).
 TEST(Orient3d, PowerOfTwoScalesDoNotChangeTheSign) {
   std::mt19937_64 rng(3);
-  for (const int s : {-100, 100, -300, 300, -400, 400, -900, 900}) {
+  for (const int s : {-100, 100, -300, 300, -400, 400, -900, 900, -1000, 1000}) {
     for (int n = 0; n < 2000; ++n) {
       const Vec3d a = randomInts(rng, 1 << 20);
       const Vec3d e = randomInts(rng, 1 << 18);
@@ -202,7 +204,8 @@ TEST(Orient3d, PointsOnALineAtScales1eMinus30And1e30) {
         delta[k] = std::ldexp(static_cast<double>(static_cast<int>(rng() % 2001) - 1000), e - 53);
       }
       const Vec3d a(scale * unit(rng), scale * unit(rng), scale * unit(rng));
-      const Vec3d c = b + delta, d = b + 2 * delta + (n % 2 == 0 ? Vec3d::Zero() : delta * 1e-3);
+      const Vec3d c = b + delta;
+      const Vec3d d = n % 2 == 0 ? Vec3d(b + 2 * delta) : Vec3d(b + 2 * delta + delta * 1e-3);
       const int ref = referenceOrient3d(a, b, c, d);
       ASSERT_EQ(orient3d(a, b, c, d), ref);
       ASSERT_EQ(orient3d(b, c, d, a), -ref);

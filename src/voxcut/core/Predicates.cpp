@@ -10,23 +10,14 @@
 namespace voxcut {
 namespace {
 
-// ---------------------------------------------------------------------------------------------
-// Error bounds. kEps is the unit roundoff of binary64 (half an ulp of 1). The bounds are
-// Shewchuk's bounds A (relative to the permanent). kUnderflowSlack covers the absolute errors of
-// products that underflow: the filter is only trusted when the permanent is at least
-// kMinPermanent * (1 + |u|_1); then those errors (at most 2^-1070 (1 + |u|_1)) are below
-// 2^-270 times the permanent, well inside the slack. Fused multiply-adds that the compiler may
-// contract only remove roundings, so the bounds stay valid.
-constexpr double kEps = 0x1p-53;
-constexpr double kUnderflowSlack = 0x1p-260;
-constexpr double kOrient2dBound = (3.0 + 16.0 * kEps) * kEps + kUnderflowSlack;
-constexpr double kOrient3dBound = (7.0 + 56.0 * kEps) * kEps + kUnderflowSlack;
-constexpr double kMinPermanent = 0x1p-800;
+using predicates_detail::kMinPermanent;
+using predicates_detail::kOrient2dBound;
 
 // ---------------------------------------------------------------------------------------------
-// Floating-point expansions: a value is the exact sum of its components, which are
-// nonoverlapping and stored in increasing magnitude, zeros eliminated (a zero value is the
-// single component 0). The sign of an expansion is the sign of its last component.
+// Exact arithmetic with floating-point expansions: a value is the exact sum of components that
+// are nonoverlapping and stored in increasing magnitude, zeros eliminated; its sign is the
+// sign of its largest component. All operations are error-free transformations, exact as long
+// as no product underflows or overflows (rescale() sees to that within the documented domain).
 
 /// s + e = a + b exactly, s = fl(a + b) (Knuth's TwoSum; no magnitude precondition).
 inline void twoSum(double a, double b, double& s, double& e) {
@@ -36,112 +27,72 @@ inline void twoSum(double a, double b, double& s, double& e) {
   e = (a - av) + (b - bv);
 }
 
-/// p + e = a * b exactly, p = fl(a * b) (exact unless the product underflows or overflows).
+/// p + e = a * b exactly, p = fl(a * b).
 inline void twoProduct(double a, double b, double& p, double& e) {
   p = a * b;
   e = std::fma(a, b, -p);
 }
 
-/// An expansion with a fixed capacity, on the stack.
+/// The exact sum of the doubles added to it, kept as an expansion. add() is Shewchuk's
+/// GROW-EXPANSION with zero elimination, done in place (component k is written only after
+/// component i >= k has been read).
 template <int N>
-struct Expansion {
-  std::array<double, N> c{};
-  int n = 0;
-  [[nodiscard]] int sign() const { return c[n - 1] > 0 ? 1 : (c[n - 1] < 0 ? -1 : 0); }
-  void push(double x) {
-    if (x != 0.0) c[n++] = x;
-  }
-  void finish() {
-    if (n == 0) c[n++] = 0.0;
-  }
-};
-
-/// The exact difference b - a as an expansion of at most two components.
-Expansion<2> difference(double b, double a) {
-  double s = 0, e = 0;
-  twoSum(b, -a, s, e);
-  Expansion<2> h;
-  h.push(e);
-  h.push(s);
-  h.finish();
-  return h;
-}
-
-/// h = e + f by repeated growth (Shewchuk's EXPANSION-SUM; quadratic but simple, and this path
-/// only runs for nearly degenerate inputs). h needs e.n + f.n slots (checked).
-template <int N, int M, int K>
-void sum(const Expansion<N>& e, const Expansion<M>& f, Expansion<K>& h) {
-  VOXCUT_ASSERT(e.n + f.n <= K, "expansion capacity");
-  Expansion<K> other;
-  Expansion<K>* a = &h;
-  Expansion<K>* b = &other;
-  std::copy_n(e.c.begin(), e.n, a->c.begin());
-  a->n = e.n;
-  for (int j = 0; j < f.n; ++j) {
-    if (f.c[j] == 0.0) continue;
-    b->n = 0;
-    double q = f.c[j];
-    for (int i = 0; i < a->n; ++i) {
-      double s = 0, err = 0;
-      twoSum(q, a->c[i], s, err);
-      b->push(err);
+class ExactSum {
+ public:
+  void add(double x) {
+    if (x == 0.0) return;
+    VOXCUT_ASSERT(n_ < N, "exact sum capacity");
+    double q = x;
+    int k = 0;
+    for (int i = 0; i < n_; ++i) {
+      double s = 0, e = 0;
+      twoSum(q, c_[i], s, e);
+      if (e != 0.0) c_[k++] = e;
       q = s;
     }
-    b->push(q);
-    b->finish();
-    std::swap(a, b);
+    if (q != 0.0) c_[k++] = q;
+    n_ = k;
   }
-  if (a != &h) h = *a;
-}
-
-/// h = e * b (Shewchuk's SCALE-EXPANSION with TwoSum in place of FastTwoSum, which gives the
-/// same results without relying on its magnitude precondition).
-template <int N, int M>
-void scale(const Expansion<N>& e, double b, Expansion<M>& h) {
-  static_assert(M >= 2 * N);
-  h.n = 0;
-  double q = 0, lo = 0;
-  twoProduct(e.c[0], b, q, lo);
-  h.push(lo);
-  for (int i = 1; i < e.n; ++i) {
-    double hi = 0, t = 0, s = 0, err = 0;
-    twoProduct(e.c[i], b, hi, t);
-    twoSum(q, t, s, err);
-    h.push(err);
-    twoSum(hi, s, q, err);
-    h.push(err);
+  /// Adds x * y * z exactly: x y = p + e, then p z and e z split the same way.
+  void addProduct(double x, double y, double z) {
+    if (x == 0.0 || y == 0.0 || z == 0.0) return;
+    double p = 0, e = 0, hi = 0, lo = 0;
+    twoProduct(x, y, p, e);
+    twoProduct(p, z, hi, lo);
+    add(lo);
+    add(hi);
+    if (e != 0.0) {
+      twoProduct(e, z, hi, lo);
+      add(lo);
+      add(hi);
+    }
   }
-  h.push(q);
-  h.finish();
-}
-
-/// h = e * f: the sum over f's components of e scaled by each.
-template <int N, int M, int K>
-void product(const Expansion<N>& e, const Expansion<M>& f, Expansion<K>& h) {
-  static_assert(K >= 2 * N * M);
-  Expansion<K> other;
-  Expansion<K>* acc = &h;
-  Expansion<K>* next = &other;
-  acc->n = 0;
-  acc->finish();
-  for (int j = 0; j < f.n; ++j) {
-    Expansion<2 * N> part;
-    scale(e, f.c[j], part);
-    sum(*acc, part, *next);
-    std::swap(acc, next);
+  /// Adds x * y exactly.
+  void addProduct(double x, double y) {
+    if (x == 0.0 || y == 0.0) return;
+    double p = 0, e = 0;
+    twoProduct(x, y, p, e);
+    add(e);
+    add(p);
   }
-  if (acc != &h) h = *acc;
-}
+  [[nodiscard]] int sign() const { return n_ == 0 ? 0 : (c_[n_ - 1] > 0 ? 1 : -1); }
 
-template <int N>
-Expansion<N> negated(Expansion<N> e) {
-  for (int i = 0; i < e.n; ++i) e.c[i] = -e.c[i];
-  return e;
+ private:
+  double c_[N];  // uninitialised on purpose: only the first n_ are ever read
+  int n_ = 0;
+};
+
+/// The exact difference b - a as two doubles (hi, lo), hi = fl(b - a).
+std::array<double, 2> difference(double b, double a) {
+  double s = 0, e = 0;
+  twoSum(b, -a, s, e);
+  return {s, e};
 }
 
 /// Multiplies all coordinates by a power of two so that the largest magnitude lies in
-/// [0.5, 1) when it is outside [2^-200, 2^200]: exact, and keeps the expansion products away
-/// from overflow and underflow.
+/// [0.5, 1): exact. Then, when the nonzero magnitudes lie within 2^300 of the largest, every
+/// coordinate difference is a multiple of 2^-353, every product of three a multiple of
+/// 2^-1059, and no error-free transformation underflows or overflows.
 template <std::size_t K>
 void rescale(std::array<double, K>& v) {
   double m = 0;
@@ -149,46 +100,44 @@ void rescale(std::array<double, K>& v) {
     VOXCUT_ASSERT(std::isfinite(x), "orientation predicate on a non-finite coordinate");
     m = std::max(m, std::abs(x));
   }
-  if (m == 0.0 || (m >= 0x1p-200 && m <= 0x1p200)) return;
   int exponent = 0;
   std::frexp(m, &exponent);
+  if (m == 0.0 || exponent == 0) return;
   for (double& x : v) x = std::ldexp(x, -exponent);
-}
-
-/// x * y - z * w for two-component expansions (at most 16 components).
-Expansion<16> minor2(const Expansion<2>& x, const Expansion<2>& y, const Expansion<2>& z,
-                     const Expansion<2>& w) {
-  Expansion<8> p, q;
-  product(x, y, p);
-  product(z, w, q);
-  Expansion<16> r;
-  sum(p, negated(q), r);
-  return r;
 }
 
 int orient2dExactImpl(std::array<double, 6> v) {
   rescale(v);
-  const Expansion<2> ux = difference(v[2], v[0]), uy = difference(v[3], v[1]);
-  const Expansion<2> wx = difference(v[4], v[0]), wy = difference(v[5], v[1]);
-  return minor2(ux, wy, uy, wx).sign();
+  const auto ux = difference(v[2], v[0]), uy = difference(v[3], v[1]);
+  const auto wx = difference(v[4], v[0]), wy = difference(v[5], v[1]);
+  ExactSum<16> det;  // ux wy - uy wx, each difference in two parts
+  for (const double a : ux) {
+    for (const double b : wy) det.addProduct(a, b);
+  }
+  for (const double a : uy) {
+    for (const double b : wx) det.addProduct(-a, b);
+  }
+  return det.sign();
 }
 
 int orient3dExactImpl(std::array<double, 12> v) {
   rescale(v);
-  std::array<Expansion<2>, 9> d;  // u = b - a, v = c - a, w = d - a, coordinate-major
+  // d[3 k + i]: coordinate i of the k-th difference (b - a, c - a, d - a), in two parts.
+  std::array<std::array<double, 2>, 9> d;
   for (int k = 0; k < 3; ++k) {
     for (int i = 0; i < 3; ++i) d[3 * k + i] = difference(v[3 * (k + 1) + i], v[i]);
   }
-  const auto& [ux, uy, uz, vx, vy, vz, wx, wy, wz] = d;
-  // det = ux (vy wz - vz wy) + uy (vz wx - vx wz) + uz (vx wy - vy wx)
-  Expansion<64> tx, ty, tz;
-  product(minor2(vy, wz, vz, wy), ux, tx);
-  product(minor2(vz, wx, vx, wz), uy, ty);
-  product(minor2(vx, wy, vy, wx), uz, tz);
-  Expansion<128> txy;
-  sum(tx, ty, txy);
-  Expansion<192> det;
-  sum(txy, tz, det);
+  // det[u, v, w] = sum over permutations (i, j, k) of sign * u_i v_j w_k.
+  constexpr int kPerms[6][4] = {{0, 1, 2, 1}, {0, 2, 1, -1}, {1, 2, 0, 1},
+                                {1, 0, 2, -1}, {2, 0, 1, 1}, {2, 1, 0, -1}};
+  ExactSum<192> det;
+  for (const auto& p : kPerms) {
+    for (const double x : d[p[0]]) {
+      for (const double y : d[3 + p[1]]) {
+        for (const double z : d[6 + p[2]]) det.addProduct(p[3] * x, y, z);
+      }
+    }
+  }
   return det.sign();
 }
 
@@ -301,6 +250,9 @@ int orient2d(const Vec2d& a, const Vec2d& b, const Vec2d& c) {
     if (det > bound) return 1;
     if (-det > bound) return -1;
   }
+  // A difference rounds to zero only when it is zero: both products vanish exactly when each
+  // has a zero factor (common for axis-aligned data), no need for the exact sum.
+  if ((ux == 0.0 || wy == 0.0) && (uy == 0.0 || wx == 0.0)) return 0;
   return orient2dExact(a, b, c);
 }
 
@@ -309,22 +261,15 @@ int orient2dExact(const Vec2d& a, const Vec2d& b, const Vec2d& c) {
 }
 
 int orient3d(const Vec3d& a, const Vec3d& b, const Vec3d& c, const Vec3d& d) {
-  const double ux = b.x() - a.x(), uy = b.y() - a.y(), uz = b.z() - a.z();
-  const double vx = c.x() - a.x(), vy = c.y() - a.y(), vz = c.z() - a.z();
-  const double wx = d.x() - a.x(), wy = d.y() - a.y(), wz = d.z() - a.z();
-  const double vywz = vy * wz, vzwy = vz * wy;
-  const double vzwx = vz * wx, vxwz = vx * wz;
-  const double vxwy = vx * wy, vywx = vy * wx;
-  const double det = ux * (vywz - vzwy) + uy * (vzwx - vxwz) + uz * (vxwy - vywx);
-  const double aux = std::abs(ux), auy = std::abs(uy), auz = std::abs(uz);
-  const double permanent = aux * (std::abs(vywz) + std::abs(vzwy)) +
-                           auy * (std::abs(vzwx) + std::abs(vxwz)) +
-                           auz * (std::abs(vxwy) + std::abs(vywx));
-  if (permanent >= kMinPermanent * (1.0 + aux + auy + auz)) {
-    const double bound = kOrient3dBound * permanent;
-    if (det > bound) return 1;
-    if (-det > bound) return -1;
+  const Vec3d u = b - a, v = c - a, w = d - a;
+  const int filtered = orient3dFilter(u, v, w);
+  if (filtered != 0) return filtered;
+  // A difference rounds to zero only when it is zero: if u, v, w share a zero coordinate
+  // (axis-aligned data) or one of them vanishes, the determinant is exactly 0.
+  for (int i = 0; i < 3; ++i) {
+    if (u[i] == 0.0 && v[i] == 0.0 && w[i] == 0.0) return 0;
   }
+  if ((u.array() == 0.0).all() || (v.array() == 0.0).all() || (w.array() == 0.0).all()) return 0;
   return orient3dExact(a, b, c, d);
 }
 

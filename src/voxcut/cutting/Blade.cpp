@@ -5,7 +5,6 @@
 #include <limits>
 
 #include "voxcut/core/Error.h"
-#include "voxcut/core/Predicates.h"
 
 namespace voxcut {
 namespace {
@@ -54,6 +53,19 @@ BladeSweep makeSweep(const BladePose& from, const BladePose& to, std::uint64_t f
     s.bounds[t] = Eigen::AlignedBox3d(p);
     s.bounds[t].extend(q);
     s.bounds[t].extend(r);
+    s.planes[t] = OrientPlane(p, q, r);
+    // With the voxel's key below the corners', the perturbed orientation of a voxel on the
+    // plane is decided by the voxel's own displacement and the triangle's projections alone,
+    // unless all projections are degenerate; evaluate it once with a stand-in voxel at p.
+    const auto proj = [&](int i, int j) {
+      return orient2d(Vec2d(p[i], p[j]), Vec2d(q[i], q[j]), Vec2d(r[i], r[j]));
+    };
+    if (proj(0, 1) != 0 || proj(0, 2) != 0 || proj(1, 2) != 0) {
+      s.onPlaneSide[t] = orient3dSoS(p, q, r, p, SymbolicKey{kBladeGroup, s.ids[idx[0]]},
+                                     SymbolicKey{kBladeGroup, s.ids[idx[1]]},
+                                     SymbolicKey{kBladeGroup, s.ids[idx[2]]},
+                                     SymbolicKey{kVoxelGroup, 0});
+    }
     n[t] = triangleNormal(p, q, r);
   }
   const Vec3d blade = (from.b - from.a).squaredNorm() > 0.0 ? Vec3d(from.b - from.a)
@@ -64,19 +76,21 @@ BladeSweep makeSweep(const BladePose& from, const BladePose& to, std::uint64_t f
   return s;
 }
 
-std::optional<SweepHit> intersectTriangle(const BladeSweep& sweep, int triangle,
-                                          const Vec3d& p0, const Vec3d& p1, std::uint64_t id0,
-                                          std::uint64_t id1) {
-  VOXCUT_ASSERT(triangle == 0 || triangle == 1, "intersectTriangle: triangle is 0 or 1");
-  VOXCUT_ASSERT(id0 != id1, "intersectTriangle: the segment's ends need distinct ids");
-  // Exact rejection: boxes separated by a positive gap stay separated under the
-  // infinitesimal perturbation, so this never changes the decision below.
-  const Eigen::AlignedBox3d& box = sweep.bounds[triangle];
-  for (int k = 0; k < 3; ++k) {
-    if (std::max(p0[k], p1[k]) < box.min()[k] || std::min(p0[k], p1[k]) > box.max()[k]) {
-      return std::nullopt;
-    }
-  }
+namespace {
+
+/// Whether the segment's box and the triangle's box are separated by a positive gap. Exact;
+/// such boxes stay separated under the infinitesimal perturbation, so rejecting on this never
+/// changes a decision.
+inline bool boxesSeparated(const Eigen::AlignedBox3d& box, const Vec3d& p0, const Vec3d& p1) {
+  return std::max(p0.x(), p1.x()) < box.min().x() || std::min(p0.x(), p1.x()) > box.max().x() ||
+         std::max(p0.y(), p1.y()) < box.min().y() || std::min(p0.y(), p1.y()) > box.max().y() ||
+         std::max(p0.z(), p1.z()) < box.min().z() || std::min(p0.z(), p1.z()) > box.max().z();
+}
+
+/// The exact crossing decision of intersectTriangle (see Blade.h), filters first, for
+/// segments whose box meets the triangle's.
+bool crosses(const BladeSweep& sweep, int triangle, const Vec3d& p0, const Vec3d& p1,
+             std::uint64_t id0, std::uint64_t id1) {
   const auto& idx = BladeSweep::kTriangles[triangle];
   const Vec3d& a = sweep.corners[idx[0]];
   const Vec3d& b = sweep.corners[idx[1]];
@@ -88,18 +102,34 @@ std::optional<SweepHit> intersectTriangle(const BladeSweep& sweep, int triangle,
   const SymbolicKey k1{kVoxelGroup, id1};
 
   // The ends must lie strictly on opposite sides of the plane (never 0 under perturbation).
-  const int s0 = orient3dSoS(a, b, c, p0, ka, kb, kc, k0);
-  const int s1 = orient3dSoS(a, b, c, p1, ka, kb, kc, k1);
-  if (s0 == s1) return std::nullopt;
-  // The line p0 p1 must pass on the same side of the three directed edges.
-  const int e0 = orient3dSoS(p0, p1, a, b, k0, k1, ka, kb);
-  if (orient3dSoS(p0, p1, b, c, k0, k1, kb, kc) != e0) return std::nullopt;
-  if (orient3dSoS(p0, p1, c, a, k0, k1, kc, ka) != e0) return std::nullopt;
+  const auto side = [&](const Vec3d& p, const SymbolicKey& kp) {
+    const int f = sweep.planes[triangle].filter(p);
+    if (f != 0) return f;
+    const int exact = orient3d(a, b, c, p);
+    if (exact != 0) return exact;
+    const int onPlane = sweep.onPlaneSide[triangle];
+    return onPlane != 0 ? onPlane : orient3dSoS(a, b, c, p, ka, kb, kc, kp);
+  };
+  if (side(p0, k0) == side(p1, k1)) return false;
 
-  // Decided: only now the parameter, in floating point, against the triangle's plane.
+  // The line p0 p1 must pass on the same side of the three directed edges:
+  // orient3d(p0, p1, x, y) = det[p1 - p0, x - p0, y - p0].
+  const Vec3d u = p1 - p0, wa = a - p0, wb = b - p0, wc = c - p0;
+  const auto edge = [&](const Vec3d& wx, const Vec3d& wy, const Vec3d& x, const Vec3d& y,
+                        const SymbolicKey& kx, const SymbolicKey& ky) {
+    const int f = orient3dFilter(u, wx, wy);
+    return f != 0 ? f : orient3dSoS(p0, p1, x, y, k0, k1, kx, ky);
+  };
+  const int e0 = edge(wa, wb, a, b, ka, kb);
+  return edge(wb, wc, b, c, kb, kc) == e0 && edge(wc, wa, c, a, kc, ka) == e0;
+}
+
+/// The hit record of a decided crossing: t in floating point against the triangle's plane.
+SweepHit hitOf(const BladeSweep& sweep, int triangle, const Vec3d& p0, const Vec3d& p1) {
   SweepHit hit;
   hit.triangle = triangle;
   hit.normal = sweep.normals[triangle];
+  const Vec3d& a = sweep.corners[BladeSweep::kTriangles[triangle][0]];
   const double d0 = hit.normal.dot(p0 - a);
   const double d1 = hit.normal.dot(p1 - a);
   double t = 0.5;
@@ -111,12 +141,29 @@ std::optional<SweepHit> intersectTriangle(const BladeSweep& sweep, int triangle,
   return hit;
 }
 
+}  // namespace
+
+std::optional<SweepHit> intersectTriangle(const BladeSweep& sweep, int triangle,
+                                          const Vec3d& p0, const Vec3d& p1, std::uint64_t id0,
+                                          std::uint64_t id1) {
+  VOXCUT_ASSERT(triangle == 0 || triangle == 1, "intersectTriangle: triangle is 0 or 1");
+  VOXCUT_ASSERT(id0 != id1, "intersectTriangle: the segment's ends need distinct ids");
+  if (boxesSeparated(sweep.bounds[triangle], p0, p1) ||
+      !crosses(sweep, triangle, p0, p1, id0, id1)) {
+    return std::nullopt;
+  }
+  return hitOf(sweep, triangle, p0, p1);
+}
+
 std::optional<SweepHit> intersectSegment(const BladeSweep& sweep, const Vec3d& p0,
                                          const Vec3d& p1, std::uint64_t id0, std::uint64_t id1) {
-  const std::optional<SweepHit> h0 = intersectTriangle(sweep, 0, p0, p1, id0, id1);
-  const std::optional<SweepHit> h1 = intersectTriangle(sweep, 1, p0, p1, id0, id1);
-  if (h0 && h1) return h1->t < h0->t ? h1 : h0;
-  return h0 ? h0 : h1;
+  VOXCUT_ASSERT(id0 != id1, "intersectSegment: the segment's ends need distinct ids");
+  const bool c0 = !boxesSeparated(sweep.bounds[0], p0, p1) && crosses(sweep, 0, p0, p1, id0, id1);
+  const bool c1 = !boxesSeparated(sweep.bounds[1], p0, p1) && crosses(sweep, 1, p0, p1, id0, id1);
+  if (!c0 && !c1) return std::nullopt;
+  if (c0 != c1) return hitOf(sweep, c0 ? 0 : 1, p0, p1);
+  const SweepHit h0 = hitOf(sweep, 0, p0, p1), h1 = hitOf(sweep, 1, p0, p1);
+  return h1.t < h0.t ? h1 : h0;
 }
 
 Obb sweepObb(const BladeSweep& sweep, double margin) {

@@ -28,6 +28,7 @@
 #include <cstdint>
 #include <optional>
 
+#include "voxcut/core/Predicates.h"
 #include "voxcut/core/Types.h"
 
 namespace voxcut {
@@ -42,6 +43,8 @@ struct BladePose {
 ///
 /// Corners in order a0, b0, b1, a1 (start pose a, b; end pose b, a). The bilinear patch is
 /// replaced by the triangles (a0, b0, b1) and (a0, b1, a1), which share the diagonal a0-b1.
+/// Build it with makeSweep: the derived members (normals, bounds, planes, onPlaneSide) must
+/// match the corners and ids.
 struct BladeSweep {
   /// Corner indices of the two triangles.
   static constexpr std::array<std::array<int, 3>, 2> kTriangles{{{0, 1, 2}, {0, 2, 3}}};
@@ -50,6 +53,10 @@ struct BladeSweep {
   std::array<std::uint64_t, 4> ids{};    ///< symbolic ids of the corners (see file comment)
   std::array<Vec3d, 2> normals;          ///< unit normals of the triangles (see makeSweep)
   std::array<Eigen::AlignedBox3d, 2> bounds;  ///< exact axis-aligned boxes of the triangles
+  std::array<OrientPlane, 2> planes;     ///< the triangles' planes, prepared for orient3d
+  /// Side (+1/-1) on which a voxel lying exactly on a triangle's plane counts (the same for
+  /// every such voxel, see the tie-breaking rule); 0 for a degenerate triangle.
+  std::array<int, 2> onPlaneSide{};
   std::uint64_t frame = 0;               ///< frame index of the start pose
 };
 

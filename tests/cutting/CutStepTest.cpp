@@ -1,0 +1,132 @@
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "voxcut/core/Parallel.h"
+#include "voxcut/cutting/CutStep.h"
+#include "voxcut/fem/PrescribedDeformation.h"
+#include "voxcut/io/ModelSource.h"
+#include "voxcut/sim/SingleFrameCut.h"
+#include "voxcut/surface/DualContour.h"
+#include "voxcut/voxel/Pieces.h"
+#include "voxcut/voxel/Voxelizer.h"
+
+namespace voxcut {
+namespace {
+
+VoxelGrid model(const std::string& name, int resolution) {
+  VoxelizeParams p;
+  p.resolution.resolution = resolution;
+  return voxelize(loadModel(name).materials, p);
+}
+
+CutBody body(const VoxelGrid& g, bool octree, Deformation d) {
+  CutBodyParams p;
+  p.useOctree = octree;
+  CutBody b = makeCutBody(g, p);
+  applyDeformation(b.deformation, d);
+  return b;
+}
+
+// A blade longer than the model's diagonal, sweeping right through it along a random
+// direction, turning a little on the way (a non-planar bilinear patch).
+BladeMotion randomCrossingBlade(const CutBody& b, std::mt19937& rng) {
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  Eigen::AlignedBox3d box;
+  for (std::size_t v = 0; v < b.grid.voxelCount(); ++v)
+    if (b.grid.occupied(v)) box.extend(b.deformation.voxelPosition(v));
+  const double diag = box.diagonal().norm();
+  const Vec3d c = box.center() + 0.15 * Vec3d(U(rng), U(rng), U(rng)).cwiseProduct(box.sizes());
+  const Vec3d dir = Vec3d(U(rng), U(rng), U(rng)).normalized();
+  Vec3d move = Vec3d(U(rng), U(rng), U(rng));
+  move = (move - move.dot(dir) * dir).normalized();
+  const Vec3d dir2 = (dir + 0.2 * Vec3d(U(rng), U(rng), U(rng))).normalized();
+  BladeMotion m;
+  m.from = {c - move * diag - dir * diag, c - move * diag + dir * diag};
+  m.to = {c + move * diag - dir2 * diag, c + move * diag + dir2 * diag};
+  return m;
+}
+
+TEST(CutStep, OctreeCutsEqualTheBaselineForEveryModelAndDeformation) {
+  std::mt19937 rng(5);
+  const std::pair<const char*, int> models[] = {{"bunny", 64}, {"liver", 64}, {"starfish", 100}};
+  for (const auto& [name, res] : models) {
+    const VoxelGrid g = model(name, res);
+    for (Deformation d : {Deformation::None, Deformation::Rigid, Deformation::Bend, Deformation::Twist}) {
+      const CutBody withOctree = body(g, true, d);
+      const CutBody baseline = body(g, false, d);
+      std::vector<BladeMotion> blades{defaultBladeMotion(withOctree)};
+      for (int k = 0; k < 3; ++k) blades.push_back(randomCrossingBlade(withOctree, rng));
+      for (std::size_t k = 0; k < blades.size(); ++k) {
+        SingleFrameParams sp;
+        sp.contour = false;
+        const SingleFrameResult o = runSingleFrameCut(withOctree, blades[k], sp);
+        const SingleFrameResult b = runSingleFrameCut(baseline, blades[k], sp);
+        ASSERT_GT(b.step.cuts.size(), 50u) << name << " blade " << k;
+        ASSERT_EQ(o.step.cuts.size(), b.step.cuts.size()) << name << " " << deformationName(d) << " blade " << k;
+        ASSERT_EQ(o.cutHash, b.cutHash) << name << " " << deformationName(d) << " blade " << k;
+        EXPECT_LT(o.activeVoxelsBefore, b.activeVoxelsBefore);
+        // The grids agree link for link afterwards.
+        for (std::size_t v = 0; v < g.voxelCount(); ++v)
+          for (int a = 0; a < 3; ++a) ASSERT_EQ(o.body.grid.connected(v, a), b.body.grid.connected(v, a));
+      }
+    }
+  }
+}
+
+TEST(CutStep, CutSetDoesNotDependOnThreadCount) {
+  const VoxelGrid g = model("bunny", 64);
+  const CutBody b = body(g, true, Deformation::Twist);
+  const BladeMotion m = defaultBladeMotion(b);
+  SingleFrameParams sp;
+  sp.contour = false;
+  std::uint64_t hashes[3];
+  for (int t = 1; t <= 3; ++t) {
+    ThreadLimit limit(t);
+    const SingleFrameResult r = runSingleFrameCut(b, m, sp);
+    hashes[t - 1] = r.cutHash;
+    if (t > 1) {
+      EXPECT_EQ(r.body.activity.state, runSingleFrameCut(b, m, sp).body.activity.state);
+    }
+  }
+  EXPECT_EQ(hashes[0], hashes[1]);
+  EXPECT_EQ(hashes[0], hashes[2]);
+}
+
+TEST(CutStep, CutThroughTheMiddleLeavesTwoClosedPieces) {
+  for (const auto& [name, res] : std::vector<std::pair<std::string, int>>{{"bunny", 101}, {"liver", 80}, {"starfish", 120}}) {
+    const VoxelGrid g = model(name, res);
+    const CutBody b = body(g, true, Deformation::None);
+    const SingleFrameResult r = runSingleFrameCut(b, defaultBladeMotion(b), {});
+    EXPECT_EQ(r.pieces, 2) << name;
+    EXPECT_TRUE(r.topology.closed) << name;
+    EXPECT_TRUE(r.topology.manifold) << name;
+    EXPECT_EQ(r.topology.pieces, 2) << name;
+  }
+}
+
+TEST(CutStep, HermiteDataIsInTheRestFrame) {
+  // A rigid rotation: the normal pulled back to the rest frame is the rest-frame blade normal.
+  const VoxelGrid g = model("sphere:0.05", 40);
+  CutBody b = body(g, false, Deformation::Rigid);
+  const Vec3d centre = b.deformation.restVoxelBounds().center();
+  // Blade in the rest frame: the plane y = centre.y, moved into the deformed frame.
+  auto toWorld = [&](const Vec3d& p) { return deformedPoint(b.deformation, Deformation::Rigid, 1.0, p); };
+  const double r = 0.2;
+  BladeMotion m;
+  m.from = {toWorld(centre + Vec3d(-r, 0, -r)), toWorld(centre + Vec3d(r, 0, -r))};
+  m.to = {toWorld(centre + Vec3d(-r, 0, r)), toWorld(centre + Vec3d(r, 0, r))};
+  const SingleFrameResult res = runSingleFrameCut(b, m, {});
+  ASSERT_GT(res.step.cuts.size(), 100u);
+  for (const LinkCut& c : res.step.cuts) {
+    EXPECT_EQ(c.link % 3, 1u);  // only y links cross the plane y = const
+    EXPECT_NEAR(c.hermite.n[1], 1.0f, 1e-5f);
+    const std::size_t v = static_cast<std::size_t>(c.link / 3);
+    const double y = g.position(v).y() + c.hermite.t * g.voxelSize();
+    EXPECT_NEAR(y, centre.y(), 1.01e-3 * g.voxelSize());  // t is clamped to [1e-3, 1 - 1e-3]
+  }
+  EXPECT_EQ(res.pieces, 2);
+}
+
+}  // namespace
+}  // namespace voxcut
