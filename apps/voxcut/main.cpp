@@ -108,8 +108,16 @@ int run(int argc, char** argv) {
 
   try {
     app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
+  } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    // One line, like every other error; --help has the details.
+    std::fprintf(stderr, "voxcut: error: %s (see --help)\n", e.what());
+    return 2;
   }
   if (cut->parsed()) return runCut(cutOpt);
   if (bench->parsed()) return runBench(benchOpt);

@@ -570,5 +570,91 @@ TEST(Cli, HelpOfEachSubcommand) {
   }
 }
 
+// --- the voxel octree and the single-frame cut (issue 3) -----------------------------------
+
+/// Runs `voxcut cut ARGS --json`, expects success and returns the parsed object.
+json cutJson(std::vector<std::string> args) {
+  args.insert(args.begin(), "cut");
+  args.emplace_back("--json");
+  const RunResult r = voxcut(args);
+  EXPECT_EQ(r.status, 0) << describe(args, r);
+  try {
+    return json::parse(r.out);
+  } catch (const json::exception& e) {
+    ADD_FAILURE() << "stdout is not JSON (" << e.what() << ")\n" << describe(args, r);
+    return json::object();
+  }
+}
+
+TEST(Cli, InfoReportsBothOctrees) {
+  const json j = infoJson({"bunny", "--max-level", "2"});
+  ASSERT_TRUE(j.contains("octree_cubes"));
+  ASSERT_EQ(j["octree_cubes"].size(), 2u);
+  const json j1 = infoJson({"bunny", "--max-level", "1"});
+  // Table 2's arithmetic: level-1 cubes at max 1 = level-1 + 8 x level-2 cubes at max 2.
+  EXPECT_EQ(j1["octree_cubes"][0].get<long>(),
+            j["octree_cubes"][0].get<long>() + 8 * j["octree_cubes"][1].get<long>());
+  for (const char* k : {"active_voxels", "active_links"}) {
+    ASSERT_TRUE(j.contains(k)) << k;
+    EXPECT_GT(j[k].get<long>(), 0);
+    EXPECT_LT(j[k].get<long>(), k[7] == 'v' ? j["voxels"].get<long>() : j["links"].get<long>());
+  }
+  ASSERT_TRUE(j.contains("deformation_elements"));
+  ASSERT_TRUE(j.contains("deformation_nodes"));
+  long elements = 0;
+  for (const auto& n : j["deformation_elements"]) elements += n.get<long>();
+  EXPECT_GT(elements, 100);
+  const json liver = infoJson({"liver", "--max-level", "tumor=0", "--boundary-level", "1"});
+  EXPECT_GT(liver["octree_cubes"][0].get<long>(), 0);
+}
+
+TEST(Cli, CutBunnyThroughTheMiddle) {
+  const json o = cutJson({"bunny", "--threads", "2"});
+  for (const char* k : {"octree", "threads", "repeat", "cut_links", "cut_set_hash", "pieces",
+                        "surface_closed", "timings_ms"})
+    ASSERT_TRUE(o.contains(k)) << k;
+  for (const char* k : {"voxel_position_update", "intersection_test", "octree_subdivision", "total"})
+    ASSERT_TRUE(o["timings_ms"].contains(k)) << k;
+  EXPECT_TRUE(o["octree"].get<bool>());
+  EXPECT_EQ(o["pieces"].get<int>(), 2);
+  EXPECT_TRUE(o["surface_closed"].get<bool>());
+  EXPECT_GT(o["cut_links"].get<long>(), 1000);
+  EXPECT_EQ(o["cut_set_hash"].get<std::string>().size(), 16u);
+  // The baseline cuts the same links, and thread counts do not matter.
+  const json b = cutJson({"bunny", "--no-octree", "--threads", "1"});
+  EXPECT_FALSE(b["octree"].get<bool>());
+  EXPECT_EQ(b["cut_set_hash"], o["cut_set_hash"]);
+  EXPECT_EQ(cutJson({"bunny", "--threads", "1"})["cut_set_hash"], o["cut_set_hash"]);
+}
+
+TEST(Cli, CutWithDeformationsAndExplicitBlade) {
+  for (const char* d : {"rigid", "bend", "twist"}) {
+    const json o = cutJson({"sphere:0.05", "--resolution", "40", "--deform", d});
+    const json b = cutJson({"sphere:0.05", "--resolution", "40", "--deform", d, "--no-octree"});
+    EXPECT_EQ(o["cut_set_hash"], b["cut_set_hash"]) << d;
+    EXPECT_TRUE(o["surface_closed"].get<bool>()) << d;
+  }
+  ScratchDir dir;
+  const std::string out = dir.file("cut.obj");
+  const RunResult r = voxcut({"cut", "box:0.1,0.1,0.1", "--resolution", "30", "--blade",
+                              "-1,0.01,-1,1,0.01,-1", "--to", "-1,0.01,1,1,0.01,1", "-o", out, "--json"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json j = json::parse(r.out);
+  EXPECT_EQ(j["pieces"].get<int>(), 2);
+  const double vol = expectClosedOriented(readObj(out));
+  EXPECT_NEAR(vol, 1e-3, 1e-4);
+}
+
+TEST(Cli, CutBadInput) {
+  expectCleanFailure({"cut", "bunny", "--deform", "wobble"});
+  expectCleanFailure({"cut", "bunny", "--blade", "1,2,3", "--to", "1,2,3,4,5,6"});
+  expectCleanFailure({"cut", "bunny", "--blade", "0,0,0,0,0,0", "--to", "1,2,3,4,5,6"});
+  expectCleanFailure({"cut", "bunny", "--blade", "0,0,0,1,1,1"});
+  expectCleanFailure({"cut", "bunny", "--max-level", "-1"});
+  expectCleanFailure({"cut", "bunny", "--max-level", "liver=2"});
+  expectCleanFailure({"cut", "bunny", "--repeat", "0"});
+  expectCleanFailure({"info", "bunny", "--boundary-level", "x"});
+}
+
 }  // namespace
 }  // namespace voxcut

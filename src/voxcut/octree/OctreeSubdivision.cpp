@@ -26,55 +26,58 @@ struct CubeBox {
   Index3 o;
   int level;
   [[nodiscard]] int size() const { return 1 << level; }
-  [[nodiscard]] bool onFace(const Index3& p, int f) const { return p[f] == o[f] || p[f] == o[f] + size(); }
-  [[nodiscard]] bool strictlyInside(const Index3& p, int f) const { return p[f] > o[f] && p[f] < o[f] + size(); }
 };
 
-// Calls fn(p) for every voxel of the cube.
+// Calls fn(p) for every voxel on the cube's faces (voxels on edges come more than once).
 template <class Fn>
-void forEachVoxel(const CubeBox& c, Fn&& fn) {
+void forEachFaceVoxel(const CubeBox& c, Fn&& fn) {
   const int s = c.size();
-  for (int z = 0; z <= s; ++z)
-    for (int y = 0; y <= s; ++y)
-      for (int x = 0; x <= s; ++x) fn(Index3{c.o.x + x, c.o.y + y, c.o.z + z});
+  for (int f = 0; f < 3; ++f) {
+    const int u = (f + 1) % 3, w = (f + 2) % 3;
+    for (int side = 0; side <= s; side += s)
+      for (int j = 0; j <= s; ++j)
+        for (int i = 0; i <= s; ++i) {
+          Index3 p = c.o;
+          p[f] += side;
+          p[u] += i;
+          p[w] += j;
+          fn(p);
+        }
+  }
 }
 
-// Calls fn(p, a) for every link of the cube (both ends in the cube).
+// Calls fn(p, a) for every link on the cube's faces (links on edges come twice).
 template <class Fn>
-void forEachLink(const CubeBox& c, Fn&& fn) {
-  forEachVoxel(c, [&](const Index3& p) {
-    for (int a = 0; a < 3; ++a)
-      if (p[a] < c.o[a] + c.size()) fn(p, a);
-  });
+void forEachFaceLink(const CubeBox& c, Fn&& fn) {
+  const int s = c.size();
+  for (int f = 0; f < 3; ++f)
+    for (int side = 0; side <= s; side += s)
+      for (int k = 1; k <= 2; ++k) {
+        const int a = (f + k) % 3, other = (f + 3 - k) % 3;
+        for (int j = 0; j <= s; ++j)
+          for (int i = 0; i < s; ++i) {
+            Index3 p = c.o;
+            p[f] += side;
+            p[a] += i;
+            p[other] += j;
+            fn(p, a);
+          }
+      }
 }
 
-bool linkOnFace(const CubeBox& c, const Index3& p, int a) {
-  for (int f = 0; f < 3; ++f)
-    if (f != a && c.onFace(p, f)) return true;
-  return false;
-}
-bool voxelOnFace(const CubeBox& c, const Index3& p) {
-  return c.onFace(p, 0) || c.onFace(p, 1) || c.onFace(p, 2);
-}
-// A link between sub-cubes: in a mid-plane of the cube and on none of its faces.
-bool linkOnMidPlane(const CubeBox& c, const Index3& p, int a) {
-  const int h = c.size() / 2;
-  bool mid = false;
+// Whether link (p, a) lies on the boundary (a face) of cube c.
+bool linkOnBoundary(const CubeBox& c, const Index3& p, int a) {
+  const int s = c.size();
+  bool face = false;
   for (int f = 0; f < 3; ++f) {
-    if (f == a) continue;
-    if (!c.strictlyInside(p, f)) return false;
-    mid = mid || p[f] == c.o[f] + h;
+    if (p[f] < c.o[f] || p[f] > c.o[f] + s) return false;
+    if (f == a) {
+      if (p[f] + 1 > c.o[f] + s) return false;
+    } else {
+      face = face || p[f] == c.o[f] || p[f] == c.o[f] + s;
+    }
   }
-  return mid;
-}
-bool voxelOnMidPlane(const CubeBox& c, const Index3& p) {
-  const int h = c.size() / 2;
-  bool mid = false;
-  for (int f = 0; f < 3; ++f) {
-    if (!c.strictlyInside(p, f)) return false;
-    mid = mid || p[f] == c.o[f] + h;
-  }
-  return mid;
+  return face;
 }
 
 // Result of splitting one affected cube.
@@ -84,50 +87,73 @@ struct SplitResult {
   std::size_t tested = 0, positioned = 0;
 };
 
-// Sub-steps (5-1)-(5-6) on one cube.
-void splitCube(const CubeBox& cube, VoxelOctree& oct, VoxelGrid& grid, const SubdivisionHooks& hooks,
-               SplitResult& out) {
-  // (5-1) voxels between the sub-cubes.
+struct CutLink {
+  Index3 p;
+  int a;
+};
+
+// Sub-steps (5-1)-(5-6) on one cube; `boundaryCuts` are the disconnected links on its faces.
+void splitCube(const CubeBox& cube, const std::vector<CutLink>& boundaryCuts, VoxelOctree& oct,
+               VoxelGrid& grid, const SubdivisionHooks& hooks, SplitResult& out) {
+  const int s = cube.size(), h = s / 2;
+  // (5-1) voxels between the sub-cubes: on a mid-plane, off the faces.
   std::vector<std::uint32_t> voxels;
-  forEachVoxel(cube, [&](const Index3& p) {
-    if (voxelOnMidPlane(cube, p)) voxels.push_back(static_cast<std::uint32_t>(grid.index(p)));
-  });
+  for (int z = 1; z < s; ++z)
+    for (int y = 1; y < s; ++y)
+      for (int x = 1; x < s; ++x)
+        if (x == h || y == h || z == h)
+          voxels.push_back(static_cast<std::uint32_t>(grid.index(cube.o.x + x, cube.o.y + y, cube.o.z + z)));
   if (!voxels.empty()) hooks.updatePositions(voxels);
   out.positioned += voxels.size();
-  // (5-2) links between the sub-cubes.
-  forEachLink(cube, [&](const Index3& p, int a) {
-    if (!linkOnMidPlane(cube, p, a)) return;
-    const std::size_t v = grid.index(p);
-    if (!linkConnected(grid, v, a)) return;
-    ++out.tested;
-    if (const auto h = hooks.testLink(v, a)) {
-      disconnect(grid, v, a);
-      out.cuts.push_back({VoxelGrid::linkId(v, a), *h});
-    }
-  });
+  // (5-2) links between the sub-cubes: in a mid-plane, off the faces.
+  std::vector<CutLink> cuts = boundaryCuts;
+  for (int a = 0; a < 3; ++a) {
+    const int u = (a + 1) % 3, w = (a + 2) % 3;
+    for (int j = 1; j < s; ++j)
+      for (int i = 1; i < s; ++i) {
+        if (i != h && j != h) continue;
+        for (int k = 0; k < s; ++k) {
+          Index3 p = cube.o;
+          p[a] += k;
+          p[u] += i;
+          p[w] += j;
+          const std::size_t v = grid.index(p);
+          if (!linkConnected(grid, v, a)) continue;
+          ++out.tested;
+          if (const auto hit = hooks.testLink(v, a)) {
+            disconnect(grid, v, a);
+            out.cuts.push_back({VoxelGrid::linkId(v, a), *hit});
+            cuts.push_back({p, a});
+          }
+        }
+      }
+  }
   // (5-3) a level-1 cube opens up completely.
   if (cube.level == 1) {
-    forEachVoxel(cube, [&](const Index3& p) {
-      std::uint8_t bits = kActiveVoxel;
-      for (int a = 0; a < 3; ++a)
-        if (p[a] < cube.o[a] + cube.size()) bits = static_cast<std::uint8_t>(bits | (1u << a));
-      orState(oct, grid.index(p), bits);
-    });
+    for (int z = 0; z <= s; ++z)
+      for (int y = 0; y <= s; ++y)
+        for (int x = 0; x <= s; ++x) {
+          const int d[3] = {x, y, z};
+          std::uint8_t bits = kActiveVoxel;
+          for (int a = 0; a < 3; ++a)
+            if (d[a] < s) bits = static_cast<std::uint8_t>(bits | (1u << a));
+          orState(oct, grid.index(cube.o.x + x, cube.o.y + y, cube.o.z + z), bits);
+        }
     return;
   }
-  // (5-4) eight sub-cubes; (5-5) split those with a disconnected link on their boundary; (5-6).
-  const int h = cube.size() / 2;
+  // (5-4) eight sub-cubes; (5-5) split those with a disconnected link on their boundary: the
+  // cube had none inside before this frame, so they are among `cuts`; (5-6).
+  std::vector<CutLink> sub;
   for (int k = 0; k < 8; ++k) {
-    const CubeBox sub{{cube.o.x + (k & 1) * h, cube.o.y + ((k >> 1) & 1) * h, cube.o.z + (k >> 2) * h},
-                      cube.level - 1};
-    bool cut = false;
-    forEachLink(sub, [&](const Index3& p, int a) {
-      if (!cut && linkOnFace(sub, p, a) && !linkConnected(grid, grid.index(p), a)) cut = true;
-    });
-    if (cut)
-      splitCube(sub, oct, grid, hooks, out);
+    const CubeBox child{{cube.o.x + (k & 1) * h, cube.o.y + ((k >> 1) & 1) * h, cube.o.z + (k >> 2) * h},
+                        cube.level - 1};
+    sub.clear();
+    for (const CutLink& c : cuts)
+      if (linkOnBoundary(child, c.p, c.a)) sub.push_back(c);
+    if (sub.empty())
+      out.leaves.push_back(child);
     else
-      out.leaves.push_back(sub);
+      splitCube(child, sub, oct, grid, hooks, out);
   }
 }
 
@@ -166,70 +192,82 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     ++stats.rounds;
     stats.affectedCubes += list.size();
 
-    // (2) voxels and links on the boundaries of the affected cubes.
+    // (2) mark the voxels and links on the boundaries of the affected cubes; a flag per voxel
+    // and per link makes each one belong to exactly one cube's list, whichever task sets it
+    // first (the results do not depend on which: they are sorted by link in the end).
+    if (oct.mark.size() != grid.voxelCount()) oct.mark.assign(grid.voxelCount(), 0);
     std::vector<std::vector<std::uint32_t>> faceVoxels(list.size());
     std::vector<std::vector<std::uint64_t>> faceLinks(list.size());
-    parallelFor(0, list.size(), 4, [&](std::size_t b, std::size_t e) {
+    parallelFor(0, list.size(), 1, [&](std::size_t b, std::size_t e) {
       for (std::size_t i = b; i < e; ++i) {
         const OctreeCube& oc = oct.cubes[list[i]];
         const CubeBox cube{oc.origin, oc.level};
-        forEachVoxel(cube, [&](const Index3& p) {
-          if (voxelOnFace(cube, p)) faceVoxels[i].push_back(static_cast<std::uint32_t>(grid.index(p)));
+        forEachFaceVoxel(cube, [&](const Index3& p) {
+          const std::size_t v = grid.index(p);
+          if (!(std::atomic_ref<std::uint8_t>(oct.mark[v]).fetch_or(kActiveVoxel, std::memory_order_relaxed) & kActiveVoxel))
+            faceVoxels[i].push_back(static_cast<std::uint32_t>(v));
         });
-        forEachLink(cube, [&](const Index3& p, int a) {
-          if (linkOnFace(cube, p, a)) faceLinks[i].push_back(VoxelGrid::linkId(grid.index(p), a));
+        forEachFaceLink(cube, [&](const Index3& p, int a) {
+          const std::size_t v = grid.index(p);
+          const auto bit = static_cast<std::uint8_t>(1u << a);
+          if (!(std::atomic_ref<std::uint8_t>(oct.mark[v]).fetch_or(bit, std::memory_order_relaxed) & bit))
+            faceLinks[i].push_back(VoxelGrid::linkId(v, a));
         });
       }
     }, threaded);
-    std::vector<std::uint32_t> voxels;
-    std::vector<std::uint64_t> links;
-    for (auto& f : faceVoxels) voxels.insert(voxels.end(), f.begin(), f.end());
-    for (auto& f : faceLinks) links.insert(links.end(), f.begin(), f.end());
-    std::sort(voxels.begin(), voxels.end());
-    voxels.erase(std::unique(voxels.begin(), voxels.end()), voxels.end());
-    std::sort(links.begin(), links.end());
-    links.erase(std::unique(links.begin(), links.end()), links.end());
 
     // (3) positions of the inactive ones (active voxels were positioned for the main test).
-    std::vector<std::uint32_t> inactive;
-    for (std::uint32_t v : voxels)
-      if (!oct.voxelActive(v)) inactive.push_back(v);
-    constexpr std::size_t kChunk = 1024;
-    parallelFor(0, (inactive.size() + kChunk - 1) / kChunk, 1, [&](std::size_t c0, std::size_t c1) {
-      for (std::size_t c = c0; c < c1; ++c) {
-        const std::vector<std::uint32_t> part(inactive.begin() + static_cast<long>(c * kChunk),
-                                              inactive.begin() + static_cast<long>(std::min(inactive.size(), (c + 1) * kChunk)));
-        hooks.updatePositions(part);
+    std::vector<std::size_t> positioned(list.size(), 0);
+    parallelFor(0, list.size(), 1, [&](std::size_t b, std::size_t e) {
+      for (std::size_t i = b; i < e; ++i) {
+        std::vector<std::uint32_t> inactive;
+        for (std::uint32_t v : faceVoxels[i])
+          if (!oct.voxelActive(v)) inactive.push_back(v);
+        if (!inactive.empty()) hooks.updatePositions(inactive);
+        positioned[i] = inactive.size();
       }
     }, threaded);
-    stats.positionedVoxels += inactive.size();
 
     // (4) connected inactive boundary links against the blade.
-    std::vector<std::vector<LinkCut>> found((links.size() + kChunk - 1) / kChunk);
-    std::vector<std::size_t> tested(found.size(), 0);
-    parallelFor(0, found.size(), 1, [&](std::size_t c0, std::size_t c1) {
-      for (std::size_t c = c0; c < c1; ++c)
-        for (std::size_t i = c * kChunk; i < std::min(links.size(), (c + 1) * kChunk); ++i) {
-          const std::size_t v = static_cast<std::size_t>(links[i] / 3);
-          const int a = static_cast<int>(links[i] % 3);
+    std::vector<std::vector<LinkCut>> found(list.size());
+    std::vector<std::size_t> tested(list.size(), 0);
+    parallelFor(0, list.size(), 1, [&](std::size_t b, std::size_t e) {
+      for (std::size_t i = b; i < e; ++i)
+        for (std::uint64_t link : faceLinks[i]) {
+          const std::size_t v = static_cast<std::size_t>(link / 3);
+          const int a = static_cast<int>(link % 3);
           if (oct.linkActive(v, a) || !grid.connected(v, a)) continue;
-          ++tested[c];
-          if (const auto h = hooks.testLink(v, a)) found[c].push_back({links[i], *h});
+          ++tested[i];
+          if (const auto h = hooks.testLink(v, a)) found[i].push_back({link, *h});
         }
     }, threaded);
     std::vector<LinkCut> roundCuts;
-    for (std::size_t c = 0; c < found.size(); ++c) {
-      stats.testedLinks += tested[c];
-      roundCuts.insert(roundCuts.end(), found[c].begin(), found[c].end());
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      stats.testedLinks += tested[i];
+      stats.positionedVoxels += positioned[i];
+      roundCuts.insert(roundCuts.end(), found[i].begin(), found[i].end());
     }
     for (const LinkCut& lc : roundCuts) grid.setConnected(static_cast<std::size_t>(lc.link / 3), static_cast<int>(lc.link % 3), false);
+    // Clear the marks for the next round.
+    parallelFor(0, list.size(), 1, [&](std::size_t b, std::size_t e) {
+      for (std::size_t i = b; i < e; ++i) {
+        for (std::uint32_t v : faceVoxels[i]) std::atomic_ref<std::uint8_t>(oct.mark[v]).store(0, std::memory_order_relaxed);
+        for (std::uint64_t link : faceLinks[i])
+          std::atomic_ref<std::uint8_t>(oct.mark[static_cast<std::size_t>(link / 3)]).store(0, std::memory_order_relaxed);
+      }
+    }, threaded);
 
     // (5) split every affected cube, in parallel: their insides are disjoint.
     std::vector<SplitResult> results(list.size());
     parallelFor(0, list.size(), 1, [&](std::size_t b, std::size_t e) {
       for (std::size_t i = b; i < e; ++i) {
         const OctreeCube& oc = oct.cubes[list[i]];
-        splitCube({oc.origin, oc.level}, oct, grid, hooks, results[i]);
+        const CubeBox cube{oc.origin, oc.level};
+        std::vector<CutLink> boundaryCuts;
+        forEachFaceLink(cube, [&](const Index3& p, int a) {
+          if (!linkConnected(grid, grid.index(p), a)) boundaryCuts.push_back({p, a});
+        });
+        splitCube(cube, boundaryCuts, oct, grid, hooks, results[i]);
       }
     }, threaded);
 
