@@ -108,7 +108,8 @@ int runCut(const CutOptions& opt) {
     j["marked_elements"] = s.markedElements;
     j["tested_links"] = s.testedLinks + s.subdivision.testedLinks;
     j["subdivision"] = {{"rounds", s.subdivision.rounds}, {"affected_cubes", s.subdivision.affectedCubes},
-                        {"tested_links", s.subdivision.testedLinks}, {"cut_links", s.subdivision.cutLinks}};
+                        {"tested_links", s.subdivision.testedLinks}, {"cut_links", s.subdivision.cutLinks},
+                        {"positioned_voxels", s.subdivision.positionedVoxels}};
     j["timings_ms"] = {{"voxel_position_update", s.positionUpdateMs},
                        {"intersection_test", s.intersectionMs},
                        {"octree_subdivision", s.subdivisionMs},

@@ -161,11 +161,12 @@ TEST(DeformationOctree, BunnyCountsAndInvariants) {
   const auto elements = oc.elementCountPerLevel();
   const auto nodes = oc.nodeCountPerLevel();
   ASSERT_EQ(elements.size(), 5u);
-  std::printf("bunny %dx%dx%d, %zu occupied voxels: %zu nodes (%zu hanging; finest adjacent "
-              "level 3: %zu, level 4: %zu), %zu level-3 + %zu level-4 elements "
-              "(paper: 999 nodes, 557 + 11)\n",
-              g.dims().x, g.dims().y, g.dims().z, oc.occupiedVoxelCount(), oc.nodeCount(),
-              oc.hangingNodeCount(), nodes[3], nodes[4], elements[3], elements[4]);
+  std::printf(
+      "bunny %dx%dx%d, %zu occupied voxels: %zu nodes (%zu hanging; finest adjacent "
+      "level 3: %zu, level 4: %zu), %zu level-3 + %zu level-4 elements "
+      "(paper: 999 nodes, 557 + 11)\n",
+      g.dims().x, g.dims().y, g.dims().z, oc.occupiedVoxelCount(), oc.nodeCount(),
+      oc.hangingNodeCount(), nodes[3], nodes[4], elements[3], elements[4]);
   // Our bunny mesh and grid placement differ from the paper's; the shape of the numbers must
   // not: a few hundred level-3 elements, a handful of level-4 ones, about 1.7 nodes each.
   EXPECT_GE(elements[3], 400u);
@@ -196,6 +197,13 @@ TEST(DeformationOctree, VoxelPositionListMatchesSingleAndThreads) {
   ASSERT_EQ(one.size(), voxels.size());
   EXPECT_EQ(one, two);
   for (std::size_t i = 0; i < voxels.size(); ++i) ASSERT_EQ(one[i], oc.voxelPosition(voxels[i]));
+  std::vector<Vec3d> byVoxel(g.voxelCount(), Vec3d::Constant(-7.0));
+  oc.scatterVoxelPositions(voxels, byVoxel);
+  for (std::size_t i = 0; i < voxels.size(); ++i) ASSERT_EQ(byVoxel[voxels[i]], one[i]);
+  for (std::size_t v = 0; v < g.voxelCount(); ++v)
+    if (!g.occupied(v)) {
+      ASSERT_EQ(byVoxel[v], Vec3d::Constant(-7.0));
+    }
   // Element bounds hold their voxels.
   std::vector<Eigen::AlignedBox3d> boxes;
   oc.updateElementBounds(boxes);

@@ -59,7 +59,8 @@ inline void expectOctreeInvariants(const VoxelGrid& grid, const DeformationOctre
       ASSERT_LE(f.x + s, grid.dims().x);
       ASSERT_LE(f.y + s, grid.dims().y);
       ASSERT_LE(f.z + s, grid.dims().z);
-      ASSERT_EQ(occupiedIn[e], static_cast<std::size_t>(s) * s * s) << "element " << e << " not full";
+      ASSERT_EQ(occupiedIn[e], static_cast<std::size_t>(s) * s * s)
+          << "element " << e << " not full";
     }
     ASSERT_GT(occupiedIn[e], 0u) << "element " << e << " holds no voxel";
     ASSERT_GE(els[e].level, startLevel);

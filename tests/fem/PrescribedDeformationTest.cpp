@@ -65,7 +65,8 @@ TEST(PrescribedDeformation, Parse) {
       EXPECT_NE(std::string(e.what()).find(std::string("'") + bad + "'"), std::string::npos);
     }
   }
-  for (Deformation d : {Deformation::None, Deformation::Rigid, Deformation::Bend, Deformation::Twist})
+  for (Deformation d :
+       {Deformation::None, Deformation::Rigid, Deformation::Bend, Deformation::Twist})
     EXPECT_EQ(parseDeformation(deformationName(d)), d);
 }
 
@@ -81,7 +82,8 @@ TEST(PrescribedDeformation, RigidRotatesEveryVoxelExactly) {
   const VoxelGrid& g = bunnyGrid();
   DeformationOctree oc = bunnyOctree();
   applyDeformation(oc, Deformation::Rigid);
-  const double scale = oc.restVoxelBounds().diagonal().norm() + oc.restVoxelBounds().center().norm();
+  const double scale =
+      oc.restVoxelBounds().diagonal().norm() + oc.restVoxelBounds().center().norm();
   const std::vector<std::size_t> voxels = occupiedVoxels(g);
   double moved = 0;
   for (std::size_t v : voxels) {
@@ -112,7 +114,8 @@ TEST_P(SmoothDeformation, StaysNearRestBoxAndNotInverted) {
   DeformationOctree oc = bunnyOctree();
   applyDeformation(oc, GetParam());
   const Eigen::AlignedBox3d rest = oc.restVoxelBounds();
-  const Eigen::AlignedBox3d allowed(rest.center() - 0.75 * rest.sizes(), rest.center() + 0.75 * rest.sizes());
+  const Eigen::AlignedBox3d allowed(rest.center() - 0.75 * rest.sizes(),
+                                    rest.center() + 0.75 * rest.sizes());
   Eigen::AlignedBox3d now;
   double moved = 0;
   for (std::size_t v : occupiedVoxels(g)) {
@@ -122,12 +125,14 @@ TEST_P(SmoothDeformation, StaysNearRestBoxAndNotInverted) {
     moved = std::max(moved, (p - g.position(v)).norm());
   }
   double worst = 1e300;
-  for (std::uint32_t e = 0; e < oc.elementCount(); ++e) worst = std::min(worst, minCornerJacobian(oc, e));
-  std::printf("%s: max voxel displacement %.3f of the rest diagonal, deformed box %.3f x %.3f x "
-              "%.3f of rest, min corner Jacobian / rest %.3f\n",
-              std::string(deformationName(GetParam())).c_str(), moved / rest.diagonal().norm(),
-              now.sizes().x() / rest.sizes().x(), now.sizes().y() / rest.sizes().y(),
-              now.sizes().z() / rest.sizes().z(), worst);
+  for (std::uint32_t e = 0; e < oc.elementCount(); ++e)
+    worst = std::min(worst, minCornerJacobian(oc, e));
+  std::printf(
+      "%s: max voxel displacement %.3f of the rest diagonal, deformed box %.3f x %.3f x "
+      "%.3f of rest, min corner Jacobian / rest %.3f\n",
+      std::string(deformationName(GetParam())).c_str(), moved / rest.diagonal().norm(),
+      now.sizes().x() / rest.sizes().x(), now.sizes().y() / rest.sizes().y(),
+      now.sizes().z() / rest.sizes().z(), worst);
   EXPECT_GT(worst, 0.0);
   EXPECT_GT(moved, 0.05 * rest.diagonal().norm());  // visibly deformed
   // Hanging nodes follow their masters: positions continuous across fine/coarse faces.
@@ -156,7 +161,9 @@ TEST_P(SmoothDeformation, SmoothInAmount) {
 
 INSTANTIATE_TEST_SUITE_P(BendAndTwist, SmoothDeformation,
                          ::testing::Values(Deformation::Bend, Deformation::Twist),
-                         [](const auto& param) { return std::string(deformationName(param.param)); });
+                         [](const auto& param) {
+                           return std::string(deformationName(param.param));
+                         });
 
 }  // namespace
 }  // namespace voxcut

@@ -38,7 +38,8 @@ Eigen::AlignedBox3d SpatialHash::cellBox(const Index3& cell) const {
 }
 
 std::uint64_t SpatialHash::bucketOf(const Index3& c) const {
-  std::uint64_t h = static_cast<std::uint64_t>(static_cast<std::uint32_t>(c.x)) * 0x9E3779B97F4A7C15ull;
+  std::uint64_t h =
+      static_cast<std::uint64_t>(static_cast<std::uint32_t>(c.x)) * 0x9E3779B97F4A7C15ull;
   h ^= static_cast<std::uint64_t>(static_cast<std::uint32_t>(c.y)) * 0xC2B2AE3D27D4EB4Full;
   h ^= static_cast<std::uint64_t>(static_cast<std::uint32_t>(c.z)) * 0x165667B19E3779F9ull;
   h ^= h >> 29;
@@ -63,7 +64,8 @@ void SpatialHash::sortUnique(std::vector<std::uint32_t>& ids) {
   ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
 }
 
-void SpatialHash::build(const std::vector<Eigen::AlignedBox3d>& boxes, double cellSize, bool threaded) {
+void SpatialHash::build(const std::vector<Eigen::AlignedBox3d>& boxes, double cellSize,
+                        bool threaded) {
   VOXCUT_ASSERT(boxes.size() < 0xffffffffull, "too many boxes for 32-bit element ids");
   boxes_ = boxes;
   const std::size_t n = boxes_.size();
@@ -80,18 +82,22 @@ void SpatialHash::build(const std::vector<Eigen::AlignedBox3d>& boxes, double ce
   // Per box: its cell range and entry count (fixed slots).
   std::vector<std::array<Index3, 2>> range(n);
   std::vector<std::uint64_t> offset(n + 1, 0);
-  parallelFor(0, n, 512, [&](std::size_t b, std::size_t e) {
-    for (std::size_t i = b; i < e; ++i) {
-      if (!registrable(boxes_[i])) {
-        offset[i + 1] = 0;
-        continue;
-      }
-      range[i] = {cellOf(boxes_[i].min()), cellOf(boxes_[i].max())};
-      std::uint64_t count = 1;
-      for (int a = 0; a < 3; ++a) count *= static_cast<std::uint64_t>(range[i][1][a] - range[i][0][a] + 1);
-      offset[i + 1] = count;
-    }
-  }, threaded);
+  parallelFor(
+      0, n, 512,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) {
+          if (!registrable(boxes_[i])) {
+            offset[i + 1] = 0;
+            continue;
+          }
+          range[i] = {cellOf(boxes_[i].min()), cellOf(boxes_[i].max())};
+          std::uint64_t count = 1;
+          for (int a = 0; a < 3; ++a)
+            count *= static_cast<std::uint64_t>(range[i][1][a] - range[i][0][a] + 1);
+          offset[i + 1] = count;
+        }
+      },
+      threaded);
   cellMin_ = {1 << 30, 1 << 30, 1 << 30};
   cellMax_ = {-(1 << 30), -(1 << 30), -(1 << 30)};
   for (std::size_t i = 0; i < n; ++i) {
@@ -113,19 +119,22 @@ void SpatialHash::build(const std::vector<Eigen::AlignedBox3d>& boxes, double ce
   // Entries in element order, each with its bucket (fixed slots).
   std::vector<Entry> unsorted(total);
   std::vector<std::uint32_t> bucket(total);
-  parallelFor(0, n, 256, [&](std::size_t b, std::size_t e) {
-    for (std::size_t i = b; i < e; ++i) {
-      std::uint64_t k = offset[i];
-      if (offset[i + 1] == k) continue;
-      const auto& [lo, hi] = range[i];
-      for (int z = lo.z; z <= hi.z; ++z)
-        for (int y = lo.y; y <= hi.y; ++y)
-          for (int x = lo.x; x <= hi.x; ++x, ++k) {
-            unsorted[k] = {Index3{x, y, z}, static_cast<std::uint32_t>(i)};
-            bucket[k] = static_cast<std::uint32_t>(bucketOf(unsorted[k].cell));
-          }
-    }
-  }, threaded);
+  parallelFor(
+      0, n, 256,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) {
+          std::uint64_t k = offset[i];
+          if (offset[i + 1] == k) continue;
+          const auto& [lo, hi] = range[i];
+          for (int z = lo.z; z <= hi.z; ++z)
+            for (int y = lo.y; y <= hi.y; ++y)
+              for (int x = lo.x; x <= hi.x; ++x, ++k) {
+                unsorted[k] = {Index3{x, y, z}, static_cast<std::uint32_t>(i)};
+                bucket[k] = static_cast<std::uint32_t>(bucketOf(unsorted[k].cell));
+              }
+        }
+      },
+      threaded);
 
   // Stable counting sort by bucket: within a bucket (so within a cell) element ids increase.
   bucketStart_.assign(buckets + 1, 0);

@@ -11,10 +11,9 @@
 /// whatever the thread count. Queries are const and may run concurrently with each other, not
 /// with build().
 
+#include <Eigen/Geometry>
 #include <cstdint>
 #include <vector>
-
-#include <Eigen/Geometry>
 
 #include "voxcut/core/Types.h"
 
@@ -28,7 +27,8 @@ class SpatialHash {
   /// Rebuilds the hash over `boxes` (metres; element e is boxes[e]). Empty or non-finite boxes
   /// are not registered. cellSize <= 0 picks the largest side of any registered box (1 when
   /// every box is a point). O(#boxes + #entries); deterministic for any thread count.
-  void build(const std::vector<Eigen::AlignedBox3d>& boxes, double cellSize = 0.0, bool threaded = true);
+  void build(const std::vector<Eigen::AlignedBox3d>& boxes, double cellSize = 0.0,
+             bool threaded = true);
 
   [[nodiscard]] double cellSize() const { return cellSize_; }
   /// Number of boxes given to the last build (registered or not).
@@ -107,8 +107,8 @@ class SpatialHash {
   double invCellSize_ = 1.0;
   std::vector<Eigen::AlignedBox3d> boxes_;
   std::vector<std::uint32_t> bucketStart_ = std::vector<std::uint32_t>(2, 0);  ///< #buckets + 1
-  std::vector<Entry> entries_;     ///< grouped by bucket, increasing element id within a bucket
-  std::uint64_t mask_ = 0;         ///< #buckets - 1 (a power of two)
+  std::vector<Entry> entries_;  ///< grouped by bucket, increasing element id within a bucket
+  std::uint64_t mask_ = 0;      ///< #buckets - 1 (a power of two)
   Index3 cellMin_{0, 0, 0}, cellMax_{-1, -1, -1};  ///< cells holding entries (empty when max < min)
 };
 

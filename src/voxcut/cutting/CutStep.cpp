@@ -1,6 +1,7 @@
 #include "voxcut/cutting/CutStep.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 #include "voxcut/core/Parallel.h"
@@ -28,10 +29,23 @@ Eigen::Matrix3d deformationGradient(const DeformationOctree& d, std::uint32_t e,
   return F;
 }
 
+// Positions are read and written through relaxed atomics: during the octree subdivision two
+// tasks may position the same voxel on a shared face (to the same value) while a third reads it.
+Vec3d loadPosition(const CutBody& b, std::size_t v) {
+  auto& p = const_cast<Vec3d&>(b.positions[v]);
+  return {std::atomic_ref<double>(p[0]).load(std::memory_order_relaxed),
+          std::atomic_ref<double>(p[1]).load(std::memory_order_relaxed),
+          std::atomic_ref<double>(p[2]).load(std::memory_order_relaxed)};
+}
+
+void storePosition(CutBody& b, std::size_t v, const Vec3d& x) {
+  for (int i = 0; i < 3; ++i) std::atomic_ref<double>(b.positions[v][i]).store(x[i], std::memory_order_relaxed);
+}
+
 // Blade test of link (v, a) on current positions; Hermite data in the rest frame.
 std::optional<Hermite> testLink(const CutBody& b, const BladeSweep& sweep, std::size_t v, int a) {
   const std::size_t w = v + b.grid.stride(a);
-  const auto hit = intersectSegment(sweep, b.positions[v], b.positions[w], v, w);
+  const auto hit = intersectSegment(sweep, loadPosition(b, v), loadPosition(b, w), v, w);
   if (!hit) return std::nullopt;
   // Pull the normal back with the element holding the nearer end.
   const std::size_t near = hit->t < 0.5 ? v : w;
@@ -48,10 +62,14 @@ std::optional<Hermite> testLink(const CutBody& b, const BladeSweep& sweep, std::
   return h;
 }
 
-void positionVoxels(CutBody& b, const std::vector<std::uint32_t>& voxels, bool threaded) {
-  parallelFor(0, voxels.size(), 2048, [&](std::size_t i0, std::size_t i1) {
-    for (std::size_t i = i0; i < i1; ++i) b.positions[voxels[i]] = b.deformation.voxelPosition(voxels[i]);
-  }, threaded);
+// Positions of a (small) list of voxels for the subdivision, sorted first so that runs along
+// x share their interpolation.
+void positionVoxelList(CutBody& b, const std::vector<std::uint32_t>& voxels) {
+  std::vector<std::uint32_t> sorted(voxels);
+  std::sort(sorted.begin(), sorted.end());
+  std::vector<Vec3d> x;
+  b.deformation.updateVoxelPositions(sorted, x, false);
+  for (std::size_t i = 0; i < sorted.size(); ++i) storePosition(b, sorted[i], x[i]);
 }
 
 }  // namespace
@@ -71,6 +89,8 @@ CutBody makeCutBody(VoxelGrid grid, const CutBodyParams& params, bool threaded) 
   } else {
     b.activity = allActive(b.grid, threaded);
   }
+  // Room for the Hermite data of future cuts, so that a frame does not pay for a rehash.
+  b.grid.hermite().reserve(2 * b.grid.hermite().size() + 4096);
   b.obbMargin = params.obbMargin > 0 ? params.obbMargin : 0.5 * b.grid.voxelSize();
   b.positions.assign(b.grid.voxelCount(), Vec3d::Zero());
   return b;
@@ -82,7 +102,7 @@ CutStepResult cutStep(CutBody& b, const BladeSweep& sweep, bool threaded) {
 
   // Voxel position update: the active voxels only.
   Timer timer;
-  positionVoxels(b, b.activity.activeVoxels, threaded);
+  b.deformation.scatterVoxelPositions(b.activity.activeVoxels, b.positions, threaded);
   r.positionUpdateMs = timer.ms();
 
   // Intersection test: hash of element boxes, elements under the sweep's OBB, their active
@@ -143,7 +163,7 @@ CutStepResult cutStep(CutBody& b, const BladeSweep& sweep, bool threaded) {
   if (b.useOctree) {
     timer.restart();
     SubdivisionHooks hooks;
-    hooks.updatePositions = [&](const std::vector<std::uint32_t>& voxels) { positionVoxels(b, voxels, false); };
+    hooks.updatePositions = [&](const std::vector<std::uint32_t>& voxels) { positionVoxelList(b, voxels); };
     hooks.testLink = [&](std::size_t v, int a) { return testLink(b, sweep, v, a); };
     r.subdivision = subdivideCutCubes(b.activity, g, r.cuts, hooks, threaded);
     r.subdivisionMs = timer.ms();

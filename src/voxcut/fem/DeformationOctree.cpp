@@ -14,7 +14,8 @@ namespace voxcut {
 // DeformationOctree
 // ---------------------------------------------------------------------------------------------
 
-DeformationOctree::DeformationOctree(const VoxelGrid& grid, int maxLevel, std::vector<OctreeElement> elements,
+DeformationOctree::DeformationOctree(const VoxelGrid& grid, int maxLevel,
+                                     std::vector<OctreeElement> elements,
                                      std::vector<Index3> nodeCoords,
                                      std::vector<HangingNode> hanging,
                                      std::vector<VoxelEmbedding> embedding)
@@ -39,7 +40,8 @@ DeformationOctree::DeformationOctree(const VoxelGrid& grid, int maxLevel, std::v
   }
   for (const OctreeElement& e : elements_) {
     VOXCUT_ASSERT(e.level >= 0 && e.level <= maxLevel_, "element level out of range");
-    for (std::uint32_t n : e.nodes) VOXCUT_ASSERT(n < nodeCoords_.size(), "element node id out of range");
+    for (std::uint32_t n : e.nodes)
+      VOXCUT_ASSERT(n < nodeCoords_.size(), "element node id out of range");
   }
   for (std::size_t v = 0; v < embedding_.size(); ++v) {
     if (embedding_[v].element == kNoElement) continue;
@@ -74,29 +76,78 @@ std::array<double, 8> DeformationOctree::weights(std::size_t v) const {
   return w;
 }
 
+namespace {
+
+/// The segment of element e at trilinear (ty, tz): its ends on the x = 0 and x = 1 faces
+/// (bilinear in y, then z). pointInElement and updateVoxelPositions both go through it, so a
+/// voxel's position is bitwise the same whichever computes it.
+struct RowSegment {
+  Vec3d start;
+  Vec3d delta;
+};
+
+RowSegment rowSegment(const std::vector<Vec3d>& p, const std::array<std::uint32_t, 8>& n, double ty,
+                      double tz) {
+  auto face = [&](std::size_t c) {
+    const Vec3d y0 = p[n[c]] + ty * (p[n[c + 2]] - p[n[c]]);
+    const Vec3d y1 = p[n[c + 4]] + ty * (p[n[c + 6]] - p[n[c + 4]]);
+    return Vec3d(y0 + tz * (y1 - y0));
+  };
+  const Vec3d a = face(0);
+  return {a, face(1) - a};
+}
+
+}  // namespace
+
 Vec3d DeformationOctree::pointInElement(std::uint32_t e, const Vec3d& t) const {
-  const auto& n = elements_[e].nodes;
-  const std::vector<Vec3d>& p = positions_;
-  // Seven lerps: along x on the four x-edges, then y, then z.
-  const Vec3d x00 = p[n[0]] + t.x() * (p[n[1]] - p[n[0]]);
-  const Vec3d x10 = p[n[2]] + t.x() * (p[n[3]] - p[n[2]]);
-  const Vec3d x01 = p[n[4]] + t.x() * (p[n[5]] - p[n[4]]);
-  const Vec3d x11 = p[n[6]] + t.x() * (p[n[7]] - p[n[6]]);
-  const Vec3d y0 = x00 + t.y() * (x10 - x00);
-  const Vec3d y1 = x01 + t.y() * (x11 - x01);
-  return y0 + t.z() * (y1 - y0);
+  const RowSegment r = rowSegment(positions_, elements_[e].nodes, t.y(), t.z());
+  return r.start + t.x() * r.delta;
 }
 
 Vec3d DeformationOctree::voxelPosition(std::size_t v) const {
   return pointInElement(embedding_[v].element, localCoordinates(v));
 }
 
+template <class Write>
+void DeformationOctree::forEachVoxelPosition(const std::vector<std::uint32_t>& voxels,
+                                             bool threaded, Write&& write) const {
+  // Voxels listed in index order come in runs along x through one element: the row segment
+  // is computed once per run (element, y offset, z offset) and each voxel costs one lerp.
+  parallelFor(
+      0, voxels.size(), 4096,
+      [&](std::size_t b, std::size_t e) {
+        std::uint32_t element = kNoElement;
+        std::uint8_t oy = 0, oz = 0;
+        double inv = 1.0;
+        RowSegment row{Vec3d::Zero(), Vec3d::Zero()};
+        for (std::size_t i = b; i < e; ++i) {
+          const VoxelEmbedding& em = embedding_[voxels[i]];
+          if (em.element != element || em.offset[1] != oy || em.offset[2] != oz) {
+            VOXCUT_ASSERT(em.element != kNoElement, "voxel is empty");
+            element = em.element;
+            oy = em.offset[1];
+            oz = em.offset[2];
+            inv = 1.0 / static_cast<double>(elements_[element].size());
+            row = rowSegment(positions_, elements_[element].nodes, (oy + 0.5) * inv,
+                             (oz + 0.5) * inv);
+          }
+          write(i, Vec3d(row.start + ((em.offset[0] + 0.5) * inv) * row.delta));
+        }
+      },
+      threaded);
+}
+
 void DeformationOctree::updateVoxelPositions(const std::vector<std::uint32_t>& voxels,
                                              std::vector<Vec3d>& out, bool threaded) const {
   out.resize(voxels.size());
-  parallelFor(0, voxels.size(), 4096, [&](std::size_t b, std::size_t e) {
-    for (std::size_t i = b; i < e; ++i) out[i] = voxelPosition(voxels[i]);
-  }, threaded);
+  forEachVoxelPosition(voxels, threaded, [&](std::size_t i, const Vec3d& p) { out[i] = p; });
+}
+
+void DeformationOctree::scatterVoxelPositions(const std::vector<std::uint32_t>& voxels,
+                                              std::vector<Vec3d>& byVoxel, bool threaded) const {
+  VOXCUT_ASSERT(byVoxel.size() >= embedding_.size(), "one position per grid voxel");
+  forEachVoxelPosition(voxels, threaded,
+                       [&](std::size_t i, const Vec3d& p) { byVoxel[voxels[i]] = p; });
 }
 
 Eigen::AlignedBox3d DeformationOctree::elementBounds(std::uint32_t e) const {
@@ -108,9 +159,12 @@ Eigen::AlignedBox3d DeformationOctree::elementBounds(std::uint32_t e) const {
 void DeformationOctree::updateElementBounds(std::vector<Eigen::AlignedBox3d>& out,
                                             bool threaded) const {
   out.resize(elements_.size());
-  parallelFor(0, elements_.size(), 256, [&](std::size_t b, std::size_t e) {
-    for (std::size_t i = b; i < e; ++i) out[i] = elementBounds(static_cast<std::uint32_t>(i));
-  }, threaded);
+  parallelFor(
+      0, elements_.size(), 256,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) out[i] = elementBounds(static_cast<std::uint32_t>(i));
+      },
+      threaded);
 }
 
 std::vector<std::size_t> DeformationOctree::elementCountPerLevel() const {
@@ -144,17 +198,23 @@ struct LevelGrid {
   [[nodiscard]] std::size_t index(const Index3& b) const {
     return static_cast<std::size_t>(b.x) +
            static_cast<std::size_t>(dims.x) *
-               (static_cast<std::size_t>(b.y) + static_cast<std::size_t>(dims.y) * static_cast<std::size_t>(b.z));
+               (static_cast<std::size_t>(b.y) +
+                static_cast<std::size_t>(dims.y) * static_cast<std::size_t>(b.z));
   }
   [[nodiscard]] bool at(const Index3& b) const { return inside(b) && flag[index(b)] != 0; }
   [[nodiscard]] Index3 coord(std::size_t i) const {
     const auto nx = static_cast<std::size_t>(dims.x), ny = static_cast<std::size_t>(dims.y);
-    return {static_cast<int>(i % nx), static_cast<int>((i / nx) % ny), static_cast<int>(i / (nx * ny))};
+    return {static_cast<int>(i % nx), static_cast<int>((i / nx) % ny),
+            static_cast<int>(i / (nx * ny))};
   }
 };
 
-int ceilShift(int n, int level) { return (n + (1 << level) - 1) >> level; }
-Index3 shiftDown(const Index3& c, int s) { return {c.x >> s, c.y >> s, c.z >> s}; }
+int ceilShift(int n, int level) {
+  return (n + (1 << level) - 1) >> level;
+}
+Index3 shiftDown(const Index3& c, int s) {
+  return {c.x >> s, c.y >> s, c.z >> s};
+}
 Index3 child(const Index3& p, int c) {
   return {2 * p.x + (c & 1), 2 * p.y + ((c >> 1) & 1), 2 * p.z + ((c >> 2) & 1)};
 }
@@ -162,8 +222,8 @@ Index3 child(const Index3& p, int c) {
 /// leaf[L] flags the elements of level L (L in [S, M]; entries below S are unused).
 struct Leaves {
   int S = 0, M = 0;
-  std::vector<LevelGrid> leaf;   ///< elements
-  std::vector<LevelGrid> full;   ///< blocks whose voxels are all occupied (M > S only)
+  std::vector<LevelGrid> leaf;  ///< elements
+  std::vector<LevelGrid> full;  ///< blocks whose voxels are all occupied (M > S only)
 };
 
 /// Occupied and full blocks at startLevel, full blocks above, and the merged leaves.
@@ -174,7 +234,8 @@ Leaves initialLeaves(const VoxelGrid& grid, int S, int M, bool threaded) {
   lv.leaf.resize(static_cast<std::size_t>(M) + 1);
   lv.full.resize(static_cast<std::size_t>(M) + 1);
   for (int L = S; L <= M; ++L) {
-    const Index3 d{ceilShift(grid.dims().x, L), ceilShift(grid.dims().y, L), ceilShift(grid.dims().z, L)};
+    const Index3 d{ceilShift(grid.dims().x, L), ceilShift(grid.dims().y, L),
+                   ceilShift(grid.dims().z, L)};
     for (auto* g : {&lv.leaf[static_cast<std::size_t>(L)], &lv.full[static_cast<std::size_t>(L)]}) {
       g->dims = d;
       g->flag.assign(static_cast<std::size_t>(d.x) * d.y * d.z, 0);
@@ -185,12 +246,15 @@ Leaves initialLeaves(const VoxelGrid& grid, int S, int M, bool threaded) {
   LevelGrid& base = lv.leaf[static_cast<std::size_t>(S)];
   std::vector<std::uint32_t> count(base.flag.size(), 0);
   const Index3 gd = grid.dims();
-  parallelFor(0, static_cast<std::size_t>(base.dims.z), 1, [&](std::size_t zb, std::size_t ze) {
-    for (int z = static_cast<int>(zb) << S; z < std::min(gd.z, static_cast<int>(ze) << S); ++z)
-      for (int y = 0; y < gd.y; ++y)
-        for (int x = 0; x < gd.x; ++x)
-          if (grid.occupied(grid.index(x, y, z))) ++count[base.index({x >> S, y >> S, z >> S})];
-  }, threaded);
+  parallelFor(
+      0, static_cast<std::size_t>(base.dims.z), 1,
+      [&](std::size_t zb, std::size_t ze) {
+        for (int z = static_cast<int>(zb) << S; z < std::min(gd.z, static_cast<int>(ze) << S); ++z)
+          for (int y = 0; y < gd.y; ++y)
+            for (int x = 0; x < gd.x; ++x)
+              if (grid.occupied(grid.index(x, y, z))) ++count[base.index({x >> S, y >> S, z >> S})];
+      },
+      threaded);
   const std::uint32_t fullCount = 1u << (3 * S);
   for (std::size_t b = 0; b < count.size(); ++b) {
     base.flag[b] = count[b] > 0;
@@ -220,7 +284,8 @@ Leaves initialLeaves(const VoxelGrid& grid, int S, int M, bool threaded) {
   for (std::size_t b = 0; b < base.flag.size(); ++b) {
     if (!base.flag[b]) continue;
     for (int m = S + 1; m <= M; ++m)
-      if (lv.leaf[static_cast<std::size_t>(m)].at(shiftDown(base.coord(b), m - S))) base.flag[b] = 0;
+      if (lv.leaf[static_cast<std::size_t>(m)].at(shiftDown(base.coord(b), m - S)))
+        base.flag[b] = 0;
   }
   return lv;
 }
@@ -259,7 +324,8 @@ void balance(Leaves& lv) {
 
 }  // namespace
 
-DeformationOctree buildDeformationOctree(const VoxelGrid& grid, const DeformationOctreeParams& params) {
+DeformationOctree buildDeformationOctree(const VoxelGrid& grid,
+                                         const DeformationOctreeParams& params) {
   const int S = params.startLevel;
   const int M = params.merge ? params.maxLevel : params.startLevel;
   if (S < 0 || S > 7)
@@ -283,7 +349,8 @@ DeformationOctree buildDeformationOctree(const VoxelGrid& grid, const Deformatio
       keyed.emplace_back(grid.index(e.firstVoxel()), e);
     }
   }
-  std::sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::sort(keyed.begin(), keyed.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
   std::vector<OctreeElement> elements(keyed.size());
   for (std::size_t i = 0; i < keyed.size(); ++i) elements[i] = keyed[i].second;
   keyed.clear();
@@ -292,8 +359,8 @@ DeformationOctree buildDeformationOctree(const VoxelGrid& grid, const Deformatio
   LevelGrid nodeGrid;
   nodeGrid.dims = {(ceilShift(grid.dims().x, S) << S) + 1, (ceilShift(grid.dims().y, S) << S) + 1,
                    (ceilShift(grid.dims().z, S) << S) + 1};
-  std::vector<std::uint32_t> nodeId(static_cast<std::size_t>(nodeGrid.dims.x) * nodeGrid.dims.y * nodeGrid.dims.z,
-                                    kNoElement);
+  std::vector<std::uint32_t> nodeId(
+      static_cast<std::size_t>(nodeGrid.dims.x) * nodeGrid.dims.y * nodeGrid.dims.z, kNoElement);
   auto corner = [](const OctreeElement& e, int c) {
     const Index3 f = e.firstVoxel();
     const int s = e.size();
@@ -308,7 +375,8 @@ DeformationOctree buildDeformationOctree(const VoxelGrid& grid, const Deformatio
     nodeCoords.push_back(nodeGrid.coord(i));
   }
   for (OctreeElement& e : elements)
-    for (int c = 0; c < 8; ++c) e.nodes[static_cast<std::size_t>(c)] = nodeId[nodeGrid.index(corner(e, c))];
+    for (int c = 0; c < 8; ++c)
+      e.nodes[static_cast<std::size_t>(c)] = nodeId[nodeGrid.index(corner(e, c))];
 
   // Hanging nodes: a node at a coarse element's edge midpoint or face centre. Only a finer
   // element can put a corner there, and the point's coordinates fix the coarse level, so
@@ -330,14 +398,15 @@ DeformationOctree buildDeformationOctree(const VoxelGrid& grid, const Deformatio
     hn.masterCount = static_cast<std::uint8_t>(k);
     hn.coarseLevel = static_cast<std::uint8_t>(e.level);
     int i = 0;
-    for (int c : cs) hn.masters[static_cast<std::size_t>(i++)] = e.nodes[static_cast<std::size_t>(c)];
+    for (int c : cs)
+      hn.masters[static_cast<std::size_t>(i++)] = e.nodes[static_cast<std::size_t>(c)];
     hanging.push_back(hn);
   };
   for (const OctreeElement& e : elements) {
     if (e.level == 0) continue;
     for (int a = 0; a < 3; ++a) {
       const int u = 1 << ((a + 1) % 3), w = 1 << ((a + 2) % 3), s = 1 << a;
-      for (int c : {0, u, w, u | w}) record(e, {c, c | s});      // the 4 edges along axis a
+      for (int c : {0, u, w, u | w}) record(e, {c, c | s});  // the 4 edges along axis a
       for (int side : {0, s}) record(e, {side, side | u, side | w, side | u | w});  // 2 faces
     }
   }
@@ -348,22 +417,26 @@ DeformationOctree buildDeformationOctree(const VoxelGrid& grid, const Deformatio
   // Embedding: each element writes the voxels it covers, so no two tasks write one voxel.
   std::vector<VoxelEmbedding> embedding(grid.voxelCount());
   const Index3 gd = grid.dims();
-  parallelFor(0, elements.size(), 16, [&](std::size_t b, std::size_t end) {
-    for (std::size_t i = b; i < end; ++i) {
-      const OctreeElement& e = elements[i];
-      const Index3 f = e.firstVoxel();
-      const int s = e.size();
-      for (int z = f.z; z < std::min(f.z + s, gd.z); ++z)
-        for (int y = f.y; y < std::min(f.y + s, gd.y); ++y)
-          for (int x = f.x; x < std::min(f.x + s, gd.x); ++x) {
-            const std::size_t v = grid.index(x, y, z);
-            if (!grid.occupied(v)) continue;
-            embedding[v].element = static_cast<std::uint32_t>(i);
-            embedding[v].offset = {static_cast<std::uint8_t>(x - f.x), static_cast<std::uint8_t>(y - f.y),
-                                   static_cast<std::uint8_t>(z - f.z)};
-          }
-    }
-  }, params.threaded);
+  parallelFor(
+      0, elements.size(), 16,
+      [&](std::size_t b, std::size_t end) {
+        for (std::size_t i = b; i < end; ++i) {
+          const OctreeElement& e = elements[i];
+          const Index3 f = e.firstVoxel();
+          const int s = e.size();
+          for (int z = f.z; z < std::min(f.z + s, gd.z); ++z)
+            for (int y = f.y; y < std::min(f.y + s, gd.y); ++y)
+              for (int x = f.x; x < std::min(f.x + s, gd.x); ++x) {
+                const std::size_t v = grid.index(x, y, z);
+                if (!grid.occupied(v)) continue;
+                embedding[v].element = static_cast<std::uint32_t>(i);
+                embedding[v].offset = {static_cast<std::uint8_t>(x - f.x),
+                                       static_cast<std::uint8_t>(y - f.y),
+                                       static_cast<std::uint8_t>(z - f.z)};
+              }
+        }
+      },
+      params.threaded);
 
   return DeformationOctree(grid, M, std::move(elements), std::move(nodeCoords), std::move(hanging),
                            std::move(embedding));

@@ -26,11 +26,10 @@
 /// Thread-safety: const member functions may run concurrently with each other; anything that
 /// moves nodes (positions(), updateHangingNodes()) must not run concurrently with readers.
 
+#include <Eigen/Geometry>
 #include <array>
 #include <cstdint>
 #include <vector>
-
-#include <Eigen/Geometry>
 
 #include "voxcut/core/Types.h"
 #include "voxcut/voxel/VoxelGrid.h"
@@ -42,9 +41,10 @@ inline constexpr std::uint32_t kNoElement = 0xffffffffu;
 
 /// One hexahedral element of the deformation octree.
 struct OctreeElement {
-  Index3 coord;                          ///< integer coordinates at its level
-  int level = 0;                         ///< edge length 2^level voxels
-  std::array<std::uint32_t, 8> nodes{};  ///< corner node ids, corner c at offset (c&1, c>>1&1, c>>2&1)
+  Index3 coord;   ///< integer coordinates at its level
+  int level = 0;  ///< edge length 2^level voxels
+  /// Corner node ids; corner c sits at offset (c & 1, (c >> 1) & 1, (c >> 2) & 1).
+  std::array<std::uint32_t, 8> nodes{};
 
   /// Edge length in voxels.
   [[nodiscard]] int size() const { return 1 << level; }
@@ -58,9 +58,9 @@ struct OctreeElement {
 /// (2 masters, the edge's ends) or the centre of its face (4 masters, the face's corners).
 struct HangingNode {
   std::uint32_t node = 0;
-  std::uint8_t masterCount = 0;             ///< 2 or 4
-  std::uint8_t coarseLevel = 0;             ///< level of the element whose edge or face it lies on
-  std::array<std::uint32_t, 4> masters{};   ///< the first masterCount entries are used
+  std::uint8_t masterCount = 0;            ///< 2 or 4
+  std::uint8_t coarseLevel = 0;            ///< level of the element whose edge or face it lies on
+  std::array<std::uint32_t, 4> masters{};  ///< the first masterCount entries are used
 };
 
 /// Where an occupied voxel lives: its owning element and its offset in voxels from the
@@ -127,6 +127,10 @@ class DeformationOctree {
   /// listed voxel must be occupied. Deterministic for any thread count.
   void updateVoxelPositions(const std::vector<std::uint32_t>& voxels, std::vector<Vec3d>& out,
                             bool threaded = true) const;
+  /// As updateVoxelPositions, but writes byVoxel[voxels[i]] (a grid-indexed array, at least
+  /// one entry per grid voxel; other entries untouched). The voxels must be distinct.
+  void scatterVoxelPositions(const std::vector<std::uint32_t>& voxels, std::vector<Vec3d>& byVoxel,
+                             bool threaded = true) const;
 
   /// Axis-aligned bounds of element e's current corners (metres); they hold all its voxels.
   [[nodiscard]] Eigen::AlignedBox3d elementBounds(std::uint32_t e) const;
@@ -154,6 +158,10 @@ class DeformationOctree {
   [[nodiscard]] const Eigen::AlignedBox3d& restVoxelBounds() const { return restVoxelBounds_; }
 
  private:
+  template <class Write>
+  void forEachVoxelPosition(const std::vector<std::uint32_t>& voxels, bool threaded,
+                            Write&& write) const;
+
   Index3 dims_;
   Vec3d origin_ = Vec3d::Zero();
   double voxelSize_ = 1.0;

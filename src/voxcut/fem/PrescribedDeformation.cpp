@@ -15,15 +15,20 @@ Deformation parseDeformation(std::string_view text) {
   if (text == "rigid") return Deformation::Rigid;
   if (text == "bend") return Deformation::Bend;
   if (text == "twist") return Deformation::Twist;
-  throw InputError("unknown deformation '" + std::string(text) + "' (expected rigid, bend or twist)");
+  throw InputError("unknown deformation '" + std::string(text) +
+                   "' (expected rigid, bend or twist)");
 }
 
 std::string_view deformationName(Deformation d) {
   switch (d) {
-    case Deformation::None: return "none";
-    case Deformation::Rigid: return "rigid";
-    case Deformation::Bend: return "bend";
-    case Deformation::Twist: return "twist";
+    case Deformation::None:
+      return "none";
+    case Deformation::Rigid:
+      return "rigid";
+    case Deformation::Bend:
+      return "bend";
+    case Deformation::Twist:
+      return "twist";
   }
   return "none";
 }
@@ -52,11 +57,17 @@ class DeformationMap {
     const double length = std::max(ext[a_], octree.voxelSize());
     switch (kind_) {
       case Deformation::Rigid:
-        rotation_ = Eigen::AngleAxisd(30.0 * kDegree * amount, Vec3d(1, 2, 3).normalized()).toRotationMatrix();
+        rotation_ = Eigen::AngleAxisd(30.0 * kDegree * amount, Vec3d(1, 2, 3).normalized())
+                        .toRotationMatrix();
         break;
-      case Deformation::Bend: kappa_ = (60.0 * kDegree * amount) / length; break;
-      case Deformation::Twist: twistRate_ = (30.0 * kDegree * amount) / (0.5 * length); break;
-      case Deformation::None: break;
+      case Deformation::Bend:
+        kappa_ = (60.0 * kDegree * amount) / length;
+        break;
+      case Deformation::Twist:
+        twistRate_ = (30.0 * kDegree * amount) / (0.5 * length);
+        break;
+      case Deformation::None:
+        break;
     }
   }
 
@@ -65,8 +76,10 @@ class DeformationMap {
   [[nodiscard]] Vec3d operator()(const Vec3d& x) const {
     const Vec3d r = x - centre_;
     switch (kind_) {
-      case Deformation::None: return x;
-      case Deformation::Rigid: return centre_ + rotation_ * r;
+      case Deformation::None:
+        return x;
+      case Deformation::Rigid:
+        return centre_ + rotation_ * r;
       case Deformation::Bend: {
         // Arc of radius 1/κ with its centre at u = 1/κ on the b axis: the point at (s, u) goes to
         // angle φ = κ s on the circle of radius 1/κ - u. Jacobian determinant 1 - κ u > 0.
@@ -101,7 +114,8 @@ class DeformationMap {
 
 }  // namespace
 
-Vec3d deformedPoint(const DeformationOctree& octree, Deformation d, double amount, const Vec3d& rest) {
+Vec3d deformedPoint(const DeformationOctree& octree, Deformation d, double amount,
+                    const Vec3d& rest) {
   return DeformationMap(octree, d, amount)(rest);
 }
 

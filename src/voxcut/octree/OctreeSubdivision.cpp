@@ -28,41 +28,42 @@ struct CubeBox {
   [[nodiscard]] int size() const { return 1 << level; }
 };
 
-// Calls fn(p) for every voxel on the cube's faces (voxels on edges come more than once).
+// Calls fn(p) for every voxel of face f (0..5: axis f/2, side f%2) of the cube.
 template <class Fn>
-void forEachFaceVoxel(const CubeBox& c, Fn&& fn) {
-  const int s = c.size();
-  for (int f = 0; f < 3; ++f) {
-    const int u = (f + 1) % 3, w = (f + 2) % 3;
-    for (int side = 0; side <= s; side += s)
-      for (int j = 0; j <= s; ++j)
-        for (int i = 0; i <= s; ++i) {
-          Index3 p = c.o;
-          p[f] += side;
-          p[u] += i;
-          p[w] += j;
-          fn(p);
-        }
+void forEachVoxelOfFace(const CubeBox& c, int f, Fn&& fn) {
+  const int s = c.size(), ax = f / 2, u = (ax + 1) % 3, w = (ax + 2) % 3;
+  for (int j = 0; j <= s; ++j)
+    for (int i = 0; i <= s; ++i) {
+      Index3 p = c.o;
+      p[ax] += (f & 1) * s;
+      p[u] += i;
+      p[w] += j;
+      fn(p);
+    }
+}
+
+// Calls fn(p, a) for every link of face f of the cube; with `borderOnly`, only the links on
+// the face's four edges.
+template <class Fn>
+void forEachLinkOfFace(const CubeBox& c, int f, bool borderOnly, Fn&& fn) {
+  const int s = c.size(), ax = f / 2;
+  for (int k = 1; k <= 2; ++k) {
+    const int a = (ax + k) % 3, other = (ax + 3 - k) % 3;
+    for (int j = 0; j <= s; j += (borderOnly ? s : 1))
+      for (int i = 0; i < s; ++i) {
+        Index3 p = c.o;
+        p[ax] += (f & 1) * s;
+        p[a] += i;
+        p[other] += j;
+        fn(p, a);
+      }
   }
 }
 
 // Calls fn(p, a) for every link on the cube's faces (links on edges come twice).
 template <class Fn>
 void forEachFaceLink(const CubeBox& c, Fn&& fn) {
-  const int s = c.size();
-  for (int f = 0; f < 3; ++f)
-    for (int side = 0; side <= s; side += s)
-      for (int k = 1; k <= 2; ++k) {
-        const int a = (f + k) % 3, other = (f + 3 - k) % 3;
-        for (int j = 0; j <= s; ++j)
-          for (int i = 0; i < s; ++i) {
-            Index3 p = c.o;
-            p[f] += side;
-            p[a] += i;
-            p[other] += j;
-            fn(p, a);
-          }
-      }
+  for (int f = 0; f < 6; ++f) forEachLinkOfFace(c, f, false, fn);
 }
 
 // Whether link (p, a) lies on the boundary (a face) of cube c.
@@ -92,41 +93,85 @@ struct CutLink {
   int a;
 };
 
+// Tests link (p, a) against the blade; a crossed link is disconnected and recorded.
+void testBetween(const Index3& p, int a, VoxelGrid& grid, const SubdivisionHooks& hooks,
+                 SplitResult& out, std::vector<CutLink>& cuts) {
+  const std::size_t v = grid.index(p);
+  if (!linkConnected(grid, v, a)) return;
+  ++out.tested;
+  if (const auto hit = hooks.testLink(v, a)) {
+    disconnect(grid, v, a);
+    out.cuts.push_back({VoxelGrid::linkId(v, a), *hit});
+    cuts.push_back({p, a});
+  }
+}
+
 // Sub-steps (5-1)-(5-6) on one cube; `boundaryCuts` are the disconnected links on its faces.
+//
+// The voxels and links between the sub-cubes lie on the three mid-planes. They are taken in
+// two stages: first the three centre lines where the mid-planes meet; then each of the 12
+// quarter faces the centre lines cut the mid-planes into (a face of a sub-cube), but only if
+// a link on its border is cut. As for the faces of the affected cubes, a blade that crosses a
+// quarter face crosses its border, so the quarters it misses hold no cut.
 void splitCube(const CubeBox& cube, const std::vector<CutLink>& boundaryCuts, VoxelOctree& oct,
                VoxelGrid& grid, const SubdivisionHooks& hooks, SplitResult& out) {
   const int s = cube.size(), h = s / 2;
-  // (5-1) voxels between the sub-cubes: on a mid-plane, off the faces.
-  std::vector<std::uint32_t> voxels;
-  for (int z = 1; z < s; ++z)
-    for (int y = 1; y < s; ++y)
-      for (int x = 1; x < s; ++x)
-        if (x == h || y == h || z == h)
-          voxels.push_back(static_cast<std::uint32_t>(grid.index(cube.o.x + x, cube.o.y + y, cube.o.z + z)));
-  if (!voxels.empty()) hooks.updatePositions(voxels);
-  out.positioned += voxels.size();
-  // (5-2) links between the sub-cubes: in a mid-plane, off the faces.
   std::vector<CutLink> cuts = boundaryCuts;
-  for (int a = 0; a < 3; ++a) {
-    const int u = (a + 1) % 3, w = (a + 2) % 3;
-    for (int j = 1; j < s; ++j)
-      for (int i = 1; i < s; ++i) {
-        if (i != h && j != h) continue;
-        for (int k = 0; k < s; ++k) {
-          Index3 p = cube.o;
-          p[a] += k;
-          p[u] += i;
-          p[w] += j;
-          const std::size_t v = grid.index(p);
-          if (!linkConnected(grid, v, a)) continue;
-          ++out.tested;
-          if (const auto hit = hooks.testLink(v, a)) {
-            disconnect(grid, v, a);
-            out.cuts.push_back({VoxelGrid::linkId(v, a), *hit});
-            cuts.push_back({p, a});
-          }
+  std::vector<std::uint32_t> voxels;
+  auto at = [&](int x, int y, int z) {
+    return static_cast<std::uint32_t>(grid.index(cube.o.x + x, cube.o.y + y, cube.o.z + z));
+  };
+  // (5-1), (5-2) on the centre lines (their ends lie on the faces).
+  for (int a = 0; a < 3; ++a)
+    for (int k = 0; k <= s; ++k) {
+      if (a > 0 && k == h) continue;  // the centre voxel once
+      Index3 d{h, h, h};
+      d[a] = k;
+      voxels.push_back(at(d.x, d.y, d.z));
+    }
+  hooks.updatePositions(voxels);
+  out.positioned += voxels.size();
+  for (int a = 0; a < 3; ++a)
+    for (int k = 0; k < s; ++k) {
+      Index3 p{cube.o.x + h, cube.o.y + h, cube.o.z + h};
+      p[a] = cube.o[a] + k;
+      testBetween(p, a, grid, hooks, out, cuts);
+    }
+  // (5-1), (5-2) on the quarter faces whose border holds a cut.
+  for (int f = 0; f < 3; ++f) {
+    const int u = (f + 1) % 3, w = (f + 2) % 3;
+    for (int q = 0; q < 4; ++q) {
+      const int u0 = (q & 1) * h, w0 = (q >> 1) * h;
+      auto point = [&](int i, int j) {
+        Index3 p = cube.o;
+        p[f] += h;
+        p[u] += u0 + i;
+        p[w] += w0 + j;
+        return p;
+      };
+      bool crossed = false;
+      for (int i = 0; i < h && !crossed; ++i)
+        crossed = !linkConnected(grid, grid.index(point(i, 0)), u) ||
+                  !linkConnected(grid, grid.index(point(i, h)), u) ||
+                  !linkConnected(grid, grid.index(point(0, i)), w) ||
+                  !linkConnected(grid, grid.index(point(h, i)), w);
+      if (!crossed) continue;
+      // Its voxels off the centre lines (those on the cube's faces included: a face without a
+      // crossing was not positioned), then its inner links.
+      voxels.clear();
+      for (int j = 0; j <= h; ++j)
+        for (int i = 0; i <= h; ++i) {
+          if (u0 + i == h || w0 + j == h) continue;
+          voxels.push_back(static_cast<std::uint32_t>(grid.index(point(i, j))));
         }
-      }
+      hooks.updatePositions(voxels);
+      out.positioned += voxels.size();
+      for (int j = 1; j < h; ++j)
+        for (int i = 0; i < h; ++i) {
+          testBetween(point(i, j), u, grid, hooks, out, cuts);
+          testBetween(point(j, i), w, grid, hooks, out, cuts);
+        }
+    }
   }
   // (5-3) a level-1 cube opens up completely.
   if (cube.level == 1) {
@@ -192,70 +237,58 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     ++stats.rounds;
     stats.affectedCubes += list.size();
 
-    // (2) mark the voxels and links on the boundaries of the affected cubes; a flag per voxel
-    // and per link makes each one belong to exactly one cube's list, whichever task sets it
-    // first (the results do not depend on which: they are sorted by link in the end).
-    if (oct.mark.size() != grid.voxelCount()) oct.mark.assign(grid.voxelCount(), 0);
-    std::vector<std::vector<std::uint32_t>> faceVoxels(list.size());
+    // (2) the boundaries of the affected cubes. A blade that crosses a face crosses links on
+    // its border (a cube's frame, or lines of a split cube's mid-planes, all tested already),
+    // so only faces with a cut on their border hold work: their voxels and links.
+    // (3) positions of their inactive voxels (active ones were positioned for the main test);
+    // a voxel on a face shared by two cubes is positioned by both, to the same value.
     std::vector<std::vector<std::uint64_t>> faceLinks(list.size());
+    std::vector<std::size_t> positioned(list.size(), 0);
     parallelFor(0, list.size(), 1, [&](std::size_t b, std::size_t e) {
+      std::vector<std::uint32_t> voxels;
       for (std::size_t i = b; i < e; ++i) {
         const OctreeCube& oc = oct.cubes[list[i]];
         const CubeBox cube{oc.origin, oc.level};
-        forEachFaceVoxel(cube, [&](const Index3& p) {
-          const std::size_t v = grid.index(p);
-          if (!(std::atomic_ref<std::uint8_t>(oct.mark[v]).fetch_or(kActiveVoxel, std::memory_order_relaxed) & kActiveVoxel))
-            faceVoxels[i].push_back(static_cast<std::uint32_t>(v));
-        });
-        forEachFaceLink(cube, [&](const Index3& p, int a) {
-          const std::size_t v = grid.index(p);
-          const auto bit = static_cast<std::uint8_t>(1u << a);
-          if (!(std::atomic_ref<std::uint8_t>(oct.mark[v]).fetch_or(bit, std::memory_order_relaxed) & bit))
-            faceLinks[i].push_back(VoxelGrid::linkId(v, a));
-        });
+        voxels.clear();
+        for (int f = 0; f < 6; ++f) {
+          bool crossed = false;
+          forEachLinkOfFace(cube, f, true, [&](const Index3& p, int a) {
+            crossed = crossed || !linkConnected(grid, grid.index(p), a);
+          });
+          if (!crossed) continue;
+          forEachVoxelOfFace(cube, f, [&](const Index3& p) {
+            const std::size_t v = grid.index(p);
+            if (!oct.voxelActive(v)) voxels.push_back(static_cast<std::uint32_t>(v));
+          });
+          forEachLinkOfFace(cube, f, false, [&](const Index3& p, int a) {
+            const std::size_t v = grid.index(p);
+            if (!oct.linkActive(v, a) && linkConnected(grid, v, a)) faceLinks[i].push_back(VoxelGrid::linkId(v, a));
+          });
+        }
+        if (!voxels.empty()) hooks.updatePositions(voxels);
+        positioned[i] = voxels.size();
       }
     }, threaded);
 
-    // (3) positions of the inactive ones (active voxels were positioned for the main test).
-    std::vector<std::size_t> positioned(list.size(), 0);
-    parallelFor(0, list.size(), 1, [&](std::size_t b, std::size_t e) {
-      for (std::size_t i = b; i < e; ++i) {
-        std::vector<std::uint32_t> inactive;
-        for (std::uint32_t v : faceVoxels[i])
-          if (!oct.voxelActive(v)) inactive.push_back(v);
-        if (!inactive.empty()) hooks.updatePositions(inactive);
-        positioned[i] = inactive.size();
-      }
-    }, threaded);
-
-    // (4) connected inactive boundary links against the blade.
+    // (4) those links against the blade (a link on a shared face may be tested twice).
     std::vector<std::vector<LinkCut>> found(list.size());
-    std::vector<std::size_t> tested(list.size(), 0);
     parallelFor(0, list.size(), 1, [&](std::size_t b, std::size_t e) {
       for (std::size_t i = b; i < e; ++i)
-        for (std::uint64_t link : faceLinks[i]) {
-          const std::size_t v = static_cast<std::size_t>(link / 3);
-          const int a = static_cast<int>(link % 3);
-          if (oct.linkActive(v, a) || !grid.connected(v, a)) continue;
-          ++tested[i];
-          if (const auto h = hooks.testLink(v, a)) found[i].push_back({link, *h});
-        }
+        for (std::uint64_t link : faceLinks[i])
+          if (const auto h = hooks.testLink(static_cast<std::size_t>(link / 3), static_cast<int>(link % 3)))
+            found[i].push_back({link, *h});
     }, threaded);
     std::vector<LinkCut> roundCuts;
     for (std::size_t i = 0; i < list.size(); ++i) {
-      stats.testedLinks += tested[i];
+      stats.testedLinks += faceLinks[i].size();
       stats.positionedVoxels += positioned[i];
       roundCuts.insert(roundCuts.end(), found[i].begin(), found[i].end());
     }
+    std::sort(roundCuts.begin(), roundCuts.end(), [](const LinkCut& x, const LinkCut& y) { return x.link < y.link; });
+    roundCuts.erase(std::unique(roundCuts.begin(), roundCuts.end(),
+                                [](const LinkCut& x, const LinkCut& y) { return x.link == y.link; }),
+                    roundCuts.end());
     for (const LinkCut& lc : roundCuts) grid.setConnected(static_cast<std::size_t>(lc.link / 3), static_cast<int>(lc.link % 3), false);
-    // Clear the marks for the next round.
-    parallelFor(0, list.size(), 1, [&](std::size_t b, std::size_t e) {
-      for (std::size_t i = b; i < e; ++i) {
-        for (std::uint32_t v : faceVoxels[i]) std::atomic_ref<std::uint8_t>(oct.mark[v]).store(0, std::memory_order_relaxed);
-        for (std::uint64_t link : faceLinks[i])
-          std::atomic_ref<std::uint8_t>(oct.mark[static_cast<std::size_t>(link / 3)]).store(0, std::memory_order_relaxed);
-      }
-    }, threaded);
 
     // (5) split every affected cube, in parallel: their insides are disjoint.
     std::vector<SplitResult> results(list.size());

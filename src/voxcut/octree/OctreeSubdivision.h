@@ -22,7 +22,8 @@ struct LinkCut {
 };
 
 /// What subdivision needs from the cutting step. Both may be called from several threads at
-/// once, on disjoint voxel lists / links.
+/// once; two calls may position the same voxel (on a face shared by two cubes), always to the
+/// same value, so positions must be stored and loaded with (relaxed) atomics.
 struct SubdivisionHooks {
   /// Computes the current positions of these voxels (where testLink will read them).
   std::function<void(const std::vector<std::uint32_t>& voxels)> updatePositions;

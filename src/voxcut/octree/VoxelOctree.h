@@ -49,7 +49,6 @@ struct VoxelOctree {
   std::vector<std::uint8_t> state;     ///< per voxel: VoxelState bits
   std::vector<std::uint32_t> activeVoxels;  ///< sorted indices of active voxels
   std::vector<std::uint32_t> newCubes;      ///< cubes created since the last frame activation
-  std::vector<std::uint8_t> mark;           ///< scratch flags of the subdivision (all 0 between calls)
 
   [[nodiscard]] bool linkActive(std::size_t v, int a) const { return (state[v] >> a) & 1u; }
   [[nodiscard]] bool voxelActive(std::size_t v) const { return state[v] & kActiveVoxel; }
