@@ -62,14 +62,9 @@ std::optional<Hermite> testLink(const CutBody& b, const BladeSweep& sweep, std::
   return h;
 }
 
-// Positions of a (small) list of voxels for the subdivision, sorted first so that runs along
-// x share their interpolation.
+// Positions of a short list of voxels for the subdivision (a line or a face of a cube).
 void positionVoxelList(CutBody& b, const std::vector<std::uint32_t>& voxels) {
-  std::vector<std::uint32_t> sorted(voxels);
-  std::sort(sorted.begin(), sorted.end());
-  std::vector<Vec3d> x;
-  b.deformation.updateVoxelPositions(sorted, x, false);
-  for (std::size_t i = 0; i < sorted.size(); ++i) storePosition(b, sorted[i], x[i]);
+  for (std::uint32_t v : voxels) storePosition(b, v, b.deformation.voxelPosition(v));
 }
 
 }  // namespace

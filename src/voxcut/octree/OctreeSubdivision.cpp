@@ -28,43 +28,10 @@ struct CubeBox {
   [[nodiscard]] int size() const { return 1 << level; }
 };
 
-// Calls fn(p) for every voxel of face f (0..5: axis f/2, side f%2) of the cube.
-template <class Fn>
-void forEachVoxelOfFace(const CubeBox& c, int f, Fn&& fn) {
-  const int s = c.size(), ax = f / 2, u = (ax + 1) % 3, w = (ax + 2) % 3;
-  for (int j = 0; j <= s; ++j)
-    for (int i = 0; i <= s; ++i) {
-      Index3 p = c.o;
-      p[ax] += (f & 1) * s;
-      p[u] += i;
-      p[w] += j;
-      fn(p);
-    }
-}
-
-// Calls fn(p, a) for every link of face f of the cube; with `borderOnly`, only the links on
-// the face's four edges.
-template <class Fn>
-void forEachLinkOfFace(const CubeBox& c, int f, bool borderOnly, Fn&& fn) {
-  const int s = c.size(), ax = f / 2;
-  for (int k = 1; k <= 2; ++k) {
-    const int a = (ax + k) % 3, other = (ax + 3 - k) % 3;
-    for (int j = 0; j <= s; j += (borderOnly ? s : 1))
-      for (int i = 0; i < s; ++i) {
-        Index3 p = c.o;
-        p[ax] += (f & 1) * s;
-        p[a] += i;
-        p[other] += j;
-        fn(p, a);
-      }
-  }
-}
-
-// Calls fn(p, a) for every link on the cube's faces (links on edges come twice).
-template <class Fn>
-void forEachFaceLink(const CubeBox& c, Fn&& fn) {
-  for (int f = 0; f < 6; ++f) forEachLinkOfFace(c, f, false, fn);
-}
+struct CutLink {
+  Index3 p;
+  int a;
+};
 
 // Whether link (p, a) lies on the boundary (a face) of cube c.
 bool linkOnBoundary(const CubeBox& c, const Index3& p, int a) {
@@ -81,126 +48,132 @@ bool linkOnBoundary(const CubeBox& c, const Index3& p, int a) {
   return face;
 }
 
-// Result of splitting one affected cube.
-struct SplitResult {
-  std::vector<CubeBox> leaves;  // remaining sub-cubes, in depth-first order
-  std::vector<LinkCut> cuts;
+// One task's work and findings.
+struct Worker {
+  VoxelOctree& oct;
+  VoxelGrid& grid;
+  const SubdivisionHooks& hooks;
+  std::vector<LinkCut> cuts;          // links this task cut
+  std::vector<CutLink> found;         // the same, as positions, for the sub-cube test
+  std::vector<std::uint32_t> voxels;  // scratch
   std::size_t tested = 0, positioned = 0;
-};
 
-struct CutLink {
-  Index3 p;
-  int a;
-};
-
-// Tests link (p, a) against the blade; a crossed link is disconnected and recorded.
-void testBetween(const Index3& p, int a, VoxelGrid& grid, const SubdivisionHooks& hooks,
-                 SplitResult& out, std::vector<CutLink>& cuts) {
-  const std::size_t v = grid.index(p);
-  if (!linkConnected(grid, v, a)) return;
-  ++out.tested;
-  if (const auto hit = hooks.testLink(v, a)) {
-    disconnect(grid, v, a);
-    out.cuts.push_back({VoxelGrid::linkId(v, a), *hit});
-    cuts.push_back({p, a});
+  void position() {
+    if (voxels.empty()) return;
+    hooks.updatePositions(voxels);
+    positioned += voxels.size();
+    voxels.clear();
   }
-}
 
-// Sub-steps (5-1)-(5-6) on one cube; `boundaryCuts` are the disconnected links on its faces.
-//
-// The voxels and links between the sub-cubes lie on the three mid-planes. They are taken in
-// two stages: first the three centre lines where the mid-planes meet; then each of the 12
-// quarter faces the centre lines cut the mid-planes into (a face of a sub-cube), but only if
-// a link on its border is cut. As for the faces of the affected cubes, a blade that crosses a
-// quarter face crosses its border, so the quarters it misses hold no cut.
-void splitCube(const CubeBox& cube, const std::vector<CutLink>& boundaryCuts, VoxelOctree& oct,
-               VoxelGrid& grid, const SubdivisionHooks& hooks, SplitResult& out) {
-  const int s = cube.size(), h = s / 2;
-  std::vector<CutLink> cuts = boundaryCuts;
-  std::vector<std::uint32_t> voxels;
-  auto at = [&](int x, int y, int z) {
-    return static_cast<std::uint32_t>(grid.index(cube.o.x + x, cube.o.y + y, cube.o.z + z));
-  };
-  // (5-1), (5-2) on the centre lines (their ends lie on the faces).
-  for (int a = 0; a < 3; ++a)
-    for (int k = 0; k <= s; ++k) {
-      if (a > 0 && k == h) continue;  // the centre voxel once
-      Index3 d{h, h, h};
-      d[a] = k;
-      voxels.push_back(at(d.x, d.y, d.z));
+  // Tests link (p, a); a crossed link is disconnected at once and recorded.
+  void test(const Index3& p, int a) {
+    const std::size_t v = grid.index(p);
+    if (!linkConnected(grid, v, a)) return;
+    ++tested;
+    if (const auto hit = hooks.testLink(v, a)) {
+      disconnect(grid, v, a);
+      cuts.push_back({VoxelGrid::linkId(v, a), *hit});
+      found.push_back({p, a});
     }
-  hooks.updatePositions(voxels);
-  out.positioned += voxels.size();
-  for (int a = 0; a < 3; ++a)
-    for (int k = 0; k < s; ++k) {
-      Index3 p{cube.o.x + h, cube.o.y + h, cube.o.z + h};
-      p[a] = cube.o[a] + k;
-      testBetween(p, a, grid, hooks, out, cuts);
-    }
-  // (5-1), (5-2) on the quarter faces whose border holds a cut.
-  for (int f = 0; f < 3; ++f) {
+  }
+
+  // The links inside the square of side m (a power of two) at `o` in the plane normal to f,
+  // spanned by axes u = (f+1)%3 and w = (f+2)%3, whose border links are decided already.
+  // A blade that crosses the square crosses its border, so a square with no cut on its
+  // border holds none inside. Otherwise: its two centre lines are positioned and tested, and
+  // each quarter follows. The work grows with the length of the blade's trace, not the area.
+  void resolveSquare(const Index3& o, int f, int m) {
+    if (m < 2) return;
     const int u = (f + 1) % 3, w = (f + 2) % 3;
-    for (int q = 0; q < 4; ++q) {
-      const int u0 = (q & 1) * h, w0 = (q >> 1) * h;
-      auto point = [&](int i, int j) {
-        Index3 p = cube.o;
-        p[f] += h;
-        p[u] += u0 + i;
-        p[w] += w0 + j;
-        return p;
-      };
-      bool crossed = false;
-      for (int i = 0; i < h && !crossed; ++i)
-        crossed = !linkConnected(grid, grid.index(point(i, 0)), u) ||
-                  !linkConnected(grid, grid.index(point(i, h)), u) ||
-                  !linkConnected(grid, grid.index(point(0, i)), w) ||
-                  !linkConnected(grid, grid.index(point(h, i)), w);
-      if (!crossed) continue;
-      // Its voxels off the centre lines (those on the cube's faces included: a face without a
-      // crossing was not positioned), then its inner links.
-      voxels.clear();
-      for (int j = 0; j <= h; ++j)
-        for (int i = 0; i <= h; ++i) {
-          if (u0 + i == h || w0 + j == h) continue;
-          voxels.push_back(static_cast<std::uint32_t>(grid.index(point(i, j))));
-        }
-      hooks.updatePositions(voxels);
-      out.positioned += voxels.size();
-      for (int j = 1; j < h; ++j)
-        for (int i = 0; i < h; ++i) {
-          testBetween(point(i, j), u, grid, hooks, out, cuts);
-          testBetween(point(j, i), w, grid, hooks, out, cuts);
-        }
+    auto point = [&](int i, int j) {
+      Index3 p = o;
+      p[u] += i;
+      p[w] += j;
+      return p;
+    };
+    bool crossed = false;
+    for (int i = 0; i < m && !crossed; ++i)
+      crossed = !linkConnected(grid, grid.index(point(i, 0)), u) ||
+                !linkConnected(grid, grid.index(point(i, m)), u) ||
+                !linkConnected(grid, grid.index(point(0, i)), w) ||
+                !linkConnected(grid, grid.index(point(m, i)), w);
+    if (!crossed) return;
+    const int h = m / 2;
+    // Positions of the cross (its ends on the border too: a border without cuts on that side
+    // may not have been positioned; positioning twice gives the same value).
+    for (int k = 0; k <= m; ++k) {
+      voxels.push_back(static_cast<std::uint32_t>(grid.index(point(h, k))));
+      if (k != h) voxels.push_back(static_cast<std::uint32_t>(grid.index(point(k, h))));
+    }
+    position();
+    for (int k = 0; k < m; ++k) {
+      test(point(h, k), w);
+      test(point(k, h), u);
+    }
+    for (int q = 0; q < 4; ++q) resolveSquare(point((q & 1) * h, (q >> 1) * h), f, h);
+  }
+
+  // Sub-steps (5-1)-(5-6) on one cube; `cutsOnBoundary` lists the cut links on its faces.
+  void split(const CubeBox& cube, const std::vector<CutLink>& cutsOnBoundary, std::vector<CubeBox>& leaves) {
+    const int s = cube.size(), h = s / 2;
+    const std::size_t before = found.size();
+    // (5-1), (5-2) between the sub-cubes: the three centre lines where the mid-planes meet,
+    // then the 12 quarter faces they divide the mid-planes into.
+    for (int a = 0; a < 3; ++a)
+      for (int k = 0; k <= s; ++k) {
+        if (a > 0 && k == h) continue;  // the centre voxel once
+        Index3 p{cube.o.x + h, cube.o.y + h, cube.o.z + h};
+        p[a] = cube.o[a] + k;
+        voxels.push_back(static_cast<std::uint32_t>(grid.index(p)));
+      }
+    position();
+    for (int a = 0; a < 3; ++a)
+      for (int k = 0; k < s; ++k) {
+        Index3 p{cube.o.x + h, cube.o.y + h, cube.o.z + h};
+        p[a] = cube.o[a] + k;
+        test(p, a);
+      }
+    for (int f = 0; f < 3; ++f) {
+      const int u = (f + 1) % 3, w = (f + 2) % 3;
+      for (int q = 0; q < 4; ++q) {
+        Index3 o = cube.o;
+        o[f] += h;
+        o[u] += (q & 1) * h;
+        o[w] += (q >> 1) * h;
+        resolveSquare(o, f, h);
+      }
+    }
+    // (5-3) a level-1 cube opens up completely.
+    if (cube.level == 1) {
+      for (int z = 0; z <= s; ++z)
+        for (int y = 0; y <= s; ++y)
+          for (int x = 0; x <= s; ++x) {
+            const int d[3] = {x, y, z};
+            std::uint8_t bits = kActiveVoxel;
+            for (int a = 0; a < 3; ++a)
+              if (d[a] < s) bits = static_cast<std::uint8_t>(bits | (1u << a));
+            orState(oct, grid.index(cube.o.x + x, cube.o.y + y, cube.o.z + z), bits);
+          }
+      return;
+    }
+    // (5-4) eight sub-cubes; (5-5) split those with a cut link on their boundary (the cube had
+    // none inside before this frame, so they are on its faces or found just now); (5-6).
+    std::vector<CutLink> all = cutsOnBoundary;
+    all.insert(all.end(), found.begin() + static_cast<long>(before), found.end());
+    std::vector<CutLink> sub;
+    for (int k = 0; k < 8; ++k) {
+      const CubeBox child{{cube.o.x + (k & 1) * h, cube.o.y + ((k >> 1) & 1) * h, cube.o.z + (k >> 2) * h},
+                          cube.level - 1};
+      sub.clear();
+      for (const CutLink& c : all)
+        if (linkOnBoundary(child, c.p, c.a)) sub.push_back(c);
+      if (sub.empty())
+        leaves.push_back(child);
+      else
+        split(child, sub, leaves);
     }
   }
-  // (5-3) a level-1 cube opens up completely.
-  if (cube.level == 1) {
-    for (int z = 0; z <= s; ++z)
-      for (int y = 0; y <= s; ++y)
-        for (int x = 0; x <= s; ++x) {
-          const int d[3] = {x, y, z};
-          std::uint8_t bits = kActiveVoxel;
-          for (int a = 0; a < 3; ++a)
-            if (d[a] < s) bits = static_cast<std::uint8_t>(bits | (1u << a));
-          orState(oct, grid.index(cube.o.x + x, cube.o.y + y, cube.o.z + z), bits);
-        }
-    return;
-  }
-  // (5-4) eight sub-cubes; (5-5) split those with a disconnected link on their boundary: the
-  // cube had none inside before this frame, so they are among `cuts`; (5-6).
-  std::vector<CutLink> sub;
-  for (int k = 0; k < 8; ++k) {
-    const CubeBox child{{cube.o.x + (k & 1) * h, cube.o.y + ((k >> 1) & 1) * h, cube.o.z + (k >> 2) * h},
-                        cube.level - 1};
-    sub.clear();
-    for (const CutLink& c : cuts)
-      if (linkOnBoundary(child, c.p, c.a)) sub.push_back(c);
-    if (sub.empty())
-      out.leaves.push_back(child);
-    else
-      splitCube(child, sub, oct, grid, hooks, out);
-  }
-}
+};
 
 }  // namespace
 
@@ -210,131 +183,133 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
   const Index3 d = grid.dims();
   std::vector<std::uint64_t> pending;
   for (const LinkCut& c : cuts) pending.push_back(c.link);
-  std::vector<std::uint8_t> affected(oct.cubes.size(), 0);
+  std::vector<std::uint8_t> affected;
+  // The cubes (level >= 1) around link (v, a), through the 4 unit cells it borders.
+  auto cubesAround = [&](std::uint64_t link, auto&& fn) {
+    const std::size_t v = static_cast<std::size_t>(link / 3);
+    const int a = static_cast<int>(link % 3);
+    const Index3 c = grid.coord(v);
+    const int u = (a + 1) % 3, w = (a + 2) % 3;
+    for (int k = 0; k < 4; ++k) {
+      Index3 cell = c;
+      cell[u] -= k & 1;
+      cell[w] -= k >> 1;
+      if (cell[u] < 0 || cell[w] < 0 || cell[u] + 1 >= d[u] || cell[w] + 1 >= d[w]) continue;
+      const std::int32_t cube = oct.cellCube[grid.index(cell)];
+      if (cube >= 0) fn(static_cast<std::size_t>(cube));
+    }
+  };
   while (!pending.empty()) {
-    // (1) cubes around the newly cut links.
+    // (1) mark the cubes around the newly cut links (raising a raised flag is harmless).
     affected.assign(oct.cubes.size(), 0);
     parallelFor(0, pending.size(), 256, [&](std::size_t b, std::size_t e) {
-      for (std::size_t i = b; i < e; ++i) {
-        const std::size_t v = static_cast<std::size_t>(pending[i] / 3);
-        const int a = static_cast<int>(pending[i] % 3);
-        const Index3 c = grid.coord(v);
-        const int u = (a + 1) % 3, w = (a + 2) % 3;
-        for (int k = 0; k < 4; ++k) {
-          Index3 cell = c;
-          cell[u] -= k & 1;
-          cell[w] -= k >> 1;
-          if (cell[u] < 0 || cell[w] < 0 || cell[u] + 1 >= d[u] || cell[w] + 1 >= d[w]) continue;
-          const std::int32_t cube = oct.cellCube[grid.index(cell)];
-          if (cube >= 0) std::atomic_ref<std::uint8_t>(affected[static_cast<std::size_t>(cube)]).store(1, std::memory_order_relaxed);
-        }
-      }
+      for (std::size_t i = b; i < e; ++i)
+        cubesAround(pending[i], [&](std::size_t cube) {
+          std::atomic_ref<std::uint8_t>(affected[cube]).store(1, std::memory_order_relaxed);
+        });
     }, threaded);
     std::vector<std::uint32_t> list;
+    std::vector<std::int32_t> slot(oct.cubes.size(), -1);
     for (std::size_t c = 0; c < affected.size(); ++c)
-      if (affected[c]) list.push_back(static_cast<std::uint32_t>(c));
+      if (affected[c]) {
+        slot[c] = static_cast<std::int32_t>(list.size());
+        list.push_back(static_cast<std::uint32_t>(c));
+      }
     if (list.empty()) break;
     ++stats.rounds;
     stats.affectedCubes += list.size();
 
-    // (2) the boundaries of the affected cubes. A blade that crosses a face crosses links on
-    // its border (a cube's frame, or lines of a split cube's mid-planes, all tested already),
-    // so only faces with a cut on their border hold work: their voxels and links.
-    // (3) positions of their inactive voxels (active ones were positioned for the main test);
-    // a voxel on a face shared by two cubes is positioned by both, to the same value.
-    std::vector<std::vector<std::uint64_t>> faceLinks(list.size());
-    std::vector<std::size_t> positioned(list.size(), 0);
+    // (2)-(4) the faces of the affected cubes: their voxels are positioned and their links
+    // tested, square by square where the blade's trace runs (a face shared by two affected
+    // cubes is resolved by both, with the same results). A face's border is the cube's frame,
+    // or lines of the mid-planes of the cube it was split from: decided already.
+    std::vector<Worker> faceWork;
+    faceWork.reserve(list.size());
+    for (std::size_t i = 0; i < list.size(); ++i) faceWork.push_back(Worker{oct, grid, hooks, {}, {}, {}, 0, 0});
     parallelFor(0, list.size(), 1, [&](std::size_t b, std::size_t e) {
-      std::vector<std::uint32_t> voxels;
       for (std::size_t i = b; i < e; ++i) {
         const OctreeCube& oc = oct.cubes[list[i]];
-        const CubeBox cube{oc.origin, oc.level};
-        voxels.clear();
+        const int s = 1 << oc.level;
         for (int f = 0; f < 6; ++f) {
-          bool crossed = false;
-          forEachLinkOfFace(cube, f, true, [&](const Index3& p, int a) {
-            crossed = crossed || !linkConnected(grid, grid.index(p), a);
-          });
-          if (!crossed) continue;
-          forEachVoxelOfFace(cube, f, [&](const Index3& p) {
-            const std::size_t v = grid.index(p);
-            if (!oct.voxelActive(v)) voxels.push_back(static_cast<std::uint32_t>(v));
-          });
-          forEachLinkOfFace(cube, f, false, [&](const Index3& p, int a) {
-            const std::size_t v = grid.index(p);
-            if (!oct.linkActive(v, a) && linkConnected(grid, v, a)) faceLinks[i].push_back(VoxelGrid::linkId(v, a));
-          });
+          Index3 o = oc.origin;
+          o[f / 2] += (f & 1) * s;
+          faceWork[i].resolveSquare(o, f / 2, s);
         }
-        if (!voxels.empty()) hooks.updatePositions(voxels);
-        positioned[i] = voxels.size();
       }
     }, threaded);
-
-    // (4) those links against the blade (a link on a shared face may be tested twice).
-    std::vector<std::vector<LinkCut>> found(list.size());
-    parallelFor(0, list.size(), 1, [&](std::size_t b, std::size_t e) {
-      for (std::size_t i = b; i < e; ++i)
-        for (std::uint64_t link : faceLinks[i])
-          if (const auto h = hooks.testLink(static_cast<std::size_t>(link / 3), static_cast<int>(link % 3)))
-            found[i].push_back({link, *h});
-    }, threaded);
     std::vector<LinkCut> roundCuts;
-    for (std::size_t i = 0; i < list.size(); ++i) {
-      stats.testedLinks += faceLinks[i].size();
-      stats.positionedVoxels += positioned[i];
-      roundCuts.insert(roundCuts.end(), found[i].begin(), found[i].end());
+    for (Worker& w : faceWork) {
+      stats.testedLinks += w.tested;
+      stats.positionedVoxels += w.positioned;
+      roundCuts.insert(roundCuts.end(), w.cuts.begin(), w.cuts.end());
     }
     std::sort(roundCuts.begin(), roundCuts.end(), [](const LinkCut& x, const LinkCut& y) { return x.link < y.link; });
     roundCuts.erase(std::unique(roundCuts.begin(), roundCuts.end(),
                                 [](const LinkCut& x, const LinkCut& y) { return x.link == y.link; }),
                     roundCuts.end());
-    for (const LinkCut& lc : roundCuts) grid.setConnected(static_cast<std::size_t>(lc.link / 3), static_cast<int>(lc.link % 3), false);
+
+    // The cut links on each affected cube's boundary: this frame's cuts so far (a surviving
+    // cube had none before), gathered through the cubes around each.
+    std::vector<std::vector<CutLink>> onBoundary(list.size());
+    auto collect = [&](std::uint64_t link) {
+      const std::size_t v = static_cast<std::size_t>(link / 3);
+      const int a = static_cast<int>(link % 3);
+      const Index3 p = grid.coord(v);
+      for (std::size_t i = 0; i < list.size(); ++i) (void)i;
+      std::size_t seen[4];
+      int n = 0;
+      cubesAround(link, [&](std::size_t cube) {
+        if (slot[cube] < 0 || std::find(seen, seen + n, cube) != seen + n) return;
+        seen[n++] = cube;
+        const OctreeCube& oc = oct.cubes[cube];
+        if (linkOnBoundary({oc.origin, oc.level}, p, a)) onBoundary[static_cast<std::size_t>(slot[cube])].push_back({p, a});
+      });
+    };
+    for (const LinkCut& c : cuts) collect(c.link);
+    for (const LinkCut& c : roundCuts) collect(c.link);
 
     // (5) split every affected cube, in parallel: their insides are disjoint.
-    std::vector<SplitResult> results(list.size());
+    std::vector<Worker> splitWork;
+    splitWork.reserve(list.size());
+    for (std::size_t i = 0; i < list.size(); ++i) splitWork.push_back(Worker{oct, grid, hooks, {}, {}, {}, 0, 0});
+    std::vector<std::vector<CubeBox>> leaves(list.size());
     parallelFor(0, list.size(), 1, [&](std::size_t b, std::size_t e) {
       for (std::size_t i = b; i < e; ++i) {
         const OctreeCube& oc = oct.cubes[list[i]];
-        const CubeBox cube{oc.origin, oc.level};
-        std::vector<CutLink> boundaryCuts;
-        forEachFaceLink(cube, [&](const Index3& p, int a) {
-          if (!linkConnected(grid, grid.index(p), a)) boundaryCuts.push_back({p, a});
-        });
-        splitCube(cube, boundaryCuts, oct, grid, hooks, results[i]);
+        splitWork[i].split({oc.origin, oc.level}, onBoundary[i], leaves[i]);
       }
     }, threaded);
 
     // Store the sub-cubes: the first takes the split cube's slot, the others are appended.
     for (std::size_t i = 0; i < list.size(); ++i) {
-      SplitResult& r = results[i];
-      stats.testedLinks += r.tested;
-      stats.positionedVoxels += r.positioned;
-      roundCuts.insert(roundCuts.end(), r.cuts.begin(), r.cuts.end());
+      stats.testedLinks += splitWork[i].tested;
+      stats.positionedVoxels += splitWork[i].positioned;
+      roundCuts.insert(roundCuts.end(), splitWork[i].cuts.begin(), splitWork[i].cuts.end());
       const std::uint32_t id = list[i];
       const OctreeCube old = oct.cubes[id];
       const int s = 1 << old.level;
       for (int z = 0; z < s; ++z)
         for (int y = 0; y < s; ++y)
           for (int x = 0; x < s; ++x) oct.cellCube[grid.index(old.origin.x + x, old.origin.y + y, old.origin.z + z)] = -1;
-      if (r.leaves.empty()) {
+      if (leaves[i].empty()) {
         oct.cubes[id].deleted = true;
         continue;
       }
-      for (std::size_t k = 0; k < r.leaves.size(); ++k) {
-        const OctreeCube sub{r.leaves[k].o, static_cast<std::uint8_t>(r.leaves[k].level), false};
-        std::uint32_t slot = id;
+      for (std::size_t k = 0; k < leaves[i].size(); ++k) {
+        const OctreeCube sub{leaves[i][k].o, static_cast<std::uint8_t>(leaves[i][k].level), false};
+        std::uint32_t at = id;
         if (k == 0) {
           oct.cubes[id] = sub;
         } else {
-          slot = static_cast<std::uint32_t>(oct.cubes.size());
+          at = static_cast<std::uint32_t>(oct.cubes.size());
           oct.cubes.push_back(sub);
         }
-        oct.newCubes.push_back(slot);
+        oct.newCubes.push_back(at);
         const int ss = 1 << sub.level;
         for (int z = 0; z < ss; ++z)
           for (int y = 0; y < ss; ++y)
             for (int x = 0; x < ss; ++x)
-              oct.cellCube[grid.index(sub.origin.x + x, sub.origin.y + y, sub.origin.z + z)] = static_cast<std::int32_t>(slot);
+              oct.cellCube[grid.index(sub.origin.x + x, sub.origin.y + y, sub.origin.z + z)] = static_cast<std::int32_t>(at);
       }
     }
     // Hermite data of this round's cuts; they are next round's newly cut links (6).
