@@ -17,22 +17,7 @@ namespace voxcut::app {
 namespace {
 
 BladePose parsePose(const std::string& text, const char* option) {
-  std::vector<double> v;
-  std::stringstream ss(text);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    std::size_t used = 0;
-    double x = 0;
-    try {
-      x = std::stod(item, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || used != item.size() || !std::isfinite(x))
-      throw InputError(std::string(option) + " '" + text + "': '" + item + "' is not a finite number");
-    v.push_back(x);
-  }
-  if (v.size() != 6) throw InputError(std::string(option) + " '" + text + "': expected AX,AY,AZ,BX,BY,BZ");
+  const std::vector<double> v = parseNumberList(text, option, 6, "AX,AY,AZ,BX,BY,BZ");
   BladePose p{Vec3d(v[0], v[1], v[2]), Vec3d(v[3], v[4], v[5])};
   if ((p.a - p.b).norm() == 0) throw InputError(std::string(option) + ": the blade's two ends coincide");
   return p;

@@ -8,9 +8,9 @@
 #include <sstream>
 
 namespace voxcut::app {
-namespace {
 
-Plane parsePlane(const std::string& text) {
+std::vector<double> parseNumberList(const std::string& text, const char* option, std::size_t count,
+                                    const char* form) {
   std::vector<double> v;
   std::stringstream ss(text);
   std::string item;
@@ -23,10 +23,17 @@ Plane parsePlane(const std::string& text) {
       used = 0;
     }
     if (used == 0 || used != item.size() || !std::isfinite(x))
-      throw InputError("--cut-plane '" + text + "': '" + item + "' is not a finite number");
+      throw InputError(std::string(option) + " '" + text + "': '" + item + "' is not a finite number");
     v.push_back(x);
   }
-  if (v.size() != 4) throw InputError("--cut-plane '" + text + "': expected NX,NY,NZ,D");
+  if (v.size() != count) throw InputError(std::string(option) + " '" + text + "': expected " + form);
+  return v;
+}
+
+namespace {
+
+Plane parsePlane(const std::string& text) {
+  const std::vector<double> v = parseNumberList(text, "--cut-plane", 4, "NX,NY,NZ,D");
   return {Vec3d(v[0], v[1], v[2]), v[3]};
 }
 

@@ -25,6 +25,11 @@ struct ModelOptions {
   bool json = false;
 };
 
+/// Parses `count` comma-separated finite numbers given to `option` (`form` shows the syntax in
+/// the error). Throws InputError.
+std::vector<double> parseNumberList(const std::string& text, const char* option, std::size_t count,
+                                    const char* form);
+
 /// Adds the model options to a subcommand (the cut-plane option only when `cutPlanes`).
 void addModelOptions(CLI::App& cmd, ModelOptions& opt, bool cutPlanes = true);
 

@@ -255,7 +255,6 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
       const std::size_t v = static_cast<std::size_t>(link / 3);
       const int a = static_cast<int>(link % 3);
       const Index3 p = grid.coord(v);
-      for (std::size_t i = 0; i < list.size(); ++i) (void)i;
       std::size_t seen[4];
       int n = 0;
       cubesAround(link, [&](std::size_t cube) {
