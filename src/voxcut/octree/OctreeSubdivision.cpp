@@ -58,7 +58,15 @@ struct Worker {
   std::vector<std::uint32_t> voxels;  // scratch
   std::size_t tested = 0, positioned = 0;
 
+  // Positions the listed voxels, except those positioned for the main test (active at the
+  // start of the frame: voxels opened since carry kOpenedVoxel instead).
   void position() {
+    voxels.erase(std::remove_if(voxels.begin(), voxels.end(),
+                                [&](std::uint32_t v) {
+                                  return std::atomic_ref<std::uint8_t>(oct.state[v]).load(std::memory_order_relaxed) &
+                                         kActiveVoxel;
+                                }),
+                 voxels.end());
     if (voxels.empty()) return;
     hooks.updatePositions(voxels);
     positioned += voxels.size();
@@ -149,7 +157,7 @@ struct Worker {
         for (int y = 0; y <= s; ++y)
           for (int x = 0; x <= s; ++x) {
             const int d[3] = {x, y, z};
-            std::uint8_t bits = kActiveVoxel;
+            std::uint8_t bits = kOpenedVoxel;
             for (int a = 0; a < 3; ++a)
               if (d[a] < s) bits = static_cast<std::uint8_t>(bits | (1u << a));
             orState(oct, grid.index(cube.o.x + x, cube.o.y + y, cube.o.z + z), bits);

@@ -303,8 +303,11 @@ void rebuildActiveVoxels(VoxelOctree& oct, bool threaded) {
   std::vector<std::vector<std::uint32_t>> parts((n + kChunk - 1) / kChunk);
   parallelFor(0, parts.size(), 1, [&](std::size_t p0, std::size_t p1) {
     for (std::size_t p = p0; p < p1; ++p)
-      for (std::size_t v = p * kChunk; v < std::min(n, (p + 1) * kChunk); ++v)
-        if (oct.state[v] & kActiveVoxel) parts[p].push_back(static_cast<std::uint32_t>(v));
+      for (std::size_t v = p * kChunk; v < std::min(n, (p + 1) * kChunk); ++v) {
+        std::uint8_t& s = oct.state[v];
+        if (s & kOpenedVoxel) s = static_cast<std::uint8_t>((s & ~kOpenedVoxel) | kActiveVoxel);
+        if (s & kActiveVoxel) parts[p].push_back(static_cast<std::uint32_t>(v));
+      }
   }, threaded);
   oct.activeVoxels.clear();
   for (const auto& p : parts) oct.activeVoxels.insert(oct.activeVoxels.end(), p.begin(), p.end());

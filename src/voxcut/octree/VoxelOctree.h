@@ -38,6 +38,8 @@ enum VoxelState : std::uint8_t {
   kActiveLinkY = 1u << 1,
   kActiveLinkZ = 1u << 2,
   kActiveVoxel = 1u << 3,
+  kOpenedVoxel = 1u << 4,  ///< activated by this frame's subdivision; folded into kActiveVoxel
+                           ///< by rebuildActiveVoxels (until then kActiveVoxel says "positioned")
 };
 
 /// The octree and the activity marks it implies. Owns its arrays; not thread-safe for writes
@@ -72,7 +74,8 @@ void compactCubes(VoxelOctree& octree, bool threaded = true);
 /// Deferred update (b): activates the voxels and links on the edges of cubes created since the
 /// last call (the protective frame of new cubes).
 void activateNewCubeFrames(VoxelOctree& octree, const VoxelGrid& grid, bool threaded = true);
-/// Deferred update (c): rebuilds the sorted active voxel index array.
+/// Deferred update (c): folds kOpenedVoxel into kActiveVoxel and rebuilds the sorted active
+/// voxel index array.
 void rebuildActiveVoxels(VoxelOctree& octree, bool threaded = true);
 
 /// Activates the links on the 12 edges of a cube and their voxels (atomic: callable from
