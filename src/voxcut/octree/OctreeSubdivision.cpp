@@ -76,8 +76,8 @@ struct Worker {
   // Tests link (p, a); a crossed link is disconnected at once and recorded.
   void test(const Index3& p, int a) {
     const std::size_t v = grid.index(p);
+    ++tested;  // counted before the state check, so the count does not depend on scheduling
     if (!linkConnected(grid, v, a)) return;
-    ++tested;
     if (const auto hit = hooks.testLink(v, a)) {
       disconnect(grid, v, a);
       cuts.push_back({VoxelGrid::linkId(v, a), *hit});
@@ -241,6 +241,17 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
         for (int f = 0; f < 6; ++f) {
           Index3 o = oc.origin;
           o[f / 2] += (f & 1) * s;
+          // A face shared whole with another affected cube of the same size is resolved once,
+          // by the cube listed first.
+          Index3 across = oc.origin;
+          across[f / 2] += (f & 1) ? s : -1;
+          if (across[f / 2] >= 0 && across[f / 2] + 1 < d[f / 2]) {
+            const std::int32_t other = oct.cellCube[grid.index(across)];
+            if (other >= 0 && slot[static_cast<std::size_t>(other)] >= 0 &&
+                slot[static_cast<std::size_t>(other)] < static_cast<std::int32_t>(i) &&
+                oct.cubes[static_cast<std::size_t>(other)].level == oc.level)
+              continue;
+          }
           faceWork[i].resolveSquare(o, f / 2, s);
         }
       }

@@ -35,9 +35,9 @@ struct SubdivisionHooks {
 struct SubdivisionStats {
   int rounds = 0;                 ///< passes through sub-steps (1)-(6)
   std::size_t affectedCubes = 0;  ///< cubes marked in sub-step (1), summed over rounds
-  std::size_t testedLinks = 0;    ///< inactive links tested against the blade
+  std::size_t testedLinks = 0;    ///< links the subdivision examined (tested unless already cut)
   std::size_t cutLinks = 0;       ///< of which crossed
-  std::size_t positionedVoxels = 0;
+  std::size_t positionedVoxels = 0;  ///< voxels positioned (a voxel on a shared face may count twice)
 };
 
 /// Runs sub-steps (1)-(6). `cuts` holds the links cut so far this frame (already disconnected
