@@ -195,17 +195,10 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
   // The cubes (level >= 1) around link (v, a), through the 4 unit cells it borders.
   auto cubesAround = [&](std::uint64_t link, auto&& fn) {
     const std::size_t v = static_cast<std::size_t>(link / 3);
-    const int a = static_cast<int>(link % 3);
-    const Index3 c = grid.coord(v);
-    const int u = (a + 1) % 3, w = (a + 2) % 3;
-    for (int k = 0; k < 4; ++k) {
-      Index3 cell = c;
-      cell[u] -= k & 1;
-      cell[w] -= k >> 1;
-      if (cell[u] < 0 || cell[w] < 0 || cell[u] + 1 >= d[u] || cell[w] + 1 >= d[w]) continue;
+    forEachCellAroundLink(d, grid.coord(v), static_cast<int>(link % 3), [&](const Index3& cell) {
       const std::int32_t cube = oct.cellCube[grid.index(cell)];
       if (cube >= 0) fn(static_cast<std::size_t>(cube));
-    }
+    });
   };
   while (!pending.empty()) {
     // (1) mark the cubes around the newly cut links (raising a raised flag is harmless).

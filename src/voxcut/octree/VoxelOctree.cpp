@@ -197,11 +197,6 @@ VoxelOctree buildVoxelOctree(const VoxelGrid& grid, const OctreeParams& params, 
 
   // Activation steps (2)-(4).
   oct.state.assign(grid.voxelCount(), 0);
-  auto covers = [&](const Index3& cell) {
-    for (int a = 0; a < 3; ++a)
-      if (cell[a] < 0 || cell[a] + 1 >= d[a]) return false;
-    return oct.cellCube[grid.index(cell)] >= 0;
-  };
   parallelFor(0, static_cast<std::size_t>(d.z), 1, [&](std::size_t z0, std::size_t z1) {
     for (int z = static_cast<int>(z0); z < static_cast<int>(z1); ++z)
       for (int y = 0; y < d.y; ++y)
@@ -211,15 +206,12 @@ VoxelOctree buildVoxelOctree(const VoxelGrid& grid, const OctreeParams& params, 
           std::uint8_t bits = 0;
           for (int a = 0; a < 3; ++a) {
             if (!grid.connected(v, a)) continue;
-            const int u = (a + 1) % 3, w = (a + 2) % 3;
-            bool surrounded = true;
-            for (int k = 0; k < 4 && surrounded; ++k) {
-              Index3 cell = c;
-              cell[u] -= k & 1;
-              cell[w] -= k >> 1;
-              surrounded = covers(cell);
-            }
-            if (!surrounded) bits = static_cast<std::uint8_t>(bits | (1u << a));
+            // Surrounded: all 4 cells around the link exist and lie in cubes.
+            int inCubes = 0;
+            const int cells = forEachCellAroundLink(d, c, a, [&](const Index3& cell) {
+              inCubes += oct.cellCube[grid.index(cell)] >= 0;
+            });
+            if (cells < 4 || inCubes < 4) bits = static_cast<std::uint8_t>(bits | (1u << a));
           }
           oct.state[v] = bits;
         }

@@ -60,6 +60,23 @@ struct VoxelOctree {
   [[nodiscard]] std::size_t activeLinkCount() const;
 };
 
+/// Calls fn(cell) for each of the up to 4 unit cells (by their min voxel) that border the link
+/// from `voxel` along axis a and lie inside a grid of `dims`; returns how many there were.
+template <class Fn>
+int forEachCellAroundLink(const Index3& dims, const Index3& voxel, int a, Fn&& fn) {
+  const int u = (a + 1) % 3, w = (a + 2) % 3;
+  int n = 0;
+  for (int k = 0; k < 4; ++k) {
+    Index3 cell = voxel;
+    cell[u] -= k & 1;
+    cell[w] -= k >> 1;
+    if (cell[u] < 0 || cell[w] < 0 || cell[u] + 1 >= dims[u] || cell[w] + 1 >= dims[w]) continue;
+    fn(cell);
+    ++n;
+  }
+  return n;
+}
+
 /// Builds the octree (paper §3.1): a level-L cube exists where all (2^L+1)^3 voxels are
 /// occupied and all its links connected, and L is within the material limits; only the
 /// largest cubes are kept. Then marks active links and voxels (steps (1)-(4)). Deterministic.
