@@ -29,15 +29,19 @@ std::string hex(std::uint64_t h) {
   return buf;
 }
 
-// Voxelizes the model and prepares (and deforms) a body for cutting.
-CutBody prepareBody(const ModelOptions& mo, bool octree, const std::string& deform, std::string& name) {
+// Loads and voxelizes the model of the options; `name` receives its name.
+VoxelGrid voxelizeModel(const ModelOptions& mo, std::string& name) {
   const Model model = loadFromOptions(mo);
   name = model.name;
-  const VoxelGrid grid = voxelize(model.materials, voxelizeParams(mo, model));
+  return voxelize(model.materials, voxelizeParams(mo, model));
+}
+
+// Prepares (and deforms) a body for cutting, with or without the octree.
+CutBody prepareBody(VoxelGrid grid, const ModelOptions& mo, bool octree, const std::string& deform) {
   CutBodyParams bp;
   bp.useOctree = octree;
   bp.octree = octreeParams(mo, grid.materialNames());
-  CutBody body = makeCutBody(grid, bp);
+  CutBody body = makeCutBody(std::move(grid), bp);
   applyDeformation(body.deformation, parseDeformation(deform));
   return body;
 }
@@ -65,7 +69,7 @@ void addCutCommand(CLI::App& app, CutOptions& opt, CLI::App*& cmd) {
 int runCut(const CutOptions& opt) {
   ThreadLimit limit(opt.model.threads);
   std::string name;
-  const CutBody body = prepareBody(opt.model, !opt.noOctree, opt.deform, name);
+  const CutBody body = prepareBody(voxelizeModel(opt.model, name), opt.model, !opt.noOctree, opt.deform);
   BladeMotion motion = defaultBladeMotion(body);
   if (!opt.blade.empty()) motion = {parsePose(opt.blade, "--blade"), parsePose(opt.to, "--to")};
   SingleFrameParams sp;
@@ -143,8 +147,10 @@ int runBench(const BenchOptions& opt) {
     ModelOptions mo;
     mo.model = m;
     std::string name;
-    const CutBody withOctree = prepareBody(mo, true, opt.deform, name);
-    const CutBody baseline = prepareBody(mo, false, opt.deform, name);
+    // One voxelization serves both bodies.
+    const VoxelGrid grid = voxelizeModel(mo, name);
+    const CutBody withOctree = prepareBody(grid, mo, true, opt.deform);
+    const CutBody baseline = prepareBody(grid, mo, false, opt.deform);
     const BladeMotion motion = defaultBladeMotion(withOctree);
     for (int t : opt.threads) {
       ThreadLimit limit(t);

@@ -153,7 +153,7 @@ VoxelizeParams voxelizeParams(const ModelOptions& opt, const Model& model) {
   return vp;
 }
 
-ModelBuild buildFromOptions(const ModelOptions& opt, std::string& modelName) {
+ModelBuild buildFromOptions(const ModelOptions& opt, std::string& modelName, bool octrees) {
   const Model model = loadFromOptions(opt);
   modelName = model.name;
   ModelBuildParams params;
@@ -161,6 +161,7 @@ ModelBuild buildFromOptions(const ModelOptions& opt, std::string& modelName) {
   std::vector<std::string> names;
   for (const auto& m : model.materials) names.push_back(m.name);
   params.octree = octreeParams(opt, names);
+  params.octrees = octrees;
   for (const auto& p : opt.cutPlanes) params.cuts.push_back(parsePlane(p));
   return buildModel(model.materials, params);
 }

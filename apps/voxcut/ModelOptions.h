@@ -43,7 +43,8 @@ VoxelizeParams voxelizeParams(const ModelOptions& opt, const Model& model);
 OctreeParams octreeParams(const ModelOptions& opt, const std::vector<std::string>& materials);
 
 /// Loads the model, voxelizes, cuts and contours it; progress on stderr when it is a terminal.
-/// `modelName` receives the name to report. Throws InputError.
-ModelBuild buildFromOptions(const ModelOptions& opt, std::string& modelName);
+/// `modelName` receives the name to report; `octrees` builds both octrees for the report.
+/// Throws InputError.
+ModelBuild buildFromOptions(const ModelOptions& opt, std::string& modelName, bool octrees);
 
 }  // namespace voxcut::app

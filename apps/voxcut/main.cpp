@@ -124,7 +124,8 @@ int run(int argc, char** argv) {
   ModelOptions& opt = info->parsed() ? infoOpt : surfOpt;
   ThreadLimit limit(opt.threads);
   std::string name;
-  const ModelBuild b = buildFromOptions(opt, name);
+  // `surface` prints the octrees only in its JSON; it does not build them otherwise.
+  const ModelBuild b = buildFromOptions(opt, name, info->parsed() || opt.json);
   if (surface->parsed()) writeSurface(b.surface, output);
   if (opt.json)
     std::cout << toJson(name, b, ThreadLimit::current()).dump(2) << "\n";

@@ -144,9 +144,9 @@ std::string describe(const std::vector<std::string>& args, const RunResult& r) {
          "\n  stderr: " + r.err.substr(0, 500);
 }
 
-/// Runs `voxcut info ARGS --json`, expects success and returns the parsed object.
-json infoJson(std::vector<std::string> args) {
-  args.insert(args.begin(), "info");
+/// Runs `voxcut COMMAND ARGS --json`, expects success and returns the parsed object.
+json commandJson(const char* command, std::vector<std::string> args) {
+  args.insert(args.begin(), command);
   args.emplace_back("--json");
   const RunResult r = voxcut(args);
   EXPECT_EQ(r.status, 0) << describe(args, r);
@@ -157,6 +157,9 @@ json infoJson(std::vector<std::string> args) {
     return json::object();
   }
 }
+
+/// Runs `voxcut info ARGS --json`, expects success and returns the parsed object.
+json infoJson(std::vector<std::string> args) { return commandJson("info", std::move(args)); }
 
 /// Decimal text that reads back to the same double.
 std::string num(double x) {
@@ -573,18 +576,7 @@ TEST(Cli, HelpOfEachSubcommand) {
 // --- the voxel octree and the single-frame cut (issue 3) -----------------------------------
 
 /// Runs `voxcut cut ARGS --json`, expects success and returns the parsed object.
-json cutJson(std::vector<std::string> args) {
-  args.insert(args.begin(), "cut");
-  args.emplace_back("--json");
-  const RunResult r = voxcut(args);
-  EXPECT_EQ(r.status, 0) << describe(args, r);
-  try {
-    return json::parse(r.out);
-  } catch (const json::exception& e) {
-    ADD_FAILURE() << "stdout is not JSON (" << e.what() << ")\n" << describe(args, r);
-    return json::object();
-  }
-}
+json cutJson(std::vector<std::string> args) { return commandJson("cut", std::move(args)); }
 
 TEST(Cli, InfoReportsBothOctrees) {
   const json j = infoJson({"bunny", "--max-level", "2"});

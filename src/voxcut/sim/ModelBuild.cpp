@@ -81,6 +81,7 @@ ModelBuild buildModel(const std::vector<MaterialMesh>& materials, const ModelBui
   timer.restart();
   out.stats.topology = surfaceTopology(out.surface);
   out.timings.emplace_back("topology", timer.ms());
+  if (!params.octrees) return out;
 
   timer.restart();
   OctreeParams op = params.octree;

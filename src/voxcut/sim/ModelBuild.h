@@ -23,6 +23,7 @@ struct ModelBuildParams {
   std::vector<Plane> cuts;
   OctreeParams octree;                   ///< empty: max internal level 4, boundary level 0
   DeformationOctreeParams deformation;
+  bool octrees = true;                   ///< build both octrees to report them
   bool threaded = true;
 };
 
