@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The main job on the built-in bunny: set up, build, print its linked voxel model and write its
-# surface to out/bunny.obj.
+# The main job on the built-in bunny: set up, build, print its linked voxel model, then run the
+# shipped scene scenes/bunny-ear.json (a blade cuts an ear off, the ear falls away) and write
+# its deformed surfaces to out/bunny-ear/frame_NNNNN.obj every 10 frames.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
@@ -8,4 +9,4 @@ cmake --preset release >/dev/null
 cmake --build --preset release --target voxcut
 mkdir -p out
 ./build/release/apps/voxcut/voxcut info bunny
-./build/release/apps/voxcut/voxcut surface bunny -o out/bunny.obj
+./build/release/apps/voxcut/voxcut run scenes/bunny-ear.json --export out/bunny-ear --every 10

@@ -8,6 +8,7 @@
 
 #include "CutCommand.h"
 #include "ModelOptions.h"
+#include "RunCommand.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/io/SurfaceWriter.h"
 
@@ -105,6 +106,9 @@ int run(int argc, char** argv) {
   BenchOptions benchOpt;
   CLI::App* bench = nullptr;
   addBenchCommand(app, benchOpt, bench);
+  RunOptions runOpt;
+  CLI::App* runCmd = nullptr;
+  addRunCommand(app, runOpt, runCmd);
 
   try {
     app.parse(argc, argv);
@@ -121,6 +125,7 @@ int run(int argc, char** argv) {
   }
   if (cut->parsed()) return runCut(cutOpt);
   if (bench->parsed()) return runBench(benchOpt);
+  if (runCmd->parsed()) return runRun(runOpt);
   ModelOptions& opt = info->parsed() ? infoOpt : surfOpt;
   ThreadLimit limit(opt.threads);
   std::string name;

@@ -7,6 +7,7 @@
 
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
+#include "voxcut/fem/CutTopology.h"
 
 namespace voxcut {
 
@@ -49,6 +50,33 @@ DeformationOctree::DeformationOctree(const VoxelGrid& grid, int maxLevel,
     ++occupiedVoxels_;
     restVoxelBounds_.extend(grid.position(v));
   }
+  rebuildCubeIndex();
+}
+
+void DeformationOctree::rebuildCubeIndex() {
+  cubeFirst_.clear();
+  cubeFirst_.reserve(elements_.size());
+  nextCopy_.assign(elements_.size(), kNoElement);
+  // Backwards, so that each chain ends up in ascending id order.
+  for (std::size_t i = elements_.size(); i-- > 0;) {
+    const OctreeElement& e = elements_[i];
+    auto [it, fresh] = cubeFirst_.try_emplace(cubeKey(e.level, e.coord), static_cast<std::uint32_t>(i));
+    if (!fresh) {
+      nextCopy_[i] = it->second;
+      it->second = static_cast<std::uint32_t>(i);
+    }
+  }
+}
+
+std::uint32_t DeformationOctree::firstCopy(int level, const Index3& c) const {
+  const auto it = cubeFirst_.find(cubeKey(level, c));
+  return it == cubeFirst_.end() ? kNoElement : it->second;
+}
+
+std::vector<std::uint32_t> DeformationOctree::cubeCopies(int level, const Index3& c) const {
+  std::vector<std::uint32_t> out;
+  for (std::uint32_t e = firstCopy(level, c); e != kNoElement; e = nextCopy_[e]) out.push_back(e);
+  return out;
 }
 
 void DeformationOctree::updateHangingNodes() {
@@ -395,6 +423,7 @@ DeformationOctree buildDeformationOctree(const VoxelGrid& grid,
     seen[n] = 1;
     HangingNode hn;
     hn.node = n;
+    hn.element = static_cast<std::uint32_t>(&e - elements.data());
     hn.masterCount = static_cast<std::uint8_t>(k);
     hn.coarseLevel = static_cast<std::uint8_t>(e.level);
     int i = 0;
@@ -438,8 +467,10 @@ DeformationOctree buildDeformationOctree(const VoxelGrid& grid,
       },
       params.threaded);
 
-  return DeformationOctree(grid, M, std::move(elements), std::move(nodeCoords), std::move(hanging),
-                           std::move(embedding));
+  DeformationOctree oc(grid, M, std::move(elements), std::move(nodeCoords), std::move(hanging),
+                       std::move(embedding));
+  if (params.splitParts) duplicateByParts(oc, grid, params.threaded);
+  return oc;
 }
 
 }  // namespace voxcut

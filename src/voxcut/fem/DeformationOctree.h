@@ -18,10 +18,13 @@
 /// empty space the 2:1 rule does not rule this out); hangingNodes() is ordered so that
 /// resolving it front to back sees masters already resolved.
 ///
-/// Not yet: an element whose occupied voxels form several disconnected parts (two lobes passing
-/// through one coarse element) should be duplicated, one copy per part, with node copies shared
-/// only where voxels stay connected (DESIGN.md part 4, algorithms.md "components of a dual
-/// cell"). Today every such element is one element and glues its parts together.
+/// Copies (DESIGN.md part 4, algorithms.md "components of a dual cell"). A leaf cube of the
+/// octree whose occupied voxels form several connected parts (connected links inside the cube)
+/// is one element *copy* per part: copies share the cube (level, coord) and own disjoint voxels.
+/// Nodes are copies too: several nodes may sit at one node-grid point, one per group of the
+/// element copies around it that stay connected there (rule in CutTopology.h). A hanging node
+/// copy's masters are the corner node copies of the coarse element copy it lies on. Element
+/// cubes of copies overlap; cubes of different leaves do not.
 ///
 /// Thread-safety: const member functions may run concurrently with each other; anything that
 /// moves nodes (positions(), updateHangingNodes()) must not run concurrently with readers.
@@ -29,6 +32,7 @@
 #include <Eigen/Geometry>
 #include <array>
 #include <cstdint>
+#include <unordered_map>
 #include <vector>
 
 #include "voxcut/core/Types.h"
@@ -58,6 +62,7 @@ struct OctreeElement {
 /// (2 masters, the edge's ends) or the centre of its face (4 masters, the face's corners).
 struct HangingNode {
   std::uint32_t node = 0;
+  std::uint32_t element = kNoElement;      ///< the coarse element copy it lies on
   std::uint8_t masterCount = 0;            ///< 2 or 4
   std::uint8_t coarseLevel = 0;            ///< level of the element whose edge or face it lies on
   std::array<std::uint32_t, 4> masters{};  ///< the first masterCount entries are used
@@ -76,8 +81,14 @@ struct DeformationOctreeParams {
   int startLevel = 3;  ///< level of the elements that first cover the occupied voxels
   int maxLevel = 4;    ///< coarsest level merging may reach (>= startLevel)
   bool merge = true;   ///< merge 8 full siblings into their parent, up to maxLevel
+  /// Duplicate elements per connected voxel part and nodes per connected group (the rule of
+  /// CutTopology.h), so lobes that pass through one element are not glued together. Off: one
+  /// element per leaf cube, one node per node-grid point.
+  bool splitParts = true;
   bool threaded = true;
 };
+
+class TopologyEditor;
 
 /// The deformation octree. Owns its arrays; copyable (tests and later cut steps copy it).
 class DeformationOctree {
@@ -144,6 +155,22 @@ class DeformationOctree {
   /// (sums to nodeCount()).
   [[nodiscard]] std::vector<std::size_t> nodeCountPerLevel() const;
   [[nodiscard]] std::size_t hangingNodeCount() const { return hanging_.size(); }
+  /// The finest level any element may have is 0; this is the coarsest (sizes per-level counts).
+  [[nodiscard]] int maxLevel() const { return maxLevel_; }
+
+  /// Key of the cube (level, coord): level in bits 60..63, coordinates (each < 2^20) in
+  /// bits 40..59, 20..39, 0..19.
+  [[nodiscard]] static std::uint64_t cubeKey(int level, const Index3& c) {
+    return (static_cast<std::uint64_t>(level) << 60) | (static_cast<std::uint64_t>(c.x) << 40) |
+           (static_cast<std::uint64_t>(c.y) << 20) | static_cast<std::uint64_t>(c.z);
+  }
+  /// The first element copy of leaf cube (level, coord), kNoElement when it is not a leaf.
+  /// Copies of one cube follow through nextCopy() in ascending id order. O(1) expected.
+  [[nodiscard]] std::uint32_t firstCopy(int level, const Index3& c) const;
+  /// The next copy of element e's cube after e, kNoElement after the last.
+  [[nodiscard]] std::uint32_t nextCopy(std::uint32_t e) const { return nextCopy_[e]; }
+  /// The element copies of leaf cube (level, coord) (empty when it is not a leaf).
+  [[nodiscard]] std::vector<std::uint32_t> cubeCopies(int level, const Index3& c) const;
   [[nodiscard]] std::size_t occupiedVoxelCount() const { return occupiedVoxels_; }
 
   /// Grid geometry the octree was built on.
@@ -158,6 +185,9 @@ class DeformationOctree {
   [[nodiscard]] const Eigen::AlignedBox3d& restVoxelBounds() const { return restVoxelBounds_; }
 
  private:
+  friend class TopologyEditor;
+  void rebuildCubeIndex();
+
   template <class Write>
   void forEachVoxelPosition(const std::vector<std::uint32_t>& voxels, bool threaded,
                             Write&& write) const;
@@ -175,14 +205,19 @@ class DeformationOctree {
   std::vector<VoxelEmbedding> embedding_;
   std::size_t occupiedVoxels_ = 0;
   Eigen::AlignedBox3d restVoxelBounds_;
+  std::unordered_map<std::uint64_t, std::uint32_t> cubeFirst_;  ///< leaf cube key -> first copy
+  std::vector<std::uint32_t> nextCopy_;                         ///< per element
 };
 
 /// Builds the deformation octree over the occupied voxels of `grid`: elements of level
 /// startLevel over every occupied voxel; 8 full siblings (every voxel they cover occupied)
 /// merged into their parent, repeatedly up to maxLevel when `merge`; then coarse elements
 /// refined until the 2:1 rule holds (vertex adjacency). Elements are ordered by their first
-/// voxel's index, nodes by their node-grid index: the result is deterministic for any thread
-/// count. Throws InputError for startLevel outside [0, 7] or maxLevel outside
+/// voxel's index, nodes by their node-grid index. With params.splitParts, elements are then
+/// duplicated per connected voxel part and nodes per connected group (duplicateByParts in
+/// CutTopology.h; a few cubes may be refined where a hanging node would otherwise be
+/// ambiguous); copies take the slots after the existing ones. The result is deterministic
+/// for any thread count. Throws InputError for startLevel outside [0, 7] or maxLevel outside
 /// [startLevel, 7]. Thread-safe (reads `grid` only).
 [[nodiscard]] DeformationOctree buildDeformationOctree(const VoxelGrid& grid,
                                                        const DeformationOctreeParams& params = {});

@@ -1,5 +1,8 @@
 #include "voxcut/surface/DualCell.h"
 
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+
 namespace voxcut {
 namespace {
 
@@ -150,6 +153,199 @@ int dualCellPatches(const DualCell& cell, std::array<std::int8_t, 24>& patch,
     patch[s] = label[r];
   }
   return n;
+}
+
+NeighbourCell gridNeighbour(const VoxelGrid& grid, const Index3& m) {
+  // Two words of capture, so that std::function needs no heap allocation.
+  return [g = &grid, cell = grid.index(m)](int face) {
+    Index3 o = g->coord(cell);
+    const int a = face / 2;
+    o[a] += (face & 1) ? 1 : -1;
+    if (o[a] < 0 || o[a] + 1 >= g->dims()[a]) return DualCell{};
+    return gatherDualCell(*g, o);
+  };
+}
+
+namespace {
+
+// QEF vertex of one patch, in cell-local coordinates.
+Vec3d solveQef(const Eigen::Matrix3d& ata, const Vec3d& atb, const Vec3d& mass, double threshold) {
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+  es.computeDirect(ata);
+  const Vec3d ev = es.eigenvalues();
+  const double cut = threshold * std::max(ev.maxCoeff(), 0.0);
+  const Vec3d rhs = es.eigenvectors().transpose() * (atb - ata * mass);
+  Vec3d y = Vec3d::Zero();
+  for (int i = 0; i < 3; ++i)
+    if (ev[i] > cut && ev[i] > 0) y[i] = rhs[i] / ev[i];
+  const Vec3d x = mass + es.eigenvectors() * y;
+  constexpr double kTol = 1e-9;
+  if ((x.array() < -kTol).any() || (x.array() > 1 + kTol).any()) return mass;
+  return x;
+}
+
+}  // namespace
+
+DualCellVertices dualCellVertices(const VoxelGrid& grid, const Index3& m, double qefThreshold,
+                                  std::array<FaceSegments, 6>* segments,
+                                  std::uint8_t* neighbourFaces) {
+  DualCellVertices out;
+  const DualCell cell = gatherDualCell(grid, m);
+  if (neighbourFaces) {
+    *neighbourFaces = 0;
+    const NeighbourCell across = gridNeighbour(grid, m);
+    out.count = dualCellPatches(cell, out.patch, [&](int f) {
+      *neighbourFaces = static_cast<std::uint8_t>(*neighbourFaces | (1u << f));
+      return across(f);
+    }, segments);
+  } else {
+    out.count = dualCellPatches(cell, out.patch, gridNeighbour(grid, m), segments);
+  }
+  VOXCUT_ASSERT(out.count <= 12, "a dual cell has at most 12 patches");
+  const std::size_t base = grid.index(m);
+  for (int p = 0; p < out.count; ++p) {
+    Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
+    Vec3d atb = Vec3d::Zero(), mass = Vec3d::Zero();
+    int count = 0;
+    std::uint64_t voxel = ~std::uint64_t{0};
+    for (int s = 0; s < 24; ++s) {
+      if (out.patch[s] != p) continue;
+      const int e = s / 2, side = s % 2, a = e / 4;
+      const int lo = edgeCorner(e, 0);
+      const std::size_t vlo = base + cornerBit(lo, 0) * grid.stride(0) +
+                              cornerBit(lo, 1) * grid.stride(1) + cornerBit(lo, 2) * grid.stride(2);
+      const std::size_t vside = side ? vlo + grid.stride(a) : vlo;
+      voxel = std::min<std::uint64_t>(voxel, vside);
+      const Hermite* h = grid.hermite().find(VoxelGrid::linkId(vlo, a));
+      Vec3d point(cornerBit(lo, 0), cornerBit(lo, 1), cornerBit(lo, 2));
+      Vec3d normal = Vec3d::Zero();
+      normal[a] = 1.0;
+      if (h) {
+        point[a] += h->t;
+        normal = Vec3d(h->n[0], h->n[1], h->n[2]);
+      } else {
+        point[a] += 0.5;  // a disconnected link without data; should not happen
+      }
+      if (side) normal = -normal;
+      ata += normal * normal.transpose();
+      atb += normal * normal.dot(point);
+      mass += point;
+      ++count;
+    }
+    mass /= count;
+    const Vec3d local = solveQef(ata, atb, mass, qefThreshold);
+    out.position[p] = grid.origin() + grid.voxelSize() * (Vec3d(m.x, m.y, m.z) + local);
+    out.voxel[p] = voxel;
+  }
+  return out;
+}
+
+void cellsAroundLink(const VoxelGrid& grid, std::size_t v, int a, std::array<std::size_t, 4>& cells,
+                     std::array<int, 4>& edges) {
+  const int u = (a + 1) % 3, w = (a + 2) % 3;
+  constexpr int kOff[4][2] = {{-1, -1}, {0, -1}, {0, 0}, {-1, 0}};
+  for (int k = 0; k < 4; ++k) {
+    cells[k] = v;
+    if (kOff[k][0]) cells[k] -= grid.stride(u);
+    if (kOff[k][1]) cells[k] -= grid.stride(w);
+    edges[k] = 4 * a + (-kOff[k][0]) + 2 * (-kOff[k][1]);
+  }
+}
+
+LinkFace linkFace(int a, int k) {
+  const int u = (a + 1) % 3, w = (a + 2) % 3;
+  return {(k == 0 || k == 3) ? 0 : (k == 1 ? 1 : 3), (k % 2 == 0) ? u : w};
+}
+
+int slotAcross(int slot, int a) {
+  const int e = slot / 2, ea = e / 4;
+  const int bit = ((ea + 1) % 3 == a) ? 1 : 2;
+  return 2 * (e & ~bit) + slot % 2;
+}
+
+int doubledSegments(const FaceSegments& fs, int a, const std::array<std::int8_t, 24>& lower,
+                    const std::array<std::int8_t, 24>& upper, std::array<DoubledSegment, 4>& out) {
+  int n = 0;
+  for (int r = 1; r < fs.count; ++r)
+    for (int q = 0; q < r; ++q) {
+      const int s0 = fs.slots[r][0], t0 = fs.slots[q][0];
+      if (lower[s0] != lower[t0] || upper[slotAcross(s0, a)] != upper[slotAcross(t0, a)]) continue;
+      out[n++] = {fs.slots[r], lower[s0], upper[slotAcross(s0, a)]};
+      break;
+    }
+  return n;
+}
+
+namespace {
+
+// Whether splitting quad q (cells in order around the link) along cells 0-2 bends less than
+// along 1-3: the split whose triangle normals agree better; ties go to 0-2. Symmetric in the
+// quad's orientation, so both sheets of a cut link choose alike.
+bool preferDiagonal02(const std::vector<Vec3d>& pos, const std::array<int, 4>& q) {
+  const Vec3d &p0 = pos[q[0]], &p1 = pos[q[1]], &p2 = pos[q[2]], &p3 = pos[q[3]];
+  auto agreement = [](const Vec3d& n0, const Vec3d& n1) {
+    const double l = n0.norm() * n1.norm();
+    return l > 0 ? n0.dot(n1) / l : -2.0;
+  };
+  const double b02 = agreement((p1 - p0).cross(p2 - p0), (p2 - p0).cross(p3 - p0));
+  const double b13 = agreement((p2 - p1).cross(p3 - p1), (p3 - p1).cross(p0 - p1));
+  return b02 >= b13;
+}
+
+}  // namespace
+
+void triangulateLink(const LinkRing& ring, const std::vector<Vec3d>& positions,
+                     std::array<LinkSheet, 2>& out) {
+  bool quad[2] = {false, false};
+  for (int side = 0; side < 2; ++side) {
+    LinkSheet& sh = out[side];
+    sh = LinkSheet{};
+    if (!ring.sheet[side]) continue;
+    bool split = false;
+    for (int k = 0; k < 4; ++k) split = split || ring.split[side][k] >= 0;
+    if (!split) {
+      quad[side] = true;
+      continue;
+    }
+    // Rare: a polygon with split edges, fanned around its own centre.
+    for (int k = 0; k < 4; ++k) {
+      sh.polygon[sh.polygonSize++] = ring.vertex[side][k];
+      if (ring.split[side][k] >= 0) sh.polygon[sh.polygonSize++] = ring.split[side][k];
+    }
+    if (side) std::reverse(sh.polygon.begin(), sh.polygon.begin() + sh.polygonSize);
+  }
+  // Split along the diagonal (cells 0-2 or 1-3) whose two triangles bend least.
+  bool diag02[2] = {true, true};
+  for (int side = 0; side < 2; ++side)
+    if (quad[side]) diag02[side] = preferDiagonal02(positions, ring.vertex[side]);
+  // At a crack front both sheets of a cut link can share the vertices of a diagonal; then the
+  // second sheet takes the other diagonal, or that edge would carry four triangles.
+  if (quad[0] && quad[1] && diag02[0] == diag02[1]) {
+    const int i = diag02[0] ? 0 : 1;
+    const auto& q = ring.vertex;
+    if (q[0][i] == q[1][i] && q[0][i + 2] == q[1][i + 2]) diag02[1] = !diag02[1];
+  }
+  for (int side = 0; side < 2; ++side) {
+    if (!quad[side]) continue;
+    std::array<int, 4> r = ring.vertex[side];
+    // Counter-clockwise about +a for the low side; reversed for the high side.
+    if (side) std::swap(r[1], r[3]);
+    LinkSheet& sh = out[side];
+    sh.triangleCount = 2;
+    if (diag02[side]) {
+      sh.triangles[0] = {r[0], r[1], r[2]};
+      sh.triangles[1] = {r[0], r[2], r[3]};
+    } else {
+      sh.triangles[0] = {r[0], r[1], r[3]};
+      sh.triangles[1] = {r[1], r[2], r[3]};
+    }
+  }
+}
+
+Vec3d polygonCentre(const LinkSheet& sheet, const std::vector<Vec3d>& positions) {
+  Vec3d p = Vec3d::Zero();
+  for (int i = 0; i < sheet.polygonSize; ++i) p += positions[sheet.polygon[i]];
+  return p / static_cast<double>(sheet.polygonSize);
 }
 
 }  // namespace voxcut

@@ -12,6 +12,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <vector>
 
 #include "voxcut/voxel/VoxelGrid.h"
 
@@ -61,5 +62,97 @@ struct FaceSegments {
 int dualCellPatches(const DualCell& cell, std::array<std::int8_t, 24>& patch,
                     const NeighbourCell& neighbour,
                     std::array<FaceSegments, 6>* segments = nullptr);
+
+/// The cell across face f of the cell with min corner `m` in `grid` (for dualCellPatches).
+/// Borrows `grid`; the result must not outlive it.
+[[nodiscard]] NeighbourCell gridNeighbour(const VoxelGrid& grid, const Index3& m);
+
+// ---- Pieces of dual contouring shared by dualContour and ContouredSurface ------------------
+// Both must produce bit-identical vertices and triangles, so each step is written once here.
+
+/// Dual-contouring vertices of one cell: one per surface patch.
+struct DualCellVertices {
+  std::array<std::int8_t, 24> patch{};     ///< patch of each incidence slot, -1 for none
+  int count = 0;                           ///< number of patches (at most 12)
+  std::array<Vec3d, 12> position;          ///< per patch: rest-frame position (metres)
+  std::array<std::uint64_t, 12> voxel{};   ///< per patch: lowest material voxel of its incidences
+};
+
+/// Patches of the cell with min corner `m` (all 8 corners inside `grid`) and one vertex each:
+/// the QEF minimiser of the patch's Hermite planes (points and outward normals of its
+/// incidences), solved in cell coordinates (cell size 1) as x = c + (AᵀA)⁺(Aᵀb − AᵀA c) with
+/// c the mass point and eigenvalues below `qefThreshold` x the largest dropped; c when x
+/// leaves the cell by more than 1e-9. `segments`, when given, receives the face segments;
+/// `neighbourFaces`, when given, bit f set for each face f whose neighbour cell the ring rule
+/// read (the patches can change when that neighbour does). Thread-safe (reads `grid` only).
+[[nodiscard]] DualCellVertices dualCellVertices(const VoxelGrid& grid, const Index3& m,
+                                                double qefThreshold,
+                                                std::array<FaceSegments, 6>* segments = nullptr,
+                                                std::uint8_t* neighbourFaces = nullptr);
+
+/// The 4 cells around link (v, a), counter-clockwise about +a: min corners v − e_u − e_w,
+/// v − e_w, v, v − e_u (u = (a+1)%3, w = (a+2)%3), as voxel indices, and the link's edge number
+/// in each. The caller checks that the cells lie inside the grid.
+void cellsAroundLink(const VoxelGrid& grid, std::size_t v, int a, std::array<std::size_t, 4>& cells,
+                     std::array<int, 4>& edges);
+
+/// The face between cells k and k+1 (mod 4) of cellsAroundLink: it is the +`axis` face of cell
+/// `lower` (an index 0..3 into those cells).
+struct LinkFace {
+  int lower;
+  int axis;
+};
+[[nodiscard]] LinkFace linkFace(int a, int k);
+
+/// Key of incidence `slot` on the +a face of cell `cell` (a voxel index), unique per grid.
+[[nodiscard]] inline std::uint64_t faceSlotKey(std::size_t cell, int a, int slot) {
+  return (static_cast<std::uint64_t>(cell) * 3 + static_cast<std::uint64_t>(a)) * 24 +
+         static_cast<std::uint64_t>(slot);
+}
+
+/// The slot of the same incidence seen from the cell across the +a face (slot on that face).
+[[nodiscard]] int slotAcross(int slot, int a);
+
+/// Two surface segments of one face can join the same two patches (one in each cell); their
+/// dual edges would coincide and carry four triangles. Each such segment but the first gets a
+/// split vertex, at the middle of the two cells' vertices, owned by the lower cell's voxel.
+/// Lists those segments of the +a face of a cell with patches `lower`, whose neighbour across
+/// the face has patches `upper`; `fs` are the lower cell's segments on that face. Returns the
+/// count; out[i] = {segment's two slots (lower cell), lower patch, upper patch}.
+struct DoubledSegment {
+  std::array<std::int8_t, 2> slots;
+  int lowerPatch;
+  int upperPatch;
+};
+int doubledSegments(const FaceSegments& fs, int a, const std::array<std::int8_t, 24>& lower,
+                    const std::array<std::int8_t, 24>& upper, std::array<DoubledSegment, 4>& out);
+
+/// Vertices around one disconnected link: for each side s (0: the low voxel v, 1: v + e_a)
+/// that holds material, the vertex of the side's patch in each cell of cellsAroundLink, and
+/// the split vertex on the face between cells k and k+1, or -1.
+struct LinkRing {
+  std::array<bool, 2> sheet{};
+  std::array<std::array<int, 4>, 2> vertex{};
+  std::array<std::array<int, 4>, 2> split{};
+};
+
+/// The surface of one side of a link: two triangles of the quad, or (when the ring has split
+/// vertices) a polygon to fan around its centre (polygonCentre) with triangles
+/// (polygon[i], polygon[i+1], centre). Counter-clockwise seen from outside the side's material.
+struct LinkSheet {
+  int triangleCount = 0;
+  std::array<std::array<int, 3>, 2> triangles{};
+  int polygonSize = 0;
+  std::array<int, 8> polygon{};
+};
+
+/// Triangulates both sheets of a link: a quad is split along the diagonal whose two triangles
+/// bend least (ties to cells 0-2); when both sheets would share the vertices of that diagonal
+/// (a crack front) the high side takes the other one. `positions` are indexed by vertex id.
+void triangulateLink(const LinkRing& ring, const std::vector<Vec3d>& positions,
+                     std::array<LinkSheet, 2>& out);
+
+/// Centre of a split polygon: the mean of its vertices, summed in polygon order.
+[[nodiscard]] Vec3d polygonCentre(const LinkSheet& sheet, const std::vector<Vec3d>& positions);
 
 }  // namespace voxcut

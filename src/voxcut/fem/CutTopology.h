@@ -1,0 +1,78 @@
+#pragma once
+/// @file CutTopology.h
+/// The deformation octree's topology after a cut (DESIGN.md part 4, issue 4 item 2): elements
+/// holding newly cut links are refined down to a finest level keeping the 2:1 rule, every
+/// element whose voxels form several connected parts becomes one copy per part, and nodes are
+/// duplicated so that copies share a node exactly where their voxels stay connected around it.
+///
+/// Node rule (our choice). At each node-grid point P, take the element copies whose closed
+/// cube contains P: "corner" copies have P as a corner, "coarse" copies have it at an edge
+/// midpoint or face centre (2:1 allows nothing else next to a corner copy). Unite two copies
+/// of different cubes when their cubes share a face region (which then holds P) and a
+/// connected link joins a voxel of one to a voxel of the other. This contains the dual-cell
+/// rule: two voxels around P joined by a link of the dual cell at P sit in copies whose cubes
+/// share a face through P, so at level 0 the groups at P are exactly the connected components
+/// of the dual cell at P. Each group with a corner copy gets one node copy at P, used by its
+/// corner copies. A group that also holds a coarse copy makes that node hanging, with the
+/// coarse copy's corner nodes at the edge ends or face corners as masters; a fine copy not
+/// connected to the coarse element there keeps a free node.
+///
+/// Why this has no gap where no link is cut: a connected link v-w between copies A and B puts
+/// the face of v's and w's cubes inside the smaller of A's and B's faces; A and B are united at
+/// every node on it, so they share those nodes, and a node on the coarser face is hanging on
+/// the coarser copy's corners, which makes the two trilinear maps agree on the whole face.
+/// Why cut pieces separate: copies are united only through connected links, so two copies
+/// that share a node lie in one connected piece.
+///
+/// Where two coarse copies in one group would give a hanging node different masters (a coarse
+/// cube whose parts are joined only through finer neighbours), the coarse cubes are refined
+/// (keeping 2:1) and the groups recomputed, until every hanging node is unambiguous.
+///
+/// Thread-safety: the functions here modify the octree; nothing may read it concurrently.
+/// Results do not depend on the thread count.
+
+#include <cstdint>
+#include <vector>
+
+#include "voxcut/fem/DeformationOctree.h"
+#include "voxcut/fem/TopologyChange.h"
+#include "voxcut/voxel/VoxelGrid.h"
+
+namespace voxcut {
+
+/// Settings of the topology update after a cut.
+struct CutTopologyParams {
+  int finestLevel = 0;   ///< elements holding a voxel of a new cut link are refined to this level
+  bool threaded = true;  ///< run the per-cube and per-point loops in parallel
+};
+
+/// After a cut: refines the elements that hold a voxel of any newly cut link (link id
+/// 3*v + axis, VoxelGrid::linkId) down to params.finestLevel, restoring 2:1 around them, then
+/// duplicates elements per connected voxel part and nodes per connected group in the changed
+/// region (the cubes refined or holding a cut voxel, and the nodes on them and on the cubes
+/// touching those nodes). The links must already be disconnected in `grid`.
+///
+/// Elements that did not change keep their index and data; new elements fill the slots of the
+/// removed ones (ascending) in order of their lowest voxel index, then are appended. Nodes away
+/// from the changed region keep their index; freed node slots are reused and, if fewer nodes
+/// are needed, filled from the end. Current node positions are carried over: a copied node
+/// keeps its source's position, a node created by refinement gets the trilinear interpolation
+/// of its old element's current corners, so no voxel moves (a hanging node so placed equals the
+/// mean of its masters up to rounding; updateHangingNodes() makes it exact).
+///
+/// Cost: proportional to the changed region (its cubes' voxels and points) plus O(#elements +
+/// #nodes) for the bookkeeping; no pass over the grid. Throws InputError for finestLevel
+/// outside [0, 7]. Returns the map from the old elements and nodes to the new ones.
+TopologyChange updateCutTopology(DeformationOctree& octree, const VoxelGrid& grid,
+                                 const std::vector<std::uint64_t>& newCutLinks,
+                                 const CutTopologyParams& params = {});
+
+/// The load-time rule: every element whose voxels form several connected parts becomes one
+/// copy per part, and nodes are regrouped by the rule above at every node-grid point (a few
+/// cubes may be refined where a hanging node would be ambiguous). buildDeformationOctree calls
+/// it when DeformationOctreeParams::splitParts is set. Cost: one pass over the voxels of every
+/// element. Returns the map from the octree before to the octree after.
+TopologyChange duplicateByParts(DeformationOctree& octree, const VoxelGrid& grid,
+                                bool threaded = true);
+
+}  // namespace voxcut

@@ -1,0 +1,428 @@
+#include "voxcut/fem/ElasticModel.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <tuple>
+#include <utility>
+
+#include "voxcut/core/Error.h"
+#include "voxcut/core/Parallel.h"
+
+namespace voxcut {
+
+namespace {
+
+void checkMaterials(const std::vector<ElasticMaterial>& materials) {
+  for (std::size_t m = 1; m < materials.size(); ++m) {
+    const ElasticMaterial& mat = materials[m];
+    const std::string name = "material " + std::to_string(m) + ": ";
+    if (!(mat.youngModulus > 0.0) || !std::isfinite(mat.youngModulus))
+      throw InputError(name + "young_modulus must be a finite number > 0");
+    if (!(mat.poissonRatio > -1.0 && mat.poissonRatio < 0.5))
+      throw InputError(name + "poisson_ratio must lie in (-1, 0.5)");
+    if (!(mat.density > 0.0) || !std::isfinite(mat.density))
+      throw InputError(name + "density must be a finite number > 0");
+    if (!(mat.dampingMass >= 0.0) || !(mat.dampingStiffness >= 0.0) ||
+        !std::isfinite(mat.dampingMass) || !std::isfinite(mat.dampingStiffness))
+      throw InputError(name + "damping factors must be finite numbers >= 0");
+  }
+}
+
+/// Turns per-row lists into compressed rows (serial, in row order).
+template <class Row>
+WeightedRows compress(const std::vector<Row>& rows) {
+  WeightedRows out;
+  out.start.reserve(rows.size() + 1);
+  for (const Row& row : rows) {
+    for (const auto& [index, weight] : row) {
+      out.index.push_back(index);
+      out.weight.push_back(weight);
+    }
+    out.start.push_back(static_cast<std::uint32_t>(out.index.size()));
+  }
+  return out;
+}
+
+}  // namespace
+
+ElasticModel::ElasticModel(const DeformationOctree& octree, const VoxelGrid& grid,
+                           std::vector<ElasticMaterial> materials, bool threaded)
+    : materials_(std::move(materials)), threaded_(threaded) {
+  checkMaterials(materials_);
+  VOXCUT_ASSERT(grid.voxelCount() == static_cast<std::size_t>(octree.gridDims().x) *
+                                         static_cast<std::size_t>(octree.gridDims().y) *
+                                         static_cast<std::size_t>(octree.gridDims().z),
+                "the grid is not the octree's");
+  elementNodes_.reserve(octree.elementCount());
+  for (const OctreeElement& el : octree.elements()) elementNodes_.push_back(el.nodes);
+  hanging_ = octree.hangingNodes();
+  elements_.resize(octree.elementCount());
+  std::vector<std::uint32_t> all(octree.elementCount());
+  for (std::size_t e = 0; e < all.size(); ++e) all[e] = static_cast<std::uint32_t>(e);
+  computeElements(octree, grid, all);
+  requested_.assign(octree.nodeCount(), 0);
+  buildNodeData();
+  buildConstraints();
+}
+
+void ElasticModel::computeElements(const DeformationOctree& octree, const VoxelGrid& grid,
+                                   const std::vector<std::uint32_t>& which) {
+  // A material outside the table is bad input (the scene's); remember it per element and
+  // throw after the parallel loop.
+  std::vector<std::uint16_t> badMaterial(which.size(), 0);
+  const Index3 dims = grid.dims();
+  parallelFor(
+      0, which.size(), 4,
+      [&](std::size_t b, std::size_t end) {
+        std::vector<MaterialMoments> region;
+        for (std::size_t k = b; k < end; ++k) {
+          const std::uint32_t e = which[k];
+          const OctreeElement& el = octree.element(e);
+          const Index3 f = el.firstVoxel();
+          const int s = el.size();
+          region.clear();
+          for (int z = f.z; z < std::min(f.z + s, dims.z); ++z)
+            for (int y = f.y; y < std::min(f.y + s, dims.y); ++y) {
+              const int xEnd = std::min(f.x + s, dims.x);
+              int x = f.x;
+              while (x < xEnd) {
+                // A run of voxels owned by e with one material.
+                const std::size_t v = grid.index(x, y, z);
+                if (octree.owner(v) != e) {
+                  ++x;
+                  continue;
+                }
+                const std::uint8_t m = grid.material(v);
+                int x1 = x + 1;
+                while (x1 < xEnd && octree.owner(v + static_cast<std::size_t>(x1 - x)) == e &&
+                       grid.material(v + static_cast<std::size_t>(x1 - x)) == m)
+                  ++x1;
+                if (m == 0 || m >= materials_.size()) {
+                  badMaterial[k] = static_cast<std::uint16_t>(m == 0 ? 256 : m);
+                } else {
+                  addVoxelRow(region, el.level, x - f.x, x1 - x, y - f.y, z - f.z, m);
+                }
+                x = x1;
+              }
+            }
+          if (badMaterial[k] == 0)
+            elements_[e] = hexElementMatrices(el.level, octree.voxelSize(), region, materials_);
+        }
+      },
+      threaded_);
+  for (std::uint16_t m : badMaterial) {
+    if (m == 256) throw InputError("an element holds an empty voxel (material 0)");
+    if (m != 0)
+      throw InputError("voxel material " + std::to_string(m) +
+                       " has no elastic material (the table has " +
+                       std::to_string(materials_.empty() ? 0 : materials_.size() - 1) + ")");
+  }
+}
+
+void ElasticModel::buildNodeData() {
+  const std::size_t nodes = requested_.size();
+  // Incidence by counting sort: element-major fill keeps each row ascending in 8 e + c.
+  incidence_ = WeightedRows{};
+  incidence_.start.assign(nodes + 1, 0);
+  for (const auto& corners : elementNodes_)
+    for (std::uint32_t n : corners) ++incidence_.start[n + 1];
+  for (std::size_t n = 0; n < nodes; ++n) incidence_.start[n + 1] += incidence_.start[n];
+  incidence_.index.resize(incidence_.start[nodes]);
+  incidence_.weight.assign(incidence_.start[nodes], 1.0);
+  std::vector<std::uint32_t> fill(incidence_.start.begin(), incidence_.start.end() - 1);
+  for (std::size_t e = 0; e < elementNodes_.size(); ++e)
+    for (std::uint32_t c = 0; c < 8; ++c)
+      incidence_.index[fill[elementNodes_[e][c]]++] = static_cast<std::uint32_t>(8 * e + c);
+
+  nodeMass_.assign(nodes, 0.0);
+  nodeMassDamping_.assign(nodes, 0.0);
+  parallelFor(
+      0, nodes, 256,
+      [&](std::size_t b, std::size_t end) {
+        for (std::size_t n = b; n < end; ++n)
+          for (std::uint32_t k = incidence_.start[n]; k < incidence_.start[n + 1]; ++k) {
+            const std::uint32_t ec = incidence_.index[k];
+            nodeMass_[n] += elements_[ec / 8].mass[ec % 8];
+            nodeMassDamping_[n] += elements_[ec / 8].massDamping[ec % 8];
+          }
+      },
+      threaded_);
+}
+
+void ElasticModel::setFixed(std::vector<std::uint8_t> fixed) {
+  fixed.resize(nodeCount(), 0);
+  requested_ = std::move(fixed);
+  buildConstraints();
+}
+
+void ElasticModel::buildConstraints() {
+  const std::size_t nodes = requested_.size();
+  std::vector<std::uint8_t> hanging(nodes, 0), used(nodes, 0);
+  for (const HangingNode& h : hanging_) hanging[h.node] = 1;
+  // An element without voxels (possible in principle after a topology update) carries no
+  // mass; nodes only it touches would make the system singular.
+  for (std::size_t e = 0; e < elementNodes_.size(); ++e)
+    if (elements_[e].volume > 0.0)
+      for (std::uint32_t n : elementNodes_[e]) used[n] = 1;
+  // Back to front visits dependants before their (coarser) masters, so closures propagate
+  // down whole chains.
+  fixed_.resize(nodes);
+  for (std::size_t n = 0; n < nodes; ++n) fixed_[n] = requested_[n] != 0 ? 1 : 0;
+  for (auto it = hanging_.rbegin(); it != hanging_.rend(); ++it)
+    for (int m = 0; m < it->masterCount; ++m) {
+      if (fixed_[it->node]) fixed_[it->masters[m]] = 1;
+      if (used[it->node]) used[it->masters[m]] = 1;
+    }
+
+  freeNodes_.clear();
+  freeIndex_.assign(nodes, kNotFree);
+  for (std::size_t n = 0; n < nodes; ++n)
+    if (!hanging[n] && !fixed_[n] && used[n]) {
+      freeIndex_[n] = static_cast<std::uint32_t>(freeNodes_.size());
+      freeNodes_.push_back(static_cast<std::uint32_t>(n));
+    }
+
+  // Prolongation rows; hanging rows front to back (masters first), merged by free index.
+  using Row = std::vector<std::pair<std::uint32_t, double>>;
+  std::vector<Row> rows(nodes);
+  for (std::size_t n = 0; n < nodes; ++n)
+    if (freeIndex_[n] != kNotFree) rows[n].emplace_back(freeIndex_[n], 1.0);
+  for (const HangingNode& h : hanging_) {
+    Row row;
+    const double w = 1.0 / h.masterCount;
+    for (int m = 0; m < h.masterCount; ++m)
+      for (const auto& [i, wm] : rows[h.masters[m]]) row.emplace_back(i, w * wm);
+    std::sort(row.begin(), row.end(),
+              [](const auto& a, const auto& b) { return a.first < b.first; });
+    Row merged;
+    for (const auto& entry : row) {
+      if (!merged.empty() && merged.back().first == entry.first)
+        merged.back().second += entry.second;
+      else
+        merged.push_back(entry);
+    }
+    rows[h.node] = std::move(merged);
+  }
+  prolongation_ = compress(rows);
+
+  // Restriction = transpose, by counting sort over nodes in ascending order.
+  std::vector<Row> transposed(freeNodes_.size());
+  for (std::size_t n = 0; n < nodes; ++n)
+    for (const auto& [i, w] : rows[n]) transposed[i].emplace_back(static_cast<std::uint32_t>(n), w);
+  restriction_ = compress(transposed);
+  buildSparsity();
+}
+
+void ElasticModel::buildSparsity() {
+  const std::size_t rows = freeNodes_.size();
+  const auto massBase = static_cast<std::uint32_t>(64 * elementNodes_.size());
+  VOXCUT_ASSERT(64 * elementNodes_.size() + nodeCount() < 0xffffffffull,
+                "too many elements for 32-bit block sources");
+  // Row i of P^T A P gathers, for every node n that restricts to i (weight wn): every element
+  // corner a at n, coupled to every corner b and through P to free node j (weight wj); and
+  // n's mass, coupled through P to free node j.
+  using Entry = std::tuple<std::uint32_t, std::uint32_t, double>;  // column, source, weight
+  std::vector<std::vector<Entry>> perRow(rows);
+  parallelFor(
+      0, rows, 16,
+      [&](std::size_t b, std::size_t end) {
+        for (std::size_t i = b; i < end; ++i) {
+          std::vector<Entry>& out = perRow[i];
+          for (std::uint32_t r = restriction_.start[i]; r < restriction_.start[i + 1]; ++r) {
+            const std::uint32_t n = restriction_.index[r];
+            const double wn = restriction_.weight[r];
+            for (std::uint32_t k = incidence_.start[n]; k < incidence_.start[n + 1]; ++k) {
+              const std::uint32_t e = incidence_.index[k] / 8, a = incidence_.index[k] % 8;
+              for (std::uint32_t c = 0; c < 8; ++c) {
+                const std::uint32_t nb = elementNodes_[e][c];
+                for (std::uint32_t p = prolongation_.start[nb]; p < prolongation_.start[nb + 1];
+                     ++p)
+                  out.emplace_back(prolongation_.index[p], 64 * e + 8 * a + c,
+                                   wn * prolongation_.weight[p]);
+              }
+            }
+            for (std::uint32_t p = prolongation_.start[n]; p < prolongation_.start[n + 1]; ++p)
+              out.emplace_back(prolongation_.index[p], massBase + n, wn * prolongation_.weight[p]);
+          }
+          std::sort(out.begin(), out.end(), [](const Entry& x, const Entry& y) {
+            return std::tie(std::get<0>(x), std::get<1>(x)) <
+                   std::tie(std::get<0>(y), std::get<1>(y));
+          });
+        }
+      },
+      threaded_);
+
+  sparsity_ = BlockSparsity{};
+  sparsity_.diagonal.assign(rows, kNotFree);
+  for (std::size_t i = 0; i < rows; ++i) {
+    const std::vector<Entry>& entries = perRow[i];
+    for (std::size_t k = 0; k < entries.size(); ++k) {
+      const std::uint32_t j = std::get<0>(entries[k]);
+      if (k == 0 || std::get<0>(entries[k - 1]) != j) {
+        if (k > 0)
+          sparsity_.sourceStart.push_back(static_cast<std::uint32_t>(sparsity_.source.size()));
+        if (j == i) sparsity_.diagonal[i] = static_cast<std::uint32_t>(sparsity_.column.size());
+        sparsity_.column.push_back(j);
+      }
+      sparsity_.source.push_back(std::get<1>(entries[k]));
+      sparsity_.sourceWeight.push_back(std::get<2>(entries[k]));
+    }
+    if (!entries.empty())
+      sparsity_.sourceStart.push_back(static_cast<std::uint32_t>(sparsity_.source.size()));
+    sparsity_.rowStart.push_back(static_cast<std::uint32_t>(sparsity_.column.size()));
+    VOXCUT_ASSERT(sparsity_.diagonal[i] != kNotFree, "a free node without its diagonal block");
+  }
+}
+
+void ElasticModel::updateTopology(const DeformationOctree& octree, const VoxelGrid& grid,
+                                  const TopologyChange& change) {
+  if (!change.changed) return;
+  VOXCUT_ASSERT(change.elementSource.size() == octree.elementCount(),
+                "one element source per element");
+  VOXCUT_ASSERT(change.nodeSource.size() == octree.nodeCount(), "one node source per node");
+  std::vector<ElementMatrices> next(octree.elementCount());
+  std::vector<std::uint32_t> fresh;
+  for (std::size_t e = 0; e < next.size(); ++e) {
+    const std::uint32_t s = change.elementSource[e];
+    if (s == kNewElement) {
+      fresh.push_back(static_cast<std::uint32_t>(e));
+    } else {
+      VOXCUT_ASSERT(s < elements_.size(), "element source out of range");
+      next[e] = elements_[s];
+    }
+  }
+  std::vector<std::uint8_t> requested(octree.nodeCount(), 0);
+  for (std::size_t n = 0; n < requested.size(); ++n) {
+    const NodeSource& src = change.nodeSource[n];
+    bool all = src.count > 0;
+    for (int k = 0; k < src.count; ++k) {
+      VOXCUT_ASSERT(src.nodes[k] < requested_.size(), "node source out of range");
+      all = all && requested_[src.nodes[k]] != 0;
+    }
+    requested[n] = all ? 1 : 0;
+  }
+  elements_ = std::move(next);
+  elementNodes_.clear();
+  for (const OctreeElement& el : octree.elements()) elementNodes_.push_back(el.nodes);
+  hanging_ = octree.hangingNodes();
+  requested_ = std::move(requested);
+  computeElements(octree, grid, fresh);
+  buildNodeData();
+  buildConstraints();
+}
+
+double ElasticModel::totalMass() const {
+  double sum = 0.0;
+  for (double m : nodeMass_) sum += m;
+  return sum;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Forces, energy, global matrices
+// ---------------------------------------------------------------------------------------------
+
+namespace {
+
+/// Current and rest corners of element e, and its corotated displacement.
+Eigen::Matrix<double, 24, 1> corotatedOf(const DeformationOctree& octree, std::uint32_t e,
+                                         Eigen::Matrix3d& rotation) {
+  const OctreeElement& el = octree.element(e);
+  std::array<Vec3d, 8> x, rest, u;
+  for (std::size_t c = 0; c < 8; ++c) {
+    x[c] = octree.positions()[el.nodes[c]];
+    rest[c] = octree.restPositions()[el.nodes[c]];
+    u[c] = x[c] - rest[c];
+  }
+  rotation = polarRotation(centreDeformationGradient(u, octree.voxelSize() * el.size()));
+  return corotatedDisplacement(rotation, x, rest);
+}
+
+void checkInStep(const ElasticModel& model, const DeformationOctree& octree) {
+  VOXCUT_ASSERT(
+      model.elementCount() == octree.elementCount() && model.nodeCount() == octree.nodeCount(),
+      "the model does not match the octree (missing updateTopology?)");
+}
+
+}  // namespace
+
+std::vector<Vec3d> elasticForces(const ElasticModel& model, const DeformationOctree& octree) {
+  checkInStep(model, octree);
+  std::vector<std::array<Vec3d, 8>> perElement(model.elementCount());
+  parallelFor(
+      0, model.elementCount(), 16,
+      [&](std::size_t b, std::size_t end) {
+        for (std::size_t e = b; e < end; ++e) {
+          Eigen::Matrix3d r;
+          const auto y = corotatedOf(octree, static_cast<std::uint32_t>(e), r);
+          const Eigen::Matrix<double, 24, 1> ky =
+              model.element(static_cast<std::uint32_t>(e)).stiffness * y;
+          for (int c = 0; c < 8; ++c)
+            perElement[e][static_cast<std::size_t>(c)] = -(r * ky.segment<3>(3 * c));
+        }
+      },
+      model.threaded());
+  std::vector<Vec3d> force(model.nodeCount(), Vec3d::Zero());
+  const WeightedRows& inc = model.incidence();
+  parallelFor(
+      0, force.size(), 256,
+      [&](std::size_t b, std::size_t end) {
+        for (std::size_t n = b; n < end; ++n)
+          for (std::uint32_t k = inc.start[n]; k < inc.start[n + 1]; ++k)
+            force[n] += perElement[inc.index[k] / 8][inc.index[k] % 8];
+      },
+      model.threaded());
+  return force;
+}
+
+double elasticEnergy(const ElasticModel& model, const DeformationOctree& octree) {
+  checkInStep(model, octree);
+  std::vector<double> energy(model.elementCount());
+  parallelFor(
+      0, model.elementCount(), 16,
+      [&](std::size_t b, std::size_t end) {
+        for (std::size_t e = b; e < end; ++e) {
+          Eigen::Matrix3d r;
+          const auto y = corotatedOf(octree, static_cast<std::uint32_t>(e), r);
+          energy[e] = 0.5 * y.dot(model.element(static_cast<std::uint32_t>(e)).stiffness * y);
+        }
+      },
+      model.threaded());
+  double sum = 0.0;
+  for (double w : energy) sum += w;
+  return sum;
+}
+
+Eigen::SparseMatrix<double> restStiffnessMatrix(const ElasticModel& model) {
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(model.elementCount() * 576);
+  for (std::size_t e = 0; e < model.elementCount(); ++e) {
+    const auto& k = model.element(static_cast<std::uint32_t>(e)).stiffness;
+    const auto& nodes = model.elementNodes()[e];
+    for (int a = 0; a < 24; ++a)
+      for (int b = 0; b < 24; ++b)
+        triplets.emplace_back(static_cast<int>(3 * nodes[static_cast<std::size_t>(a / 3)]) + a % 3,
+                              static_cast<int>(3 * nodes[static_cast<std::size_t>(b / 3)]) + b % 3,
+                              k(a, b));
+  }
+  const auto n = static_cast<Eigen::Index>(3 * model.nodeCount());
+  Eigen::SparseMatrix<double> out(n, n);
+  out.setFromTriplets(triplets.begin(), triplets.end());
+  return out;
+}
+
+Eigen::SparseMatrix<double> prolongationMatrix(const ElasticModel& model) {
+  std::vector<Eigen::Triplet<double>> triplets;
+  const WeightedRows& p = model.prolongation();
+  for (std::size_t n = 0; n < p.rows(); ++n)
+    for (std::uint32_t k = p.start[n]; k < p.start[n + 1]; ++k)
+      for (int a = 0; a < 3; ++a)
+        triplets.emplace_back(static_cast<int>(3 * n) + a, static_cast<int>(3 * p.index[k]) + a,
+                              p.weight[k]);
+  Eigen::SparseMatrix<double> out(static_cast<Eigen::Index>(3 * model.nodeCount()),
+                                  static_cast<Eigen::Index>(3 * model.freeNodeCount()));
+  out.setFromTriplets(triplets.begin(), triplets.end());
+  return out;
+}
+
+}  // namespace voxcut

@@ -1,0 +1,111 @@
+#pragma once
+/// @file HexElement.h
+/// Pure kernels of the composite hexahedral element (DESIGN.md part 3, algorithms.md
+/// "Composite elements"): rest stiffness and lumped mass of a level-L element integrated over
+/// the voxels it holds, each voxel with its own material; the corotational frame (deformation
+/// gradient at the element centre and its polar rotation).
+///
+/// Element frame. A level-L element is a cube of edge H = h * 2^L (h the voxel size, metres)
+/// with unit coordinates t in [0, 1]^3; corner c in 0..7 sits at t = (c & 1, (c >> 1) & 1,
+/// (c >> 2) & 1) and has the trilinear shape function N_c(t) = prod_k (bit_k ? t_k : 1 - t_k).
+/// A voxel at offset o (integers in [0, 2^L)) occupies the sub-cube [o, o + 1] / 2^L. Local
+/// DOF 3 * c + axis.
+///
+/// Integration is exact: every entry of B^T D B is a product over the three axes of
+/// polynomials of degree <= 2 in one coordinate, so the stiffness over a set of voxels is a
+/// fixed linear combination of the 27 moments  M[p + 3q + 9r] = sum_voxels  integral over the
+/// voxel's sub-cube of tx^p ty^q tz^r dt  (p, q, r in 0..2), accumulated per material. The
+/// lumped mass of corner c is the integral of rho N_c over the voxels (row-sum lumping), which
+/// equals each voxel's mass spread with the trilinear weights at its centre (N_c is linear
+/// along each axis, so its mean over a sub-cube is its value at the centre).
+///
+/// Thread-safety: every function here is pure (no shared state).
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "voxcut/core/Types.h"
+
+namespace voxcut {
+
+/// One material's elastic constants, indexed by grid material (VoxelGrid::material(v), 1..N;
+/// entry 0 stands for empty space and is never read).
+struct ElasticMaterial {
+  double youngModulus = 1e5;      ///< E (Pa), > 0
+  double poissonRatio = 0.4;      ///< nu, in (-1, 0.5)
+  double density = 1000.0;        ///< rho (kg/m^3), > 0
+  double dampingMass = 0.0;       ///< Rayleigh alpha (1/s), >= 0: C = alpha M + beta K
+  double dampingStiffness = 0.0;  ///< Rayleigh beta (s), >= 0
+
+  /// Lame's first parameter lambda = E nu / ((1 + nu)(1 - 2 nu)) (Pa).
+  [[nodiscard]] double lameLambda() const {
+    return youngModulus * poissonRatio / ((1.0 + poissonRatio) * (1.0 - 2.0 * poissonRatio));
+  }
+  /// Shear modulus mu = E / (2 (1 + nu)) (Pa).
+  [[nodiscard]] double lameMu() const { return youngModulus / (2.0 * (1.0 + poissonRatio)); }
+};
+
+/// The 27 moments of one material's occupied region in an element (see the file comment),
+/// dimensionless (unit element coordinates).
+struct MaterialMoments {
+  std::uint8_t material = 0;
+  std::array<double, 27> moment{};
+};
+
+/// Adds `count` voxels of `material` in a row along x to `region` (one entry per material,
+/// appended on first use; a linear search, regions hold few materials): the voxels at offsets
+/// (x0 .. x0 + count - 1, y, z) of a level-`level` element. Offsets must lie in [0, 2^level).
+/// Cost: 27 multiply-adds per call whatever `count` (the x sums telescope).
+void addVoxelRow(std::vector<MaterialMoments>& region, int level, int x0, int count, int y, int z,
+                 std::uint8_t material);
+
+/// Rest matrices of one element, integrated over the voxels it holds.
+struct ElementMatrices {
+  /// Rest stiffness K (N/m), 24 x 24, symmetric positive semi-definite, rows and columns
+  /// 3 * corner + axis: K = sum_voxels integral of B^T D(E_v, nu_v) B dV.
+  Eigen::Matrix<double, 24, 24> stiffness = Eigen::Matrix<double, 24, 24>::Zero();
+  /// Lumped mass of each corner (kg): integral of rho N_c dV; sums to the element's mass.
+  std::array<double, 8> mass{};
+  /// Lumped mass-proportional damping of each corner (kg/s): integral of alpha rho N_c dV,
+  /// exact per voxel.
+  std::array<double, 8> massDamping{};
+  /// Stiffness-proportional damping factor beta_e (s) of the whole element: the mean of its
+  /// voxels' beta weighted by E_v (exact when the element holds one material).
+  double stiffnessDamping = 0.0;
+  /// Volume of the voxels it holds (m^3).
+  double volume = 0.0;
+};
+
+/// Stiffness and lumped mass of a level-`level` element of voxel size `voxelSize` (metres)
+/// holding the voxels summarised in `region` (moments per material), with the material table
+/// `materials` (indexed by material; every material in `region` must index it). The stiffness
+/// scales linearly with the edge H = voxelSize * 2^level, the masses with H^3. Cost: about
+/// 2 x 300 contractions of 27 moments, independent of the voxel count. Pure.
+[[nodiscard]] ElementMatrices hexElementMatrices(int level, double voxelSize,
+                                                 std::span<const MaterialMoments> region,
+                                                 std::span<const ElasticMaterial> materials);
+
+/// Deformation gradient at the centre of an element of rest edge `edge` (metres) from its 8
+/// corner displacements u_c = x_c - X_c (metres): F = I + sum_c u_c grad N_c(centre)^T, where
+/// grad N_c(centre) = (+-1, +-1, +-1) / (4 edge). Exactly I for zero displacements. Pure.
+[[nodiscard]] Eigen::Matrix3d centreDeformationGradient(const std::array<Vec3d, 8>& displacement,
+                                                        double edge);
+
+/// Rotation R of the polar decomposition F = R S: with the SVD F = U Sigma V^T (singular
+/// values descending), R = U diag(1, 1, d) V^T, d = sign det(U V^T), so R is always a proper
+/// rotation; for an inverted element (det F <= 0) the axis of least stretch is reflected.
+/// Returns exactly the identity for F = I and for a non-finite F. Deterministic. Pure.
+[[nodiscard]] Eigen::Matrix3d polarRotation(const Eigen::Matrix3d& f);
+
+/// Corotated displacement of an element, 24 entries (3 * corner + axis, metres):
+/// y_c = R^T (x_c - xbar) - (X_c - Xbar), with xbar, Xbar the means of the current and rest
+/// corners (K annihilates translations, so this equals R^T x - X up to one; centring keeps
+/// round-off at the element's scale). Zero for a rigid motion when R is its rotation. Pure.
+[[nodiscard]] Eigen::Matrix<double, 24, 1> corotatedDisplacement(const Eigen::Matrix3d& rotation,
+                                                                 const std::array<Vec3d, 8>& x,
+                                                                 const std::array<Vec3d, 8>& rest);
+
+}  // namespace voxcut

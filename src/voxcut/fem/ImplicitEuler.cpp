@@ -1,0 +1,349 @@
+#include "voxcut/fem/ImplicitEuler.h"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+#include "voxcut/core/Error.h"
+#include "voxcut/core/Parallel.h"
+#include "voxcut/fem/HexElement.h"
+
+namespace voxcut {
+
+namespace {
+
+/// Rows per chunk of a dot product: partial sums land in fixed slots and are added in chunk
+/// order, so the result does not depend on how the scheduler splits the range.
+constexpr std::size_t kChunk = 256;
+
+/// sum_i body(i) over [0, rows), chunked as above. body may also write row i's outputs.
+template <class Body>
+double chunkedSum(std::size_t rows, std::vector<double>& partial, bool threaded, Body&& body) {
+  const std::size_t chunks = (rows + kChunk - 1) / kChunk;
+  partial.resize(chunks);
+  parallelFor(
+      0, chunks, 1,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t c = b; c < e; ++c) {
+          double s = 0.0;
+          const std::size_t end = std::min(rows, (c + 1) * kChunk);
+          for (std::size_t i = c * kChunk; i < end; ++i) s += body(i);
+          partial[c] = s;
+        }
+      },
+      threaded);
+  double sum = 0.0;
+  for (std::size_t c = 0; c < chunks; ++c) sum += partial[c];
+  return sum;
+}
+
+/// Two sums at once: body(i) returns a pair.
+template <class Body>
+std::pair<double, double> chunkedSum2(std::size_t rows, std::vector<double>& partial,
+                                      std::vector<double>& partial2, bool threaded, Body&& body) {
+  const std::size_t chunks = (rows + kChunk - 1) / kChunk;
+  partial.resize(chunks);
+  partial2.resize(chunks);
+  parallelFor(
+      0, chunks, 1,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t c = b; c < e; ++c) {
+          double s = 0.0, s2 = 0.0;
+          const std::size_t end = std::min(rows, (c + 1) * kChunk);
+          for (std::size_t i = c * kChunk; i < end; ++i) {
+            const auto [x, y] = body(i);
+            s += x;
+            s2 += y;
+          }
+          partial[c] = s;
+          partial2[c] = s2;
+        }
+      },
+      threaded);
+  double sum = 0.0, sum2 = 0.0;
+  for (std::size_t c = 0; c < chunks; ++c) {
+    sum += partial[c];
+    sum2 += partial2[c];
+  }
+  return {sum, sum2};
+}
+
+/// P applied to reduced values: out[n] = sum over node n's prolongation row.
+void prolong(const WeightedRows& p, const std::vector<Vec3d>& reduced, std::vector<Vec3d>& out,
+             bool threaded) {
+  parallelFor(
+      0, p.rows(), 512,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t n = b; n < e; ++n) {
+          Vec3d s = Vec3d::Zero();
+          for (std::uint32_t k = p.start[n]; k < p.start[n + 1]; ++k)
+            s += p.weight[k] * reduced[p.index[k]];
+          out[n] = s;
+        }
+      },
+      threaded);
+}
+
+}  // namespace
+
+void ImplicitEuler::reset() {
+  velocity_.clear();
+  lastDv_.clear();
+}
+
+void ImplicitEuler::updateTopology(const TopologyChange& change) {
+  if (!change.changed) return;
+  auto remap = [&](std::vector<Vec3d>& values) {
+    if (values.empty()) return;
+    std::vector<Vec3d> next(change.nodeSource.size(), Vec3d::Zero());
+    for (std::size_t n = 0; n < next.size(); ++n) {
+      const NodeSource& src = change.nodeSource[n];
+      for (int k = 0; k < src.count; ++k) {
+        VOXCUT_ASSERT(src.nodes[k] < values.size(), "node source out of range");
+        next[n] += src.weights[k] * values[src.nodes[k]];
+      }
+    }
+    values = std::move(next);
+  };
+  remap(velocity_);
+  remap(lastDv_);
+}
+
+double ImplicitEuler::kineticEnergy(const ElasticModel& model) const {
+  if (velocity_.empty()) return 0.0;
+  VOXCUT_ASSERT(velocity_.size() == model.nodeCount(), "velocities do not match the model");
+  double sum = 0.0;
+  for (std::size_t n = 0; n < velocity_.size(); ++n)
+    sum += 0.5 * model.nodeMass()[n] * velocity_[n].squaredNorm();
+  return sum;
+}
+
+void ImplicitEuler::resize(const ElasticModel& model) {
+  const std::size_t nodes = model.nodeCount(), free = model.freeNodeCount();
+  if (velocity_.empty()) velocity_.assign(nodes, Vec3d::Zero());
+  if (lastDv_.empty()) lastDv_.assign(nodes, Vec3d::Zero());
+  VOXCUT_ASSERT(velocity_.size() == nodes && lastDv_.size() == nodes,
+                "velocities do not match the model (missing updateTopology?)");
+  elementBlocks_.resize(64 * model.elementCount());
+  elementForce_.resize(model.elementCount());
+  nodeDiagonal_.resize(nodes);
+  nodeRhs_.resize(nodes);
+  blocks_.resize(model.sparsity().blockCount());
+  preconditioner_.resize(free);
+  for (auto* v : {&b_, &x_, &r_, &z_, &p_, &q_, &vr_}) v->resize(free);
+}
+
+void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree& octree) {
+  const bool threaded = model.threaded();
+  const double dt = params_.timeStep;
+  const auto& pos = octree.positions();
+  const auto& rest = octree.restPositions();
+  // Elements: rotation, right-hand side force R K (y + (beta + dt) R^T v) and the rotated,
+  // scaled stiffness blocks (dt beta + dt^2) R K_ab R^T.
+  parallelFor(
+      0, model.elementCount(), 32,
+      [&](std::size_t b, std::size_t end) {
+        for (std::size_t e = b; e < end; ++e) {
+          const ElementMatrices& em = model.element(static_cast<std::uint32_t>(e));
+          const OctreeElement& el = octree.element(static_cast<std::uint32_t>(e));
+          std::array<Vec3d, 8> x, x0, u;
+          for (std::size_t c = 0; c < 8; ++c) {
+            x[c] = pos[el.nodes[c]];
+            x0[c] = rest[el.nodes[c]];
+            u[c] = x[c] - x0[c];
+          }
+          const Eigen::Matrix3d r =
+              polarRotation(centreDeformationGradient(u, octree.voxelSize() * el.size()));
+          Eigen::Matrix<double, 24, 1> y = corotatedDisplacement(r, x, x0);
+          const double damp = em.stiffnessDamping + dt;
+          for (std::size_t c = 0; c < 8; ++c)
+            y.segment<3>(3 * static_cast<Eigen::Index>(c)) +=
+                damp * (r.transpose() * velocity_[el.nodes[c]]);
+          const Eigen::Matrix<double, 24, 1> ky = em.stiffness * y;
+          for (std::size_t c = 0; c < 8; ++c)
+            elementForce_[e][c] = -(r * ky.segment<3>(3 * static_cast<Eigen::Index>(c)));
+          const Eigen::Matrix3d cr = (dt * em.stiffnessDamping + dt * dt) * r;
+          Eigen::Matrix3d* out = &elementBlocks_[64 * e];
+          for (int a = 0; a < 8; ++a)
+            for (int c = a; c < 8; ++c) {
+              const Eigen::Matrix3d block =
+                  cr * em.stiffness.block<3, 3>(3 * a, 3 * c) * r.transpose();
+              out[8 * a + c] = block;
+              if (c != a) out[8 * c + a] = block.transpose();
+            }
+        }
+      },
+      threaded);
+
+  // Nodes: dt (M g - alpha M v + f), gathered from incident corners in a fixed order.
+  const WeightedRows& inc = model.incidence();
+  const Vec3d g = params_.gravity;
+  parallelFor(
+      0, model.nodeCount(), 256,
+      [&](std::size_t b, std::size_t end) {
+        for (std::size_t n = b; n < end; ++n) {
+          const double m = model.nodeMass()[n], d = model.nodeMassDamping()[n];
+          nodeDiagonal_[n] = m + dt * d;
+          Vec3d f = m * g - d * velocity_[n];
+          for (std::uint32_t k = inc.start[n]; k < inc.start[n + 1]; ++k)
+            f += elementForce_[inc.index[k] / 8][inc.index[k] % 8];
+          nodeRhs_[n] = dt * f;
+        }
+      },
+      threaded);
+
+  // Reduced rows: P^T b and the blocks of P^T A P, each summed over its sources in order.
+  const WeightedRows& res = model.restriction();
+  const BlockSparsity& sp = model.sparsity();
+  const auto massBase = static_cast<std::uint32_t>(64 * model.elementCount());
+  const bool block = params_.preconditioner == Preconditioner::BlockJacobi;
+  parallelFor(
+      0, model.freeNodeCount(), 128,
+      [&](std::size_t b, std::size_t end) {
+        for (std::size_t i = b; i < end; ++i) {
+          Vec3d s = Vec3d::Zero();
+          for (std::uint32_t k = res.start[i]; k < res.start[i + 1]; ++k)
+            s += res.weight[k] * nodeRhs_[res.index[k]];
+          b_[i] = s;
+          for (std::uint32_t slot = sp.rowStart[i]; slot < sp.rowStart[i + 1]; ++slot) {
+            Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+            for (std::uint32_t k = sp.sourceStart[slot]; k < sp.sourceStart[slot + 1]; ++k) {
+              const std::uint32_t src = sp.source[k];
+              if (src < massBase)
+                sum += sp.sourceWeight[k] * elementBlocks_[src];
+              else
+                sum.diagonal().array() += sp.sourceWeight[k] * nodeDiagonal_[src - massBase];
+            }
+            blocks_[slot] = sum;
+          }
+          const Eigen::Matrix3d& diag = blocks_[sp.diagonal[i]];
+          if (block) {
+            preconditioner_[i] = diag.inverse();
+          } else {
+            preconditioner_[i] = Eigen::Matrix3d::Zero();
+            for (int a = 0; a < 3; ++a) preconditioner_[i](a, a) = 1.0 / diag(a, a);
+          }
+        }
+      },
+      threaded);
+}
+
+StepStatus ImplicitEuler::solve(const ElasticModel& model) {
+  const bool threaded = model.threaded();
+  const std::size_t rows = model.freeNodeCount();
+  const BlockSparsity& sp = model.sparsity();
+  static_assert(sizeof(Eigen::Matrix3d) == 9 * sizeof(double) &&
+                sizeof(Vec3d) == 3 * sizeof(double));
+  const double* blocks = blocks_.empty() ? nullptr : blocks_[0].data();
+  const std::uint32_t* column = sp.column.data();
+  const std::uint32_t* rowStart = sp.rowStart.data();
+  // Row i of A x; blocks are column-major 3x3. Written out: this loop is most of the solve.
+  auto multiply = [&](const std::vector<Vec3d>& in, std::size_t i) {
+    const double* x = in[0].data();
+    double s0 = 0.0, s1 = 0.0, s2 = 0.0;
+    for (std::uint32_t slot = rowStart[i]; slot < rowStart[i + 1]; ++slot) {
+      const double* a = blocks + 9 * static_cast<std::size_t>(slot);
+      const double* v = x + 3 * static_cast<std::size_t>(column[slot]);
+      s0 += a[0] * v[0] + a[3] * v[1] + a[6] * v[2];
+      s1 += a[1] * v[0] + a[4] * v[1] + a[7] * v[2];
+      s2 += a[2] * v[0] + a[5] * v[1] + a[8] * v[2];
+    }
+    return Vec3d(s0, s1, s2);
+  };
+  StepStatus status;
+  const double bb = chunkedSum(rows, partial_, threaded, [&](std::size_t i) {
+    x_[i] = params_.warmStart ? lastDv_[model.freeNodes()[i]] : Vec3d::Zero();
+    return b_[i].squaredNorm();
+  });
+  if (!std::isfinite(bb)) {
+    status.finite = false;
+    return status;
+  }
+  if (bb == 0.0) {
+    std::fill(x_.begin(), x_.end(), Vec3d::Zero());
+    status.converged = true;
+    return status;
+  }
+  const double stop = params_.tolerance * params_.tolerance * bb;
+  // r = b - A x0, z = M^-1 r, p = z.
+  auto [rz, rr] = chunkedSum2(rows, partial_, partial2_, threaded, [&](std::size_t i) {
+    r_[i] = b_[i] - multiply(x_, i);
+    z_[i] = preconditioner_[i] * r_[i];
+    p_[i] = z_[i];
+    return std::pair{r_[i].dot(z_[i]), r_[i].squaredNorm()};
+  });
+  bool finite = std::isfinite(rz) && std::isfinite(rr);
+  while (finite && rr > stop && status.iterations < params_.maxIterations) {
+    const double pq = chunkedSum(rows, partial_, threaded, [&](std::size_t i) {
+      q_[i] = multiply(p_, i);
+      return p_[i].dot(q_[i]);
+    });
+    const double alpha = rz / pq;
+    if (!std::isfinite(alpha)) {
+      finite = std::isfinite(pq);
+      break;  // pq == 0 (breakdown) or a non-finite value
+    }
+    const auto [rzNew, rrNew] =
+        chunkedSum2(rows, partial_, partial2_, threaded, [&](std::size_t i) {
+          x_[i] += alpha * p_[i];
+          r_[i] -= alpha * q_[i];
+          z_[i] = preconditioner_[i] * r_[i];
+          return std::pair{r_[i].dot(z_[i]), r_[i].squaredNorm()};
+        });
+    ++status.iterations;
+    finite = std::isfinite(rzNew) && std::isfinite(rrNew);
+    rr = rrNew;
+    if (!finite || rr <= stop) break;
+    const double beta = rzNew / rz;
+    rz = rzNew;
+    parallelFor(
+        0, rows, 256,
+        [&](std::size_t b, std::size_t e) {
+          for (std::size_t i = b; i < e; ++i) p_[i] = z_[i] + beta * p_[i];
+        },
+        threaded);
+  }
+  status.finite = finite;
+  status.residual = std::sqrt(rr / bb);
+  status.converged = finite && rr <= stop;
+  return status;
+}
+
+StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& octree) {
+  VOXCUT_ASSERT(
+      model.elementCount() == octree.elementCount() && model.nodeCount() == octree.nodeCount(),
+      "the model does not match the octree (missing updateTopology?)");
+  VOXCUT_ASSERT(params_.timeStep > 0.0 && params_.maxIterations >= 0, "bad step settings");
+  resize(model);
+  const bool threaded = model.threaded();
+  const std::vector<std::uint32_t>& freeNodes = model.freeNodes();
+  // Project the velocities through P: fixed and unused nodes at rest, hanging nodes at their
+  // masters' mean.
+  for (std::size_t i = 0; i < freeNodes.size(); ++i) vr_[i] = velocity_[freeNodes[i]];
+  prolong(model.prolongation(), vr_, velocity_, threaded);
+
+  assemble(model, octree);
+  const StepStatus status = solve(model);
+  if (!status.finite) {
+    std::fill(lastDv_.begin(), lastDv_.end(), Vec3d::Zero());
+    return status;
+  }
+  for (std::size_t i = 0; i < freeNodes.size(); ++i) {
+    vr_[i] += x_[i];
+    lastDv_[freeNodes[i]] = x_[i];
+  }
+  prolong(model.prolongation(), vr_, velocity_, threaded);
+  const double dt = params_.timeStep;
+  std::vector<Vec3d>& pos = octree.positions();
+  parallelFor(
+      0, pos.size(), 512,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t n = b; n < e; ++n)
+          if (!octree.isHanging(static_cast<std::uint32_t>(n))) pos[n] += dt * velocity_[n];
+      },
+      threaded);
+  octree.updateHangingNodes();
+  return status;
+}
+
+}  // namespace voxcut

@@ -1,0 +1,511 @@
+#include "voxcut/fem/TopologyEditor.h"
+
+#include <algorithm>
+
+#include "voxcut/core/Parallel.h"
+
+namespace voxcut {
+
+using namespace topology_detail;
+
+std::vector<std::uint64_t> TopologyEditor::dirtyPoints() {
+  std::vector<std::uint64_t> pts;
+  KeyTable seen(32 * (partitioned_.size() + removedCubes_.size()));
+  auto add = [&](const Index3& p) {
+    const std::uint64_t k = pointKey(p);
+    if (seen.insert(k)) pts.push_back(k);
+  };
+  auto add27 = [&](std::uint64_t key) {
+    const Index3 f = keyFirstVoxel(key);
+    const int s = 1 << keyLevel(key), step = s == 1 ? 1 : s / 2;
+    for (int z = 0; z <= s; z += step)
+      for (int y = 0; y <= s; y += step)
+        for (int x = 0; x <= s; x += step) add({f.x + x, f.y + y, f.z + z});
+  };
+  for (const auto& kv : partitioned_) add27(kv.first);
+  for (std::uint64_t k : removedCubes_) add27(k);
+  // The leaves touching those points: their hanging nodes' masters may have changed.
+  std::vector<std::uint64_t> cubes;
+  KeyTable cubeSeen(pts.size());
+  const std::size_t first = pts.size();
+  for (std::size_t i = 0; i < first; ++i) {
+    const Index3 p = pointOf(pts[i]);
+    for (int d = 0; d < 8; ++d) {
+      const Index3 v{p.x - 1 + (d & 1), p.y - 1 + ((d >> 1) & 1), p.z - 1 + (d >> 2)};
+      buildTile(v);
+      const std::uint64_t k = leafOf(v);
+      if (k != kNoKey && cubeSeen.insert(k)) cubes.push_back(k);
+    }
+  }
+  // Only their edge midpoints and face centres can hold such nodes.
+  for (std::uint64_t k : cubes) {
+    const int L = keyLevel(k);
+    if (L == 0) continue;
+    const Index3 f = keyFirstVoxel(k);
+    const int s = 1 << L, h = s / 2;
+    for (int z = 0; z <= s; z += h)
+      for (int y = 0; y <= s; y += h)
+        for (int x = 0; x <= s; x += h) {
+          const int mid = (x == h) + (y == h) + (z == h);
+          if (mid == 1 || mid == 2) add({f.x + x, f.y + y, f.z + z});
+        }
+  }
+  // groupAt runs in parallel and must find the tiles built.
+  for (std::size_t i = first; i < pts.size(); ++i) {
+    const Index3 p = pointOf(pts[i]);
+    for (int d = 0; d < 8; ++d) buildTile({p.x - 1 + (d & 1), p.y - 1 + ((d >> 1) & 1), p.z - 1 + (d >> 2)});
+  }
+  std::sort(pts.begin(), pts.end());
+  return pts;
+}
+
+std::array<std::uint64_t, 8> TopologyEditor::leavesAround(const Index3& p) const {
+  std::array<std::uint64_t, 8> out{};
+  for (int d = 0; d < 8; ++d)
+    out[static_cast<std::size_t>(d)] = leafOf({p.x - 1 + (d & 1), p.y - 1 + ((d >> 1) & 1), p.z - 1 + (d >> 2)});
+  return out;
+}
+
+PointGroups TopologyEditor::groupAt(const Index3& p, const std::array<std::uint64_t, 8>& around) const {
+  PointGroups out;
+  out.p = p;
+  std::array<std::uint64_t, 8> cubes{};
+  std::size_t cubeCount = 0;
+  for (std::uint64_t k : around)
+    if (k != kNoKey && std::find(cubes.begin(), cubes.begin() + static_cast<std::ptrdiff_t>(cubeCount), k) ==
+                           cubes.begin() + static_cast<std::ptrdiff_t>(cubeCount))
+      cubes[cubeCount++] = k;
+  std::vector<std::uint32_t> members;
+  members.reserve(16);
+  std::array<std::size_t, 9> firstOf{};
+  for (std::size_t i = 0; i < cubeCount; ++i) {
+    firstOf[i] = members.size();
+    copiesOf(cubes[i], members);
+  }
+  firstOf[cubeCount] = members.size();
+  if (members.empty()) return out;
+  auto localIndex = [&](std::size_t cube, std::uint32_t copy) {
+    for (std::size_t m = firstOf[cube]; m < firstOf[cube + 1]; ++m)
+      if (members[m] == copy) return static_cast<int>(m);
+    VOXCUT_ASSERT(false, "voxel owner is not a copy of its cube");
+    return -1;
+  };
+  UnionFind uf(members.size());
+  const Index3 gd = grid_.dims();
+  for (std::size_t i = 0; i < cubeCount; ++i)
+    for (std::size_t j = i + 1; j < cubeCount; ++j) {
+      // Cubes sharing a face region: one axis where they touch, overlap along the other two.
+      const Index3 fa = keyFirstVoxel(cubes[i]), fb = keyFirstVoxel(cubes[j]);
+      const int sa = 1 << keyLevel(cubes[i]), sb = 1 << keyLevel(cubes[j]);
+      int axis = -1;
+      bool face = true;
+      Index3 lo, hi;
+      for (int k = 0; k < 3 && face; ++k) {
+        lo[k] = std::max(fa[k], fb[k]);
+        hi[k] = std::min(fa[k] + sa, fb[k] + sb);
+        if (lo[k] == hi[k]) {
+          face = axis < 0;
+          axis = k;
+        } else if (lo[k] > hi[k]) {
+          face = false;
+        }
+      }
+      if (!face || axis < 0) continue;
+      const bool iLow = fa[axis] < fb[axis];
+      const std::size_t low = iLow ? i : j, high = iLow ? j : i;
+      const int u = (axis + 1) % 3, w = (axis + 2) % 3;
+      Index3 c;
+      c[axis] = lo[axis] - 1;
+      if (c[axis] + 1 >= gd[axis]) continue;
+      // With one copy on each side the first connected link settles the pair.
+      const bool single = firstOf[low + 1] - firstOf[low] == 1 && firstOf[high + 1] - firstOf[high] == 1;
+      bool done = false;
+      for (c[w] = lo[w]; c[w] < std::min(hi[w], gd[w]) && !done; ++c[w])
+        for (c[u] = lo[u]; c[u] < std::min(hi[u], gd[u]); ++c[u]) {
+          const std::size_t x = grid_.index(c);
+          if (!grid_.occupied(x) || !grid_.connected(x, axis)) continue;
+          const std::size_t y = x + grid_.stride(axis);
+          if (!grid_.occupied(y)) continue;
+          uf.unite(localIndex(low, oc_.embedding_[x].element), localIndex(high, oc_.embedding_[y].element));
+          if (single) {
+            done = true;
+            break;
+          }
+        }
+    }
+  std::vector<int> groupOf(members.size(), -1);
+  for (std::size_t c = 0; c < cubeCount; ++c) {
+    const Index3 f = keyFirstVoxel(cubes[c]);
+    const int s = 1 << keyLevel(cubes[c]);
+    const int kind = interiorAxes(f, s, p);
+    for (std::size_t m = firstOf[c]; m < firstOf[c + 1]; ++m) {
+      const int r = uf.find(static_cast<int>(m));
+      if (groupOf[static_cast<std::size_t>(r)] < 0) {
+        groupOf[static_cast<std::size_t>(r)] = static_cast<int>(out.groups.size());
+        out.groups.emplace_back();
+      }
+      Group& g = out.groups[static_cast<std::size_t>(groupOf[static_cast<std::size_t>(r)])];
+      if (kind == 0) {
+        g.corners.emplace_back(members[m], cornerIndex(f, s, p));
+        if (members[m] < oldElements_)
+          out.oldNodes.push_back(oc_.elements_[members[m]].nodes[static_cast<std::size_t>(cornerIndex(f, s, p))]);
+      } else {
+        g.coarse.push_back(members[m]);
+      }
+    }
+  }
+  out.groups.erase(std::remove_if(out.groups.begin(), out.groups.end(),
+                                  [](const Group& g) { return g.corners.empty(); }),
+                   out.groups.end());
+  return out;
+}
+
+void TopologyEditor::assignTempNodes() {
+  cornerNodes_.clear();
+  tempNodes_.clear();
+  for (std::size_t i = 0; i < points_.size(); ++i)
+    for (std::size_t g = 0; g < points_[i].groups.size(); ++g) {
+      const std::uint32_t t = kTempNode | static_cast<std::uint32_t>(tempNodes_.size());
+      tempNodes_.emplace_back(static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(g));
+      for (const auto& [copy, c] : points_[i].groups[g].corners) {
+        auto [it, fresh] = cornerNodes_.try_emplace(copy);
+        if (fresh) {
+          if (copy < oldElements_) it->second = oc_.elements_[copy].nodes;
+          else it->second.fill(kNoElement);
+        }
+        it->second[static_cast<std::size_t>(c)] = t;
+      }
+    }
+}
+
+std::uint32_t TopologyEditor::cornerNode(std::uint32_t copy, int c) const {
+  const auto it = cornerNodes_.find(copy);
+  if (it != cornerNodes_.end()) return it->second[static_cast<std::size_t>(c)];
+  VOXCUT_ASSERT(copy < oldElements_, "a new copy without nodes");
+  return oc_.elements_[copy].nodes[static_cast<std::size_t>(c)];
+}
+
+std::vector<std::uint64_t> TopologyEditor::ambiguousCubes() const {
+  std::vector<std::uint64_t> out;
+  auto keyOf = [&](std::uint32_t copy) {
+    if (copy >= oldElements_) return copies_[copy - oldElements_].key;
+    const OctreeElement& e = oc_.elements_[copy];
+    return DeformationOctree::cubeKey(e.level, e.coord);
+  };
+  for (const PointGroups& pg : points_)
+    for (const Group& g : pg.groups) {
+      if (g.coarse.size() < 2) continue;
+      std::vector<std::pair<std::uint64_t, std::uint32_t>> ref;
+      bool same = true;
+      for (std::uint32_t copy : g.coarse) {
+        const std::uint64_t k = keyOf(copy);
+        const Index3 f = keyFirstVoxel(k);
+        const int s = 1 << keyLevel(k);
+        std::array<int, 4> mc{};
+        const int n = masterCorners(f, s, pg.p, mc);
+        std::vector<std::pair<std::uint64_t, std::uint32_t>> m;
+        for (int i = 0; i < n; ++i)
+          m.emplace_back(pointKey(cornerPoint(f, s, mc[static_cast<std::size_t>(i)])),
+                         cornerNode(copy, mc[static_cast<std::size_t>(i)]));
+        std::sort(m.begin(), m.end());
+        if (ref.empty()) ref = m;
+        else if (m != ref) same = false;
+      }
+      if (!same)
+        for (std::uint32_t copy : g.coarse) out.push_back(keyOf(copy));
+    }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+TopologyChange TopologyEditor::run() {
+  for (int round = 0;; ++round) {
+    VOXCUT_ASSERT(round < 64, "topology update does not settle");
+    partitionPending();
+    // A point whose leaves are those of the last round has the same groups (a leaf keeps its
+    // copies while it stays a leaf): those are moved over, the others regrouped.
+    const std::vector<std::uint64_t> pts = dirtyPoints();
+    std::vector<std::array<std::uint64_t, 8>> around(pts.size());
+    std::vector<PointGroups> groups(pts.size());
+    parallelFor(
+        0, pts.size(), 64,
+        [&](std::size_t b, std::size_t e) {
+          for (std::size_t i = b; i < e; ++i) {
+            const Index3 p = pointOf(pts[i]);
+            around[i] = leavesAround(p);
+            const auto it = std::lower_bound(lastPoints_.begin(), lastPoints_.end(), pts[i]);
+            const auto j = static_cast<std::size_t>(it - lastPoints_.begin());
+            if (it != lastPoints_.end() && *it == pts[i] && lastAround_[j] == around[i])
+              groups[i] = std::move(points_[j]);
+            else
+              groups[i] = groupAt(p, around[i]);
+          }
+        },
+        threaded_);
+    points_ = std::move(groups);
+    lastPoints_ = pts;
+    lastAround_ = std::move(around);
+    assignTempNodes();
+    const std::vector<std::uint64_t> ambiguous = ambiguousCubes();
+    if (ambiguous.empty()) break;
+    for (std::uint64_t k : ambiguous) split(k);
+  }
+  return finalize();
+}
+
+TopologyChange TopologyEditor::finalize() {
+  std::vector<OctreeElement>& E = oc_.elements_;
+  TopologyChange tc;
+
+  // 1. New nodes, from the old state: a member's old element's node at p when p is one of
+  //    its corners, else that element's trilinear map at p (p was made by refinement).
+  struct TempNode {
+    Index3 p;
+    NodeSource src;
+    Vec3d pos = Vec3d::Zero();
+    std::uint32_t coarse = kNoElement;
+  };
+  std::vector<TempNode> temp(tempNodes_.size());
+  for (std::size_t t = 0; t < temp.size(); ++t) {
+    const PointGroups& pg = points_[tempNodes_[t].first];
+    const Group& g = pg.groups[tempNodes_[t].second];
+    TempNode& tn = temp[t];
+    tn.p = pg.p;
+    if (!g.coarse.empty()) tn.coarse = g.coarse.front();
+    std::uint32_t fallback = kNoElement;
+    for (const auto& [copy, c] : g.corners) {
+      const OctreeElement& oe = E[origin(copy)];
+      if (interiorAxes(oe.firstVoxel(), oe.size(), pg.p) == 0) {
+        tn.src.count = 1;
+        tn.src.nodes[0] = oe.nodes[static_cast<std::size_t>(cornerIndex(oe.firstVoxel(), oe.size(), pg.p))];
+        tn.src.weights[0] = 1.0;
+        break;
+      }
+      if (fallback == kNoElement) fallback = origin(copy);
+    }
+    if (tn.src.count == 0) {
+      const OctreeElement& oe = E[fallback];
+      const Index3 f = oe.firstVoxel();
+      const double inv = 1.0 / static_cast<double>(oe.size());
+      const Vec3d x((pg.p.x - f.x) * inv, (pg.p.y - f.y) * inv, (pg.p.z - f.z) * inv);
+      for (int c = 0; c < 8; ++c) {
+        const double w = ((c & 1) ? x.x() : 1 - x.x()) * ((c & 2) ? x.y() : 1 - x.y()) *
+                         ((c & 4) ? x.z() : 1 - x.z());
+        if (w == 0.0) continue;
+        tn.src.nodes[tn.src.count] = oe.nodes[static_cast<std::size_t>(c)];
+        tn.src.weights[tn.src.count++] = w;
+      }
+    }
+    for (int i = 0; i < tn.src.count; ++i)
+      tn.pos += tn.src.weights[static_cast<std::size_t>(i)] * oc_.positions_[tn.src.nodes[static_cast<std::size_t>(i)]];
+  }
+
+  // 2. Element slots: a copy equal to an old one keeps its slot; the others fill the freed
+  //    slots in order of their lowest voxel, then are appended.
+  std::vector<char> freedElement(oldElements_, 0), taken(oldElements_, 0);
+  for (std::uint32_t e : removed_) freedElement[e] = 1;
+  std::vector<std::uint32_t> alive;
+  for (std::uint32_t i = 0; i < copies_.size(); ++i)
+    if (copies_[i].alive) alive.push_back(i);
+  std::sort(alive.begin(), alive.end(),
+            [&](std::uint32_t a, std::uint32_t b) { return copies_[a].minVoxel < copies_[b].minVoxel; });
+  std::vector<std::uint32_t> finalId(copies_.size(), kNoElement);
+  for (std::uint32_t i : alive)
+    if (copies_[i].sameAs != kNoElement) {
+      finalId[i] = copies_[i].sameAs;
+      taken[copies_[i].sameAs] = 1;
+    }
+  std::vector<std::uint32_t> freeSlots;
+  for (std::uint32_t e : removed_)
+    if (!taken[e]) freeSlots.push_back(e);
+  std::sort(freeSlots.begin(), freeSlots.end());
+  std::size_t next = 0;
+  std::uint32_t appended = 0;
+  bool changed = false;
+  for (std::uint32_t i : alive) {
+    if (finalId[i] != kNoElement) continue;
+    changed = true;
+    finalId[i] = next < freeSlots.size() ? freeSlots[next++] : oldElements_ + appended++;
+  }
+  VOXCUT_ASSERT(next == freeSlots.size(), "fewer element copies than before");
+  auto finalOf = [&](std::uint32_t copy) { return copy < oldElements_ ? copy : finalId[copy - oldElements_]; };
+
+  // 3. Node slots: nodes at the regrouped points are freed; a new node reuses the slot of its
+  //    single source when that sits at the same point, else the lowest free slot.
+  std::vector<char> freedNode(oldNodes_, 0), claimed(oldNodes_, 0);
+  for (std::uint32_t e : removed_)
+    for (std::uint32_t n : E[e].nodes) freedNode[n] = 1;
+  for (const PointGroups& pg : points_)
+    for (std::uint32_t n : pg.oldNodes) freedNode[n] = 1;
+  std::vector<std::uint32_t> nodeId(temp.size(), kNoElement);
+  for (std::size_t t = 0; t < temp.size(); ++t) {
+    const std::uint32_t s = temp[t].src.nodes[0];
+    if (temp[t].src.count == 1 && freedNode[s] && !claimed[s] && oc_.nodeCoords_[s] == temp[t].p) {
+      nodeId[t] = s;
+      claimed[s] = 1;
+    }
+  }
+  std::vector<std::uint32_t> freeNodes;
+  for (std::uint32_t n = 0; n < oldNodes_; ++n)
+    if (freedNode[n] && !claimed[n]) freeNodes.push_back(n);
+  next = 0;
+  std::uint32_t appendedNodes = 0;
+  for (std::size_t t = 0; t < temp.size(); ++t) {
+    if (nodeId[t] != kNoElement) continue;
+    changed = true;
+    nodeId[t] = next < freeNodes.size() ? freeNodes[next++] : oldNodes_ + appendedNodes++;
+  }
+  const std::vector<std::uint32_t> holes(freeNodes.begin() + static_cast<std::ptrdiff_t>(next), freeNodes.end());
+  changed = changed || !holes.empty() || appended > 0;
+
+  // 4. Node arrays and sources.
+  std::size_t nodeCount = oldNodes_ + appendedNodes;
+  oc_.nodeCoords_.resize(nodeCount);
+  oc_.restPositions_.resize(nodeCount);
+  oc_.positions_.resize(nodeCount);
+  tc.nodeSource.resize(nodeCount);
+  for (std::uint32_t n = 0; n < oldNodes_; ++n) {
+    tc.nodeSource[n].count = 1;
+    tc.nodeSource[n].nodes[0] = n;
+    tc.nodeSource[n].weights[0] = 1.0;
+  }
+  for (std::size_t t = 0; t < temp.size(); ++t) {
+    const std::uint32_t id = nodeId[t];
+    oc_.nodeCoords_[id] = temp[t].p;
+    oc_.restPositions_[id] = oc_.nodeGridPosition(temp[t].p);
+    oc_.positions_[id] = temp[t].pos;
+    tc.nodeSource[id] = temp[t].src;
+  }
+
+  // 5. Elements: corners of untouched copies at regrouped points, then the new copies.
+  auto resolve = [&](std::uint32_t ref) { return (ref & kTempNode) ? nodeId[ref & ~kTempNode] : ref; };
+  auto resolved = [&](const std::array<std::uint32_t, 8>& refs) {
+    std::array<std::uint32_t, 8> out{};
+    for (std::size_t c = 0; c < 8; ++c) out[c] = resolve(refs[c]);
+    return out;
+  };
+  E.resize(oldElements_ + appended);
+  for (const auto& [copy, refs] : cornerNodes_) {
+    if (copy >= oldElements_) continue;
+    const auto nodes = resolved(refs);
+    changed = changed || nodes != E[copy].nodes;
+    E[copy].nodes = nodes;
+  }
+  for (std::uint32_t i : alive) {
+    const std::uint32_t id = finalId[i];
+    OctreeElement el;
+    el.level = keyLevel(copies_[i].key);
+    const Index3 f = keyFirstVoxel(copies_[i].key);
+    el.coord = {f.x >> el.level, f.y >> el.level, f.z >> el.level};
+    el.nodes = resolved(cornerNodes_.at(oldElements_ + i));
+    changed = changed || id >= oldElements_ || el.nodes != E[id].nodes;
+    E[id] = el;
+  }
+
+  // 6. Embedding of the partitioned cubes' voxels: provisional ids to final ones.
+  std::vector<std::uint64_t> keys;
+  for (const auto& kv : partitioned_) keys.push_back(kv.first);
+  std::sort(keys.begin(), keys.end());
+  const Index3 gd = grid_.dims();
+  parallelFor(
+      0, keys.size(), 4,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) {
+          const Index3 f = keyFirstVoxel(keys[i]);
+          const int s = 1 << keyLevel(keys[i]);
+          for (int z = f.z; z < std::min(f.z + s, gd.z); ++z)
+            for (int y = f.y; y < std::min(f.y + s, gd.y); ++y)
+              for (int x = f.x; x < std::min(f.x + s, gd.x); ++x) {
+                VoxelEmbedding& em = oc_.embedding_[grid_.index(x, y, z)];
+                if (em.element != kNoElement) em.element = finalOf(em.element);
+              }
+        }
+      },
+      threaded_);
+
+  // 7. Cube index.
+  oc_.nextCopy_.resize(E.size(), kNoElement);
+  for (std::uint64_t k : keys) {
+    std::vector<std::uint32_t> ids;
+    for (std::uint32_t copy : partitioned_.at(k)) ids.push_back(finalOf(copy));
+    std::sort(ids.begin(), ids.end());
+    oc_.cubeFirst_[k] = ids.front();
+    for (std::size_t j = 0; j < ids.size(); ++j)
+      oc_.nextCopy_[ids[j]] = j + 1 < ids.size() ? ids[j + 1] : kNoElement;
+  }
+
+  // 8. Hanging nodes: the old ones away from the regrouped points, and the new ones.
+  std::vector<HangingNode> hanging;
+  for (const HangingNode& h : oc_.hanging_)
+    if (!freedNode[h.node]) hanging.push_back(h);
+  for (std::size_t t = 0; t < temp.size(); ++t)
+    if (temp[t].coarse != kNoElement) {
+      HangingNode h;
+      h.node = nodeId[t];
+      h.element = finalOf(temp[t].coarse);
+      hanging.push_back(h);
+    }
+
+  // 9. Fill node slots left free with the last nodes.
+  if (!holes.empty()) {
+    std::vector<std::uint32_t> remap(nodeCount);
+    for (std::uint32_t n = 0; n < nodeCount; ++n) remap[n] = n;
+    std::vector<char> hole(nodeCount, 0);
+    for (std::uint32_t h : holes) hole[h] = 1;
+    for (std::uint32_t h : holes) {
+      while (nodeCount > 0 && hole[nodeCount - 1]) --nodeCount;
+      if (h >= nodeCount) break;
+      const std::size_t last = nodeCount - 1;
+      oc_.nodeCoords_[h] = oc_.nodeCoords_[last];
+      oc_.restPositions_[h] = oc_.restPositions_[last];
+      oc_.positions_[h] = oc_.positions_[last];
+      tc.nodeSource[h] = tc.nodeSource[last];
+      remap[last] = h;
+      hole[h] = 0;
+      hole[last] = 1;
+      --nodeCount;
+    }
+    while (nodeCount > 0 && hole[nodeCount - 1]) --nodeCount;
+    oc_.nodeCoords_.resize(nodeCount);
+    oc_.restPositions_.resize(nodeCount);
+    oc_.positions_.resize(nodeCount);
+    tc.nodeSource.resize(nodeCount);
+    for (OctreeElement& el : E)
+      for (std::uint32_t& n : el.nodes) n = remap[n];
+    for (HangingNode& h : hanging) h.node = remap[h.node];
+  }
+
+  // 10. Masters from the coarse copies' corners, coarse first.
+  for (HangingNode& h : hanging) {
+    const OctreeElement& ce = E[h.element];
+    std::array<int, 4> mc{};
+    h.masterCount = static_cast<std::uint8_t>(masterCorners(ce.firstVoxel(), ce.size(), oc_.nodeCoords_[h.node], mc));
+    h.coarseLevel = static_cast<std::uint8_t>(ce.level);
+    for (int m = 0; m < h.masterCount; ++m)
+      h.masters[static_cast<std::size_t>(m)] = ce.nodes[static_cast<std::size_t>(mc[static_cast<std::size_t>(m)])];
+  }
+  std::sort(hanging.begin(), hanging.end(), [](const HangingNode& a, const HangingNode& b) {
+    return a.coarseLevel != b.coarseLevel ? a.coarseLevel > b.coarseLevel : a.node < b.node;
+  });
+  if (!changed) {
+    changed = hanging.size() != oc_.hanging_.size();
+    for (std::size_t i = 0; i < hanging.size() && !changed; ++i)
+      changed = hanging[i].node != oc_.hanging_[i].node || hanging[i].masters != oc_.hanging_[i].masters ||
+                hanging[i].element != oc_.hanging_[i].element;
+  }
+  oc_.hanging_ = std::move(hanging);
+  oc_.hangingFlag_.assign(nodeCount, 0);
+  for (const HangingNode& h : oc_.hanging_) oc_.hangingFlag_[h.node] = 1;
+
+  // 11. Element map.
+  tc.elementSource.resize(E.size());
+  for (std::uint32_t e = 0; e < E.size(); ++e)
+    tc.elementSource[e] = e < oldElements_ && !freedElement[e] ? e : kNewElement;
+  for (std::uint32_t i : alive)
+    if (copies_[i].sameAs != kNoElement) tc.elementSource[finalId[i]] = copies_[i].sameAs;
+  tc.changed = changed;
+  return tc;
+}
+
+}  // namespace voxcut

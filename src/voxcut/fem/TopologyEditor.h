@@ -1,0 +1,275 @@
+#pragma once
+/// @file TopologyEditor.h
+/// Internal to fem: the working state of one topology update of a deformation octree
+/// (CutTopology.h holds the rule and the public entry points). Not part of the public API.
+
+#include <array>
+#include <cstdint>
+#include <unordered_map>
+#include <unordered_set>
+#include <utility>
+#include <vector>
+
+#include "voxcut/core/Error.h"
+#include "voxcut/fem/DeformationOctree.h"
+#include "voxcut/fem/TopologyChange.h"
+#include "voxcut/voxel/VoxelGrid.h"
+
+namespace voxcut {
+namespace topology_detail {
+
+constexpr std::uint64_t kNoKey = ~std::uint64_t{0};
+/// Flags a node made by this update in a corner array; the low bits index the new nodes.
+constexpr std::uint32_t kTempNode = 0x80000000u;
+
+inline int keyLevel(std::uint64_t k) { return static_cast<int>(k >> 60); }
+inline Index3 keyFirstVoxel(std::uint64_t k) {
+  const std::uint64_t m = (std::uint64_t{1} << 20) - 1;
+  const int L = keyLevel(k);
+  return {static_cast<int>((k >> 40) & m) << L, static_cast<int>((k >> 20) & m) << L,
+          static_cast<int>(k & m) << L};
+}
+inline std::uint64_t pointKey(const Index3& p) {
+  return (static_cast<std::uint64_t>(p.x) << 42) | (static_cast<std::uint64_t>(p.y) << 21) |
+         static_cast<std::uint64_t>(p.z);
+}
+inline Index3 pointOf(std::uint64_t k) {
+  const std::uint64_t m = (std::uint64_t{1} << 21) - 1;
+  return {static_cast<int>(k >> 42), static_cast<int>((k >> 21) & m), static_cast<int>(k & m)};
+}
+
+/// Node-grid point p against the closed cube [f, f + s]^3: -1 outside, else the number of
+/// axes along which p lies strictly inside (0 corner, 1 edge, 2 face, 3 interior).
+inline int interiorAxes(const Index3& f, int s, const Index3& p) {
+  int n = 0;
+  for (int k = 0; k < 3; ++k) {
+    if (p[k] < f[k] || p[k] > f[k] + s) return -1;
+    n += p[k] != f[k] && p[k] != f[k] + s;
+  }
+  return n;
+}
+/// Corner index of p in the cube (p on its closed box): bit k set when p is on the high side.
+inline int cornerIndex(const Index3& f, int s, const Index3& p) {
+  return (p.x == f.x + s ? 1 : 0) | (p.y == f.y + s ? 2 : 0) | (p.z == f.z + s ? 4 : 0);
+}
+inline Index3 cornerPoint(const Index3& f, int s, int c) {
+  return {f.x + (c & 1) * s, f.y + ((c >> 1) & 1) * s, f.z + ((c >> 2) & 1) * s};
+}
+/// The corners of the cube's edge (2) or face (4) whose midpoint or centre is p, ascending.
+inline int masterCorners(const Index3& f, int s, const Index3& p, std::array<int, 4>& out) {
+  int fixed = 0, freeMask = 0;
+  for (int k = 0; k < 3; ++k) {
+    if (p[k] == f[k] + s) fixed |= 1 << k;
+    else if (p[k] != f[k]) {
+      VOXCUT_ASSERT(2 * (p[k] - f[k]) == s, "hanging node off a coarse edge midpoint or face centre");
+      freeMask |= 1 << k;
+    }
+  }
+  int n = 0;
+  for (int c = 0; c < 8; ++c)
+    if ((c & ~freeMask) == fixed) out[static_cast<std::size_t>(n++)] = c;
+  return n;
+}
+
+struct UnionFind {
+  std::vector<int> parent;
+  explicit UnionFind(std::size_t n) : parent(n) {
+    for (std::size_t i = 0; i < n; ++i) parent[i] = static_cast<int>(i);
+  }
+  int find(int a) {
+    while (parent[static_cast<std::size_t>(a)] != a)
+      a = parent[static_cast<std::size_t>(a)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(a)])];
+    return a;
+  }
+  void unite(int a, int b) {
+    a = find(a);
+    b = find(b);
+    if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
+  }
+};
+
+/// Open-addressing hash map from 64-bit keys (cube or point keys; never the two highest
+/// values) to 32-bit values. The editor probes it several times per node-grid point, where a
+/// flat table with a multiplicative hash is much cheaper than the node-based std::unordered_map.
+/// Const members may run concurrently.
+class KeyTable {
+ public:
+  explicit KeyTable(std::size_t expected = 0) { rehash(2 * expected + 16); }
+  /// Copies `from` (O(#entries)).
+  explicit KeyTable(const std::unordered_map<std::uint64_t, std::uint32_t>& from) : KeyTable(from.size()) {
+    for (const auto& [k, v] : from) set(k, v);
+  }
+  /// The value of key k, nullptr when absent.
+  [[nodiscard]] const std::uint32_t* find(std::uint64_t k) const {
+    const std::size_t i = position(k);
+    return i == kAbsent ? nullptr : &values_[i];
+  }
+  [[nodiscard]] bool contains(std::uint64_t k) const { return position(k) != kAbsent; }
+  /// Inserts k or overwrites its value.
+  void set(std::uint64_t k, std::uint32_t v) {
+    if (const std::size_t i = position(k); i != kAbsent) {
+      values_[i] = v;
+      return;
+    }
+    if (2 * (used_ + 1) > keys_.size()) rehash(2 * keys_.size());
+    std::size_t i = slot(k);
+    while (keys_[i] != kEmpty && keys_[i] != kErased) i = (i + 1) & mask_;
+    used_ += keys_[i] == kEmpty;
+    keys_[i] = k;
+    values_[i] = v;
+  }
+  /// Inserts (k, v) when k is absent; returns whether it did.
+  bool insert(std::uint64_t k, std::uint32_t v = 0) {
+    if (contains(k)) return false;
+    set(k, v);
+    return true;
+  }
+  void erase(std::uint64_t k) {
+    if (const std::size_t i = position(k); i != kAbsent) keys_[i] = kErased;
+  }
+
+ private:
+  // Cube keys have their level (< 8) in bits 60..63 and point keys use 63 bits, so these two
+  // are never keys.
+  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0}, kErased = kEmpty - 1;
+  static constexpr std::size_t kAbsent = ~std::size_t{0};
+  [[nodiscard]] std::size_t position(std::uint64_t k) const {
+    for (std::size_t i = slot(k);; i = (i + 1) & mask_) {
+      if (keys_[i] == k) return i;
+      if (keys_[i] == kEmpty) return kAbsent;
+    }
+  }
+  [[nodiscard]] std::size_t slot(std::uint64_t k) const {
+    return static_cast<std::size_t>((k * 0x9E3779B97F4A7C15ull) >> shift_);
+  }
+  void rehash(std::size_t atLeast) {
+    std::size_t n = 16;
+    int bits = 4;
+    while (n < atLeast) {
+      n *= 2;
+      ++bits;
+    }
+    std::vector<std::uint64_t> oldKeys = std::move(keys_);
+    std::vector<std::uint32_t> oldValues = std::move(values_);
+    keys_.assign(n, kEmpty);
+    values_.assign(n, 0);
+    mask_ = n - 1;
+    shift_ = 64 - bits;
+    used_ = 0;
+    for (std::size_t i = 0; i < oldKeys.size(); ++i)
+      if (oldKeys[i] != kEmpty && oldKeys[i] != kErased) set(oldKeys[i], oldValues[i]);
+  }
+  std::vector<std::uint64_t> keys_;
+  std::vector<std::uint32_t> values_;
+  std::size_t mask_ = 0, used_ = 0;  ///< used_: slots not empty (tombstones included)
+  int shift_ = 64;
+};
+
+/// A provisional element copy: one connected part of a cube partitioned by this update.
+struct NewCopy {
+  std::uint64_t key = 0;
+  std::uint32_t minVoxel = 0;
+  std::uint32_t origin = kNoElement;  ///< old element whose part held these voxels
+  std::uint32_t sameAs = kNoElement;  ///< old element with the same cube and voxels
+  bool alive = true;
+};
+
+struct CubeParts {
+  std::vector<std::uint32_t> voxels;  ///< occupied voxels of the cube, ascending
+  std::vector<std::uint32_t> part;    ///< part of each
+  std::vector<NewCopy> parts;         ///< in order of their lowest voxel
+};
+
+/// The element copies around one node-grid point that share one node copy there.
+struct Group {
+  std::vector<std::pair<std::uint32_t, int>> corners;  ///< (copy, corner index)
+  std::vector<std::uint32_t> coarse;                   ///< copies it hangs on
+};
+struct PointGroups {
+  Index3 p;
+  std::vector<Group> groups;
+  std::vector<std::uint32_t> oldNodes;  ///< nodes of untouched old copies at p
+};
+
+}  // namespace topology_detail
+
+/// The working state of one topology update (friend of DeformationOctree).
+class TopologyEditor {
+ public:
+  TopologyEditor(DeformationOctree& oc, const VoxelGrid& grid, bool threaded)
+      : oc_(oc),
+        grid_(grid),
+        threaded_(threaded),
+        oldElements_(static_cast<std::uint32_t>(oc.elements_.size())),
+        oldNodes_(static_cast<std::uint32_t>(oc.nodeCoords_.size())),
+        leaves_(oc.cubeFirst_) {
+    VOXCUT_ASSERT(grid.dims() == oc.dims_, "octree and grid differ");
+    const Index3 gd = grid.dims();
+    tileDims_ = {(gd.x >> kTileLevel) + 2, (gd.y >> kTileLevel) + 2, (gd.z >> kTileLevel) + 2};
+    tileIndex_.assign(static_cast<std::size_t>(tileDims_.x) * tileDims_.y * tileDims_.z, -1);
+  }
+
+  /// Refines the leaves holding a voxel of a cut link down to `finest`; marks them dirty.
+  void seedCuts(const std::vector<std::uint64_t>& links, int finest);
+  /// Marks every leaf dirty (the load-time rule).
+  void seedAll();
+  /// Partitions, groups, refines ambiguous cubes until none is left, then writes the octree.
+  TopologyChange run();
+  [[nodiscard]] bool anythingDirty() const { return !pending_.empty() || !removed_.empty(); }
+
+ private:
+  /// The leaf cube holding `voxel` whose level is at least minLevel, kNoKey when none. Reads
+  /// the tile of leaf levels when it is built, else probes the levels.
+  [[nodiscard]] std::uint64_t leafOf(const Index3& voxel, int minLevel = 0) const;
+  [[nodiscard]] std::uint64_t probeLeaf(const Index3& voxel, int minLevel) const;
+  /// Fills the tile of leaf levels holding `voxel` unless it is built or off the tile grid.
+  /// Serial only.
+  void buildTile(const Index3& voxel);
+  /// Writes `level` into the built tiles over the cube [first, first + size)^3 (a split).
+  void setLeafLevels(const Index3& first, int size, int level);
+  void makeDirty(std::uint64_t key);
+  void split(std::uint64_t key);
+  void copiesOf(std::uint64_t key, std::vector<std::uint32_t>& out) const;
+  [[nodiscard]] std::uint32_t origin(std::uint32_t copy) const {
+    return copy < oldElements_ ? copy : copies_[copy - oldElements_].origin;
+  }
+  [[nodiscard]] topology_detail::CubeParts partition(std::uint64_t key) const;
+  void partitionPending();
+  [[nodiscard]] std::vector<std::uint64_t> dirtyPoints();
+  /// The leaves holding the 8 voxels around node-grid point p (kNoKey where none), in the
+  /// order of the offsets (d & 1, (d >> 1) & 1, d >> 2) - 1.
+  [[nodiscard]] std::array<std::uint64_t, 8> leavesAround(const Index3& p) const;
+  [[nodiscard]] topology_detail::PointGroups groupAt(const Index3& p,
+                                                     const std::array<std::uint64_t, 8>& around) const;
+  void assignTempNodes();
+  [[nodiscard]] std::uint32_t cornerNode(std::uint32_t copy, int c) const;
+  [[nodiscard]] std::vector<std::uint64_t> ambiguousCubes() const;
+  TopologyChange finalize();
+
+  DeformationOctree& oc_;
+  const VoxelGrid& grid_;
+  bool threaded_;
+  std::uint32_t oldElements_, oldNodes_;
+  /// The leaves: oc_.cubeFirst_ kept in step, except that a partitioned leaf maps to its first
+  /// provisional copy (its copies are consecutive in copies_).
+  topology_detail::KeyTable leaves_;
+  /// Level of the leaf holding each voxel (-1: none), in tiles of 8^3 voxels built on demand:
+  /// tileIndex_ is -1 or the tile's block of 512 entries in tileLevels_ (x fastest).
+  static constexpr int kTileLevel = 3, kTileSize = 1 << kTileLevel;
+  Index3 tileDims_;
+  std::vector<std::int32_t> tileIndex_;
+  std::vector<std::int8_t> tileLevels_;
+  std::unordered_set<std::uint64_t> pending_;  ///< leaves to partition
+  /// Partitioned leaves and their provisional copies (ids oldElements_ + index in copies_).
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> partitioned_;
+  std::vector<topology_detail::NewCopy> copies_;
+  std::vector<std::uint32_t> removed_;       ///< old elements whose slots are freed
+  std::vector<std::uint64_t> removedCubes_;  ///< old leaves split or repartitioned
+  std::vector<topology_detail::PointGroups> points_;
+  std::vector<std::uint64_t> lastPoints_;                ///< keys of points_, ascending
+  std::vector<std::array<std::uint64_t, 8>> lastAround_;  ///< their leaves
+  std::unordered_map<std::uint32_t, std::array<std::uint32_t, 8>> cornerNodes_;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> tempNodes_;  ///< (point, group)
+};
+
+}  // namespace voxcut

@@ -1,0 +1,437 @@
+#include "voxcut/io/SceneReader.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <initializer_list>
+#include <iterator>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+#include <vector>
+
+#include "voxcut/core/Error.h"
+
+namespace voxcut {
+namespace {
+
+// ordered_json keeps the file's key order, so materials come back in the order written and
+// the first unknown key reported is the first one in the file.
+using Json = nlohmann::ordered_json;
+namespace fs = std::filesystem;
+
+constexpr int kMaxResolution = 4096;
+constexpr int kMaxElementLevel = 6;
+constexpr int kMaxOctreeLevel = 7;
+constexpr std::size_t kMaxShownChars = 60;
+
+/// The context of one parse: the scene's name for messages and the folder of mesh paths.
+struct Reader {
+  std::string source;
+  fs::path baseDir;
+
+  /// Throws "SOURCE: PATH: WHAT" (PATH "top level" for the root).
+  [[noreturn]] void fail(const std::string& path, const std::string& what) const {
+    throw InputError(source + ": " + (path.empty() ? std::string("top level") : path) + ": " +
+                     what);
+  }
+};
+
+std::string child(const std::string& path, std::string_view key) {
+  return path.empty() ? std::string(key) : path + "." + std::string(key);
+}
+
+std::string element(const std::string& path, std::size_t i) {
+  return path + "[" + std::to_string(i) + "]";
+}
+
+/// A value as the user wrote it (JSON text, cut short), for "got ..." in messages.
+std::string shown(const Json& v) {
+  std::string s = v.dump();
+  if (s.size() > kMaxShownChars) s = s.substr(0, kMaxShownChars - 3) + "...";
+  return s;
+}
+
+/// A number for messages: shortest round-trip form.
+std::string shown(double x) {
+  return Json(x).dump();
+}
+
+const char* kindOf(const Json& v) {
+  if (v.is_object()) return "an object";
+  if (v.is_array()) return "a list";
+  if (v.is_string()) return "a string";
+  if (v.is_boolean()) return "a boolean";
+  if (v.is_null()) return "null";
+  return "a number";
+}
+
+void expectObject(const Reader& r, const Json& v, const std::string& path) {
+  if (!v.is_object()) r.fail(path, std::string("must be an object, got ") + kindOf(v));
+}
+
+/// Checks that `obj` holds only `allowed` keys.
+void checkKeys(const Reader& r, const Json& obj, const std::string& path,
+               std::initializer_list<std::string_view> allowed) {
+  for (const auto& item : obj.items()) {
+    if (std::find(allowed.begin(), allowed.end(), item.key()) != allowed.end()) continue;
+    std::string list;
+    for (std::string_view k : allowed) list += (list.empty() ? "" : ", ") + std::string(k);
+    r.fail(child(path, item.key()), "unknown key (expected one of: " + list + ")");
+  }
+}
+
+/// The member `key` of `obj`, which must be there.
+const Json& required(const Reader& r, const Json& obj, const std::string& path,
+                     std::string_view key) {
+  const auto it = obj.find(std::string(key));
+  if (it == obj.end()) r.fail(child(path, key), "missing (required)");
+  return *it;
+}
+
+/// A finite number.
+double number(const Reader& r, const Json& v, const std::string& path) {
+  if (!v.is_number()) r.fail(path, std::string("must be a number, got ") + shown(v));
+  const double x = v.get<double>();
+  if (!std::isfinite(x)) r.fail(path, "must be finite, got " + shown(v));
+  return x;
+}
+
+double positive(const Reader& r, const Json& v, const std::string& path) {
+  const double x = number(r, v, path);
+  if (!(x > 0.0)) r.fail(path, "must be > 0, got " + shown(v));
+  return x;
+}
+
+double nonNegative(const Reader& r, const Json& v, const std::string& path) {
+  const double x = number(r, v, path);
+  if (!(x >= 0.0)) r.fail(path, "must be >= 0, got " + shown(v));
+  return x;
+}
+
+/// An integer in lo..hi (a JSON number with an integral value, e.g. 3 or 3.0).
+int integer(const Reader& r, const Json& v, const std::string& path, long long lo, long long hi) {
+  const std::string want =
+      "must be an integer in " + std::to_string(lo) + ".." + std::to_string(hi) + ", got ";
+  if (!v.is_number()) r.fail(path, want + shown(v));
+  long long value = 0;
+  if (v.is_number_unsigned()) {
+    const auto u = v.get<unsigned long long>();
+    if (u > static_cast<unsigned long long>(hi)) r.fail(path, want + shown(v));
+    value = static_cast<long long>(u);
+  } else if (v.is_number_integer()) {
+    value = v.get<long long>();
+  } else {
+    const double x = v.get<double>();
+    if (!(std::floor(x) == x) || x < static_cast<double>(lo) || x > static_cast<double>(hi))
+      r.fail(path, want + shown(v));
+    value = static_cast<long long>(x);
+  }
+  if (value < lo || value > hi) r.fail(path, want + shown(v));
+  return static_cast<int>(value);
+}
+
+/// [x, y, z]: a list of three finite numbers.
+Vec3d vec3(const Reader& r, const Json& v, const std::string& path) {
+  if (!v.is_array() || v.size() != 3)
+    r.fail(path, "must be a list of 3 numbers [x, y, z], got " + shown(v));
+  return {number(r, v[0], element(path, 0)), number(r, v[1], element(path, 1)),
+          number(r, v[2], element(path, 2))};
+}
+
+/// A list (possibly empty).
+const Json& list(const Reader& r, const Json& v, const std::string& path) {
+  if (!v.is_array()) r.fail(path, std::string("must be a list, got ") + kindOf(v));
+  return v;
+}
+
+SolverSettings readSolver(const Reader& r, const Json& v, const std::string& path) {
+  expectObject(r, v, path);
+  checkKeys(r, v, path, {"tolerance", "max_iterations"});
+  SolverSettings s;
+  if (v.contains("tolerance")) s.tolerance = positive(r, v["tolerance"], child(path, "tolerance"));
+  if (v.contains("max_iterations"))
+    s.maxIterations = integer(r, v["max_iterations"], child(path, "max_iterations"), 1, 1000000);
+  return s;
+}
+
+SceneMaterial readMaterial(const Reader& r, const std::string& name, const Json& v,
+                           const std::string& path) {
+  expectObject(r, v, path);
+  checkKeys(r, v, path,
+            {"young_modulus", "poisson_ratio", "density", "damping", "max_internal_level",
+             "max_boundary_level"});
+  SceneMaterial m;
+  m.name = name;
+  if (v.contains("young_modulus"))
+    m.youngModulus = positive(r, v["young_modulus"], child(path, "young_modulus"));
+  if (v.contains("poisson_ratio")) {
+    const std::string p = child(path, "poisson_ratio");
+    m.poissonRatio = number(r, v["poisson_ratio"], p);
+    if (!(m.poissonRatio >= 0.0 && m.poissonRatio < 0.5))
+      r.fail(p, "must be in [0, 0.5), got " + shown(v["poisson_ratio"]));
+  }
+  if (v.contains("density")) m.density = positive(r, v["density"], child(path, "density"));
+  if (v.contains("damping")) {
+    const std::string p = child(path, "damping");
+    const Json& d = v["damping"];
+    if (!d.is_array() || d.size() != 2)
+      r.fail(p,
+             "must be a list of 2 numbers [alpha, beta] (Rayleigh mass and stiffness "
+             "factors), got " +
+                 shown(d));
+    m.massDamping = nonNegative(r, d[0], element(p, 0));
+    m.stiffnessDamping = nonNegative(r, d[1], element(p, 1));
+  }
+  if (v.contains("max_internal_level"))
+    m.maxInternalLevel =
+        integer(r, v["max_internal_level"], child(path, "max_internal_level"), 0, kMaxOctreeLevel);
+  if (v.contains("max_boundary_level"))
+    m.maxBoundaryLevel =
+        integer(r, v["max_boundary_level"], child(path, "max_boundary_level"), 0, kMaxOctreeLevel);
+  return m;
+}
+
+FixedBox readFixed(const Reader& r, const Json& v, const std::string& path) {
+  expectObject(r, v, path);
+  checkKeys(r, v, path, {"box"});
+  const std::string p = child(path, "box");
+  const Json& box = required(r, v, path, "box");
+  if (!box.is_array() || box.size() != 2)
+    r.fail(p, "must be [[x0, y0, z0], [x1, y1, z1]], got " + shown(box));
+  FixedBox f{vec3(r, box[0], element(p, 0)), vec3(r, box[1], element(p, 1))};
+  static constexpr const char* kAxes[3] = {"x", "y", "z"};
+  for (int a = 0; a < 3; ++a)
+    if (!(f.lo[a] <= f.hi[a]))
+      r.fail(p, std::string("must have ") + kAxes[a] + "0 <= " + kAxes[a] + "1, got " +
+                    shown(f.lo[a]) + " > " + shown(f.hi[a]));
+  return f;
+}
+
+/// The model spec: a built-in kept as written (primitives checked by loading them, which is
+/// cheap), or a mesh path made absolute against the scene's folder and checked to exist.
+std::string readModel(const Reader& r, const Json& v, const std::string& path) {
+  if (!v.is_string()) r.fail(path, std::string("must be a string, got ") + kindOf(v));
+  const std::string spec = v.get<std::string>();
+  if (spec.empty()) r.fail(path, "must not be empty");
+  if (isBuiltinModelSpec(spec)) {
+    if (spec.starts_with("box") || spec.starts_with("sphere")) {
+      try {
+        (void)loadModel(spec);
+      } catch (const InputError& e) {
+        r.fail(path, e.what());
+      }
+    }
+    return spec;
+  }
+  const fs::path given(spec);
+  const fs::path resolved = fs::absolute(r.baseDir / given).lexically_normal();
+  std::error_code ec;
+  const auto status = fs::status(resolved, ec);
+  if (ec || !fs::exists(status))
+    r.fail(path, "no built-in model and no such mesh file '" + resolved.string() + "'" +
+                     (given.is_relative() ? " (relative paths start at the scene's folder)" : ""));
+  if (!fs::is_regular_file(status))
+    r.fail(path, "'" + resolved.string() + "' is not a regular file");
+  return resolved.string();
+}
+
+SceneBody readBody(const Reader& r, const Json& v, const std::string& path) {
+  expectObject(r, v, path);
+  checkKeys(
+      r, v, path,
+      {"model", "resolution", "element_level", "finest_level", "materials", "fixed", "offset"});
+  SceneBody b;
+  b.model = readModel(r, required(r, v, path, "model"), child(path, "model"));
+  if (v.contains("resolution"))
+    b.resolution = integer(r, v["resolution"], child(path, "resolution"), 3, kMaxResolution);
+  if (v.contains("element_level"))
+    b.elementLevel =
+        integer(r, v["element_level"], child(path, "element_level"), 0, kMaxElementLevel);
+  if (v.contains("finest_level")) {
+    const std::string p = child(path, "finest_level");
+    b.finestLevel = integer(r, v["finest_level"], p, 0, kMaxElementLevel);
+    if (b.finestLevel > b.elementLevel)
+      r.fail(p, "must be <= element_level (" + std::to_string(b.elementLevel) + "), got " +
+                    std::to_string(b.finestLevel));
+  }
+  if (v.contains("materials")) {
+    const std::string p = child(path, "materials");
+    const Json& mats = v["materials"];
+    expectObject(r, mats, p);
+    for (const auto& item : mats.items()) {
+      if (item.key().empty()) r.fail(p, "a material name must not be empty");
+      b.materials.push_back(readMaterial(r, item.key(), item.value(), child(p, item.key())));
+    }
+  }
+  if (v.contains("fixed")) {
+    const std::string p = child(path, "fixed");
+    const Json& fixed = list(r, v["fixed"], p);
+    for (std::size_t i = 0; i < fixed.size(); ++i)
+      b.fixed.push_back(readFixed(r, fixed[i], element(p, i)));
+  }
+  if (v.contains("offset")) b.offset = vec3(r, v["offset"], child(path, "offset"));
+  return b;
+}
+
+SceneTool readTool(const Reader& r, const Json& v, const std::string& path) {
+  expectObject(r, v, path);
+  checkKeys(r, v, path, {"type", "keys"});
+  const Json& type = required(r, v, path, "type");
+  if (!type.is_string() || type.get<std::string>() != "blade")
+    r.fail(child(path, "type"), "unknown tool type " + shown(type) + " (expected: \"blade\")");
+  SceneTool tool;
+  tool.type = ToolType::Blade;
+  const std::string p = child(path, "keys");
+  const Json& keys = required(r, v, path, "keys");
+  if (!keys.is_array() || keys.empty())
+    r.fail(p, "must be a non-empty list of {\"t\": s, \"a\": [x,y,z], \"b\": [x,y,z]}, got " +
+                  shown(keys));
+  for (std::size_t i = 0; i < keys.size(); ++i) {
+    const std::string kp = element(p, i);
+    const Json& k = keys[i];
+    expectObject(r, k, kp);
+    checkKeys(r, k, kp, {"t", "a", "b"});
+    ToolKey key;
+    key.t = number(r, required(r, k, kp, "t"), child(kp, "t"));
+    if (i > 0 && !(key.t > tool.keys.back().t))
+      r.fail(child(kp, "t"), "key times must increase strictly: must be > " +
+                                 shown(tool.keys.back().t) + " (the previous key's), got " +
+                                 shown(key.t));
+    key.pose.a = vec3(r, required(r, k, kp, "a"), child(kp, "a"));
+    key.pose.b = vec3(r, required(r, k, kp, "b"), child(kp, "b"));
+    if (key.pose.a == key.pose.b) r.fail(kp, "the blade's ends a and b must differ");
+    tool.keys.push_back(key);
+  }
+  return tool;
+}
+
+Scene readTop(const Reader& r, const Json& v) {
+  expectObject(r, v, "");
+  checkKeys(r, v, "",
+            {"description", "time_step", "gravity", "solver", "frames", "bodies", "tools"});
+  Scene scene;
+  scene.source = r.source;
+  if (v.contains("description") && !v["description"].is_string())
+    r.fail("description", std::string("must be a string, got ") + kindOf(v["description"]));
+  if (v.contains("time_step")) scene.timeStep = positive(r, v["time_step"], "time_step");
+  if (v.contains("gravity")) scene.gravity = vec3(r, v["gravity"], "gravity");
+  if (v.contains("solver")) scene.solver = readSolver(r, v["solver"], "solver");
+  if (v.contains("frames")) scene.frames = integer(r, v["frames"], "frames", 1, 100000000);
+  const Json& bodies = required(r, v, "", "bodies");
+  if (!bodies.is_array() || bodies.empty())
+    r.fail("bodies", std::string("must be a non-empty list of bodies, got ") + shown(bodies));
+  for (std::size_t i = 0; i < bodies.size(); ++i)
+    scene.bodies.push_back(readBody(r, bodies[i], element("bodies", i)));
+  if (v.contains("tools")) {
+    const Json& tools = list(r, v["tools"], "tools");
+    for (std::size_t i = 0; i < tools.size(); ++i)
+      scene.tools.push_back(readTool(r, tools[i], element("tools", i)));
+  }
+  return scene;
+}
+
+/// Line and column (1-based) of the byte at `offset` (0-based) of `text`.
+std::pair<std::size_t, std::size_t> lineAndColumn(std::string_view text, std::size_t offset) {
+  offset = std::min(offset, text.size());
+  std::size_t line = 1, column = 1;
+  for (std::size_t i = 0; i < offset; ++i) {
+    if (text[i] == '\n') {
+      ++line;
+      column = 1;
+    } else {
+      ++column;
+    }
+  }
+  return {line, column};
+}
+
+/// Parses JSON, rejecting a key repeated within one object (the JSON library would keep the
+/// last one silently).
+Json parseJson(std::string_view text, const std::string& source) {
+  std::vector<std::set<std::string>> open;  // keys seen in each enclosing object
+  const Json::parser_callback_t onEvent = [&](int, Json::parse_event_t event, Json& parsed) {
+    using Event = Json::parse_event_t;
+    if (event == Event::object_start) {
+      open.emplace_back();
+    } else if (event == Event::object_end) {
+      if (!open.empty()) open.pop_back();
+    } else if (event == Event::key && !open.empty()) {
+      const std::string key = parsed.get<std::string>();
+      if (!open.back().insert(key).second)
+        throw InputError(source + ": key \"" + key + "\" appears twice in one object");
+    }
+    return true;
+  };
+  try {
+    return Json::parse(text.begin(), text.end(), onEvent);
+  } catch (const Json::parse_error& e) {
+    // e.byte counts from 1 and points just past the offending character.
+    const auto [line, column] = lineAndColumn(text, e.byte > 0 ? e.byte - 1 : 0);
+    std::string reason = e.what();
+    // Drop the library's "[json.exception.parse_error.101] parse error at line L, column C: ".
+    const std::size_t colon = reason.find(": ", reason.find("parse error"));
+    if (colon != std::string::npos) reason = reason.substr(colon + 2);
+    std::replace(reason.begin(), reason.end(), '\n', ' ');
+    throw InputError(source + ": JSON syntax error at line " + std::to_string(line) + ", column " +
+                     std::to_string(column) + ": " + reason);
+  } catch (const Json::exception& e) {
+    // A number literal too large for a double (e.g. 1e999); the library gives no position.
+    std::string reason = e.what();
+    const std::size_t bracket = reason.find("] ");
+    if (bracket != std::string::npos) reason = reason.substr(bracket + 2);
+    std::replace(reason.begin(), reason.end(), '\n', ' ');
+    throw InputError(source + ": JSON error: " + reason);
+  }
+}
+
+}  // namespace
+
+bool isBuiltinModelSpec(std::string_view model) {
+  const auto names = builtinModelNames();
+  if (std::find(names.begin(), names.end(), model) != names.end()) return true;
+  return model == "box" || model == "sphere" || model.starts_with("box:") ||
+         model.starts_with("sphere:");
+}
+
+Scene parseScene(std::string_view text, const std::string& source, const fs::path& baseDir) {
+  const Reader reader{source, fs::absolute(baseDir)};
+  return readTop(reader, parseJson(text, source));
+}
+
+Scene readScene(const std::string& path) {
+  std::error_code ec;
+  const auto status = fs::status(path, ec);
+  if (ec || !fs::exists(status)) throw InputError(path + ": no such file");
+  if (fs::is_directory(status)) throw InputError(path + ": is a directory, not a scene file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open: " + std::strerror(errno));
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  if (in.bad()) throw InputError(path + ": cannot read: " + std::strerror(errno));
+  return parseScene(bytes.str(), path, fs::absolute(fs::path(path)).parent_path());
+}
+
+Model loadBodyModel(const Scene& scene, std::size_t bodyIndex) {
+  VOXCUT_ASSERT(bodyIndex < scene.bodies.size(), "body index out of range");
+  const SceneBody& body = scene.bodies[bodyIndex];
+  Model model;
+  try {
+    model = loadModel(body.model);
+  } catch (const InputError& e) {
+    throw InputError(scene.source + ": bodies[" + std::to_string(bodyIndex) +
+                     "].model: " + e.what());
+  }
+  if (!isBuiltinModelSpec(body.model) && model.materials.size() == 1)
+    model.materials.front().name = "default";
+  for (MaterialMesh& m : model.materials)
+    for (Vec3d& p : m.mesh.vertices) p += body.offset;
+  std::vector<std::string> names;
+  for (const MaterialMesh& m : model.materials) names.push_back(m.name);
+  checkMaterialNames(scene, bodyIndex, names);
+  return model;
+}
+
+}  // namespace voxcut

@@ -1,0 +1,45 @@
+#pragma once
+/// @file SceneReader.h
+/// Reads a JSON scene (format: docs/scenes.md) into a validated sim/Scene.h Scene, and loads a
+/// body's model the way a scene means it.
+///
+/// Every error is an InputError of one line that starts with the scene's name as given and,
+/// for a bad value, the key path of the value, e.g.
+///   "scene.json: bodies[0].materials.tumor.poisson_ratio: must be in [0, 0.5), got 0.7".
+/// Thread-safety: all functions are reentrant and share no state.
+
+#include <cstddef>
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+#include "voxcut/io/ModelSource.h"
+#include "voxcut/sim/Scene.h"
+
+namespace voxcut {
+
+/// Reads and validates the scene file at `path`. Relative mesh paths in `model` are resolved
+/// against the file's folder. Scene::source is set to `path` as given.
+/// Throws InputError for a missing or unreadable file, a JSON syntax error (with line and
+/// column), an unknown key anywhere, a missing required key, a value of the wrong type or out
+/// of range, and a mesh file that does not exist (see docs/scenes.md for every rule).
+[[nodiscard]] Scene readScene(const std::string& path);
+
+/// Parses and validates the scene JSON `text`. `source` names it in messages (and becomes
+/// Scene::source); relative mesh paths are resolved against `baseDir` (made absolute against
+/// the current directory if relative). Throws InputError as readScene does.
+[[nodiscard]] Scene parseScene(std::string_view text, const std::string& source,
+                               const std::filesystem::path& baseDir);
+
+/// Whether `model` names a built-in model or primitive of loadModel (bunny, liver, starfish,
+/// box..., sphere...) rather than a mesh file.
+[[nodiscard]] bool isBuiltinModelSpec(std::string_view model);
+
+/// Loads the model of scene.bodies[bodyIndex] for simulation: loadModel(body.model); a mesh
+/// file's single material is renamed "default" (the name scenes use for it); every material
+/// mesh is translated by body.offset (metres); then checkMaterialNames. Errors of loadModel
+/// come back prefixed with the key path, e.g. "scene.json: bodies[0].model: ...".
+/// Asserts that bodyIndex is in range. Thread-safe.
+[[nodiscard]] Model loadBodyModel(const Scene& scene, std::size_t bodyIndex);
+
+}  // namespace voxcut

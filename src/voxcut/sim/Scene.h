@@ -1,0 +1,107 @@
+#pragma once
+/// @file Scene.h
+/// A simulation scene as plain data: time step, gravity, solver settings, bodies (model,
+/// resolution, deformation octree levels, materials, fixed boxes, offset) and tools (key-framed
+/// blades). io/SceneReader.h reads and validates it from JSON (format: docs/scenes.md); this
+/// header does no I/O. Units: SI (m, kg, s, Pa), world frame.
+///
+/// Thread-safety: plain values; the free functions are pure and may be called concurrently.
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "voxcut/core/Types.h"
+#include "voxcut/cutting/Blade.h"
+
+namespace voxcut {
+
+/// Settings of the implicit solver's linear solve (preconditioned conjugate gradients).
+struct SolverSettings {
+  double tolerance = 1e-3;  ///< relative residual at which PCG stops, > 0
+  int maxIterations = 100;  ///< PCG iteration cap, >= 1
+};
+
+/// A material's physical and voxel-octree parameters. The defaults are a soft tissue (about
+/// liver parenchyma, stiffened for the coarse deformation octree) and are what a scene gets
+/// for a material it does not list.
+struct SceneMaterial {
+  std::string name;             ///< the model's material name ("default", "liver", "tumor"...)
+  double youngModulus = 5.0e4;  ///< E, Pa, > 0
+  double poissonRatio = 0.4;    ///< nu, in [0, 0.5)
+  double density = 1000.0;      ///< rho, kg/m^3, > 0
+  /// Rayleigh damping C = massDamping * M + stiffnessDamping * K: alpha (1/s) and beta (s),
+  /// both >= 0.
+  double massDamping = 1.0;
+  double stiffnessDamping = 0.01;
+  int maxInternalLevel = 4;  ///< voxel octree: largest cube of this material alone, 0..7
+  int maxBoundaryLevel = 0;  ///< voxel octree: largest cube mixing it with others, 0..7
+};
+
+/// An axis-aligned box of the world frame (metres), lo <= hi on every axis, bounds included.
+/// Deformation nodes whose rest position lies inside do not move.
+struct FixedBox {
+  Vec3d lo = Vec3d::Zero();
+  Vec3d hi = Vec3d::Zero();
+};
+
+/// One deformable body.
+struct SceneBody {
+  /// A built-in model spec as io/ModelSource.h understands it (bunny, liver, starfish,
+  /// box:LX,LY,LZ, sphere:R), or the absolute, lexically normalised path of a mesh file.
+  std::string model;
+  std::optional<int> resolution;  ///< voxels along the longest side; empty: the model's own
+  int elementLevel = 3;           ///< starting level of the deformation octree, 0..6
+  int finestLevel = 0;            ///< finest level refinement after cuts reaches, <= elementLevel
+  /// The materials the scene sets, in the order the file lists them (unique names); the
+  /// model's other materials take SceneMaterial's defaults (see sceneMaterial).
+  std::vector<SceneMaterial> materials;
+  std::vector<FixedBox> fixed;   ///< world frame, metres
+  Vec3d offset = Vec3d::Zero();  ///< translation of the model into the world, metres
+};
+
+/// The kinds of tool a scene can drive.
+enum class ToolType { Blade };
+
+/// One key frame of a tool: at time t (s) the blade runs from a to b (world frame, metres).
+struct ToolKey {
+  double t = 0.0;
+  BladePose pose;
+};
+
+/// A key-framed tool. Keys have strictly increasing times; there is at least one.
+struct SceneTool {
+  ToolType type = ToolType::Blade;
+  std::vector<ToolKey> keys;
+};
+
+/// A whole scene.
+struct Scene {
+  std::string source;              ///< the file it was read from, as given (prefix of messages)
+  double timeStep = 0.004;         ///< s, > 0
+  Vec3d gravity{0.0, -9.81, 0.0};  ///< m/s^2
+  SolverSettings solver;
+  std::optional<int> frames;      ///< default frame count of `voxcut run`; empty: not given
+  std::vector<SceneBody> bodies;  ///< at least one
+  std::vector<SceneTool> tools;
+};
+
+/// The pose of `tool` at time `t` (s): the linear interpolation of the two keys around t,
+/// i.e. for t_k <= t <= t_{k+1}, a = a_k + s (a_{k+1} - a_k) with s = (t - t_k) /
+/// (t_{k+1} - t_k), b likewise; the first key's pose before the first key and the last key's
+/// after the last key. A key's time gives its pose exactly. Asserts that the tool has keys.
+[[nodiscard]] BladePose bladePoseAt(const SceneTool& tool, double t);
+
+/// The material `name` of `body`: the one the scene sets, or SceneMaterial's defaults named
+/// `name` when the scene does not list it.
+[[nodiscard]] SceneMaterial sceneMaterial(const SceneBody& body, const std::string& name);
+
+/// Checks that every material `body` (bodies[bodyIndex] of `scene`) sets is one of
+/// `modelMaterials` (the loaded model's material names, in order). Throws InputError naming
+/// the key path otherwise, e.g. "scene.json: bodies[0].materials.tumour: model 'liver' has no
+/// material 'tumour' (it has: liver, tumor)". Asserts that bodyIndex is in range.
+void checkMaterialNames(const Scene& scene, std::size_t bodyIndex,
+                        const std::vector<std::string>& modelMaterials);
+
+}  // namespace voxcut

@@ -1,0 +1,259 @@
+#include "voxcut/sim/Simulation.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "voxcut/core/Error.h"
+#include "voxcut/core/Parallel.h"
+#include "voxcut/voxel/Pieces.h"
+
+namespace voxcut {
+namespace {
+
+enum Stage : std::size_t {
+  kPositionUpdate,
+  kIntersectionTest,
+  kOctreeSubdivision,
+  kDeferredUpdates,
+  kCutTopology,
+  kSurfaceUpdate,
+  kDeformation,
+  kSurfaceVertices,
+  kStageCount
+};
+
+bool samePose(const BladePose& p, const BladePose& q) { return p.a == q.a && p.b == q.b; }
+
+/// Material table of a body indexed by grid material (entry 0, empty space, is unused).
+std::vector<ElasticMaterial> elasticMaterials(const SceneBody& body, const VoxelGrid& grid) {
+  std::vector<ElasticMaterial> out(1);
+  for (const std::string& name : grid.materialNames()) {
+    const SceneMaterial m = sceneMaterial(body, name);
+    ElasticMaterial e;
+    e.youngModulus = m.youngModulus;
+    e.poissonRatio = m.poissonRatio;
+    e.density = m.density;
+    e.dampingMass = m.massDamping;
+    e.dampingStiffness = m.stiffnessDamping;
+    out.push_back(e);
+  }
+  return out;
+}
+
+OctreeParams voxelOctreeParams(const SceneBody& body, const VoxelGrid& grid) {
+  OctreeParams p;
+  for (const std::string& name : grid.materialNames()) {
+    const SceneMaterial m = sceneMaterial(body, name);
+    p.maxInternalLevel.push_back(m.maxInternalLevel);
+    p.maxBoundaryLevel.push_back(m.maxBoundaryLevel);
+  }
+  return p;
+}
+
+bool inside(const FixedBox& box, const Vec3d& p) {
+  return (p.array() >= box.lo.array()).all() && (p.array() <= box.hi.array()).all();
+}
+
+}  // namespace
+
+const std::vector<std::string>& frameStageNames() {
+  static const std::vector<std::string> names{
+      "voxel_position_update", "intersection_test", "octree_subdivision", "deferred_updates",
+      "cut_topology",          "surface_update",    "deformation",        "surface_vertices"};
+  return names;
+}
+
+Simulation::Simulation(Scene scene, std::vector<VoxelGrid> grids, const SimulationParams& params)
+    : scene_(std::move(scene)), params_(params) {
+  if (grids.size() != scene_.bodies.size())
+    throw InputError(scene_.source + ": " + std::to_string(scene_.bodies.size()) +
+                     " bodies but " + std::to_string(grids.size()) + " voxel grids");
+  ImplicitEulerParams solver;
+  solver.timeStep = scene_.timeStep;
+  solver.gravity = scene_.gravity;
+  solver.tolerance = scene_.solver.tolerance;
+  solver.maxIterations = scene_.solver.maxIterations;
+  bodies_.resize(grids.size());
+  for (std::size_t i = 0; i < grids.size(); ++i) {
+    const SceneBody& sb = scene_.bodies[i];
+    SimBody& b = bodies_[i];
+    CutBodyParams cp;
+    cp.useOctree = params_.useOctree;
+    cp.octree = voxelOctreeParams(sb, grids[i]);
+    cp.deformation.startLevel = sb.elementLevel;
+    cp.deformation.maxLevel = std::min(sb.elementLevel + 1, 7);
+    const std::vector<ElasticMaterial> materials = elasticMaterials(sb, grids[i]);
+    b.cut = makeCutBody(std::move(grids[i]), cp, params_.threaded);
+    b.model = ElasticModel(b.cut.deformation, b.cut.grid, materials, params_.threaded);
+    b.solver = ImplicitEuler(solver);
+    b.fixedBoxes = sb.fixed;
+    b.finestLevel = sb.finestLevel;
+    applyFixed(b);
+    DualContourParams dc;
+    dc.threaded = params_.threaded;
+    b.surface = ContouredSurface::build(b.cut.grid, dc);
+    embedVertices(b, nullptr);
+    updateVertexPositions(b);
+  }
+}
+
+void Simulation::applyFixed(SimBody& b) {
+  if (b.fixedBoxes.empty()) return;
+  const std::vector<Vec3d>& rest = b.cut.deformation.restPositions();
+  std::vector<std::uint8_t> fixed(rest.size(), 0);
+  for (std::size_t n = 0; n < rest.size(); ++n)
+    for (const FixedBox& box : b.fixedBoxes)
+      if (inside(box, rest[n])) fixed[n] = 1;
+  b.model.setFixed(std::move(fixed));
+}
+
+void Simulation::embedVertices(SimBody& b, const std::vector<std::int32_t>* only) {
+  const DeformationOctree& d = b.cut.deformation;
+  const std::vector<Vec3d>& rest = b.surface.positions();
+  const std::vector<std::uint64_t>& voxel = b.surface.vertexVoxels();
+  b.embedding.resize(b.surface.vertexSlots());
+  b.vertexPositions.resize(b.surface.vertexSlots(), Vec3d::Zero());
+  auto embed = [&](std::size_t v) {
+    if (!b.surface.alive(static_cast<std::int32_t>(v))) {
+      b.embedding[v] = VertexEmbedding{};
+      return;
+    }
+    const std::uint32_t e = d.owner(static_cast<std::size_t>(voxel[v]));
+    VOXCUT_ASSERT(e != kNoElement, "a surface vertex's voxel is occupied");
+    const OctreeElement& el = d.element(e);
+    const double size = d.voxelSize() * el.size();
+    b.embedding[v] = VertexEmbedding{e, (rest[v] - d.nodeGridPosition(el.firstVoxel())) / size};
+  };
+  if (only) {
+    for (std::int32_t v : *only) embed(static_cast<std::size_t>(v));
+    return;
+  }
+  parallelFor(0, b.embedding.size(), 4096, [&](std::size_t lo, std::size_t hi) {
+    for (std::size_t v = lo; v < hi; ++v) embed(v);
+  }, params_.threaded);
+}
+
+void Simulation::updateVertexPositions(SimBody& b) const {
+  const DeformationOctree& d = b.cut.deformation;
+  parallelFor(0, b.embedding.size(), 4096, [&](std::size_t lo, std::size_t hi) {
+    for (std::size_t v = lo; v < hi; ++v)
+      if (b.embedding[v].element != kNoElement)
+        b.vertexPositions[v] = d.pointInElement(b.embedding[v].element, b.embedding[v].local);
+  }, params_.threaded);
+}
+
+void Simulation::stepBody(SimBody& b, std::vector<double>& ms, FrameReport& report) {
+  const double t0 = frame_ * scene_.timeStep, t1 = (frame_ + 1) * scene_.timeStep;
+  // Cutting tool collision, one sweep per moving blade.
+  std::vector<std::uint64_t> cut;
+  for (const SceneTool& tool : scene_.tools) {
+    const BladePose from = bladePoseAt(tool, t0), to = bladePoseAt(tool, t1);
+    if (samePose(from, to)) continue;
+    const CutStepResult r = cutStep(b.cut, makeSweep(from, to, static_cast<std::uint64_t>(frame_)),
+                                    params_.threaded);
+    ms[kPositionUpdate] += r.positionUpdateMs;
+    ms[kIntersectionTest] += r.intersectionMs;
+    ms[kOctreeSubdivision] += r.subdivisionMs;
+    ms[kDeferredUpdates] += r.deferredMs;
+    for (const LinkCut& c : r.cuts) cut.push_back(c.link);
+  }
+  report.cutLinks += cut.size();
+  b.cutLinks += cut.size();
+
+  Timer timer;
+  bool topologyChanged = false;
+  if (!cut.empty()) {
+    const TopologyChange change = updateCutTopology(
+        b.cut.deformation, b.cut.grid, cut, CutTopologyParams{b.finestLevel, params_.threaded});
+    if (change.changed) {
+      topologyChanged = true;
+      b.model.updateTopology(b.cut.deformation, b.cut.grid, change);
+      b.solver.updateTopology(change);
+      applyFixed(b);
+    }
+  }
+  ms[kCutTopology] += timer.ms();
+
+  timer.restart();
+  if (!cut.empty()) {
+    const SurfaceDelta delta = b.surface.update(b.cut.grid, cut);
+    if (topologyChanged) {
+      embedVertices(b, nullptr);  // element ids moved: every vertex looks its element up again
+    } else {
+      b.embedding.resize(b.surface.vertexSlots());
+      b.vertexPositions.resize(b.surface.vertexSlots(), Vec3d::Zero());
+      for (std::int32_t v : delta.removedVertices) b.embedding[static_cast<std::size_t>(v)] = {};
+      embedVertices(b, &delta.addedVertices);
+    }
+  }
+  ms[kSurfaceUpdate] += timer.ms();
+
+  timer.restart();
+  const StepStatus status = b.solver.step(b.model, b.cut.deformation);
+  ms[kDeformation] += timer.ms();
+  report.solverIterations += status.iterations;
+  report.converged = report.converged && status.converged;
+  if (!status.finite)
+    throw InputError("frame " + std::to_string(frame_) +
+                     ": a node position became non-finite (the solve diverged); try a smaller "
+                     "time_step or stiffer solver settings");
+
+  timer.restart();
+  updateVertexPositions(b);
+  ms[kSurfaceVertices] += timer.ms();
+}
+
+FrameReport Simulation::step() {
+  Timer frameTimer;
+  FrameReport report;
+  report.frame = frame_;
+  report.stageMs.assign(kStageCount, 0.0);
+  for (SimBody& b : bodies_) stepBody(b, report.stageMs, report);
+  ++frame_;
+  report.time = frame_ * scene_.timeStep;
+  report.totalMs = frameTimer.ms();
+  return report;
+}
+
+SurfaceMesh Simulation::deformedSurface(std::size_t bi) const {
+  const SimBody& b = bodies_[bi];
+  SurfaceMesh m;
+  std::vector<int> index(b.surface.vertexSlots(), -1);
+  for (std::size_t v = 0; v < index.size(); ++v) {
+    if (!b.surface.alive(static_cast<std::int32_t>(v))) continue;
+    index[v] = static_cast<int>(m.positions.size());
+    m.positions.push_back(b.vertexPositions[v]);
+    m.vertexVoxel.push_back(b.surface.vertexVoxels()[v]);
+  }
+  for (const auto& t : b.surface.triangles()) {
+    if (t[0] < 0) continue;
+    m.triangles.push_back({index[static_cast<std::size_t>(t[0])], index[static_cast<std::size_t>(t[1])],
+                           index[static_cast<std::size_t>(t[2])]});
+  }
+  // Normals follow the deformation: area-weighted from the deformed triangles.
+  m.normals.assign(m.positions.size(), Vec3d::Zero());
+  for (const auto& t : m.triangles) {
+    const Vec3d n = (m.positions[t[1]] - m.positions[t[0]]).cross(m.positions[t[2]] - m.positions[t[0]]);
+    for (int k = 0; k < 3; ++k) m.normals[t[k]] += n;
+  }
+  for (Vec3d& n : m.normals) {
+    const double len = n.norm();
+    n = len > 0 ? Vec3d(n / len) : Vec3d::UnitZ();
+  }
+  return m;
+}
+
+double Simulation::maxDisplacement() const {
+  double best = 0.0;
+  for (const SimBody& b : bodies_) {
+    const auto& x = b.cut.deformation.positions();
+    const auto& X = b.cut.deformation.restPositions();
+    for (std::size_t n = 0; n < x.size(); ++n) best = std::max(best, (x[n] - X[n]).norm());
+  }
+  return best;
+}
+
+int Simulation::pieces(std::size_t b) const { return findPieces(bodies_[b].cut.grid).count; }
+
+}  // namespace voxcut

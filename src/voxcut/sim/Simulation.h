@@ -1,0 +1,101 @@
+#pragma once
+/// @file Simulation.h
+/// A running scene (DESIGN.md part 7 and "One frame"): deformable bodies cut by key-framed
+/// blades. Each frame, per body: cutting tool collision (voxel positions, blade x active links,
+/// octree subdivision, deferred updates), cut topology (refinement, duplication per voxel part)
+/// and the solver's structures for what changed, the local surface update, one implicit Euler
+/// step, and the surface vertices by trilinear interpolation in their element copies.
+///
+/// Units: SI, world frame. Results (cuts, node positions, surfaces) do not depend on the thread
+/// count. Thread-safety: one call at a time; the steps run their loops in parallel.
+
+#include <string>
+#include <vector>
+
+#include "voxcut/core/Timer.h"
+#include "voxcut/cutting/CutStep.h"
+#include "voxcut/fem/CutTopology.h"
+#include "voxcut/fem/ElasticModel.h"
+#include "voxcut/fem/ImplicitEuler.h"
+#include "voxcut/sim/Scene.h"
+#include "voxcut/surface/ContouredSurface.h"
+
+namespace voxcut {
+
+/// Settings of a simulation that the scene does not hold.
+struct SimulationParams {
+  bool useOctree = true;  ///< false: the baseline, every link active, no voxel octree
+  bool threaded = true;
+};
+
+/// Where a surface vertex lives: its element copy and trilinear coordinates there.
+struct VertexEmbedding {
+  std::uint32_t element = kNoElement;
+  Vec3d local = Vec3d::Zero();
+};
+
+/// One deformable body of a running scene.
+struct SimBody {
+  CutBody cut;             ///< grid, deformation octree, voxel octree, collision structures
+  ElasticModel model;      ///< element matrices, constraints
+  ImplicitEuler solver;    ///< velocities
+  ContouredSurface surface;                ///< rest frame, updated locally after cuts
+  std::vector<VertexEmbedding> embedding;  ///< per surface vertex id
+  std::vector<Vec3d> vertexPositions;      ///< per surface vertex id, current (metres)
+  std::vector<FixedBox> fixedBoxes;
+  int finestLevel = 0;
+  std::size_t cutLinks = 0;                ///< links cut so far
+};
+
+/// The stages of a frame, in order; FrameReport::stageMs follows this order.
+[[nodiscard]] const std::vector<std::string>& frameStageNames();
+
+/// What one frame did (summed over bodies).
+struct FrameReport {
+  int frame = 0;                 ///< index of the frame just run (0 first)
+  double time = 0.0;             ///< simulated time at its end (s)
+  std::vector<double> stageMs;   ///< per frameStageNames() entry, wall-clock ms
+  double totalMs = 0.0;          ///< wall-clock ms of the whole frame
+  std::size_t cutLinks = 0;      ///< links cut in this frame
+  int solverIterations = 0;      ///< summed over bodies
+  bool converged = true;         ///< every body's solve converged
+};
+
+/// A scene in motion. Movable, not copyable.
+class Simulation {
+ public:
+  /// Sets up every body of `scene` from its voxel grid (grids[i] for scene.bodies[i], in the
+  /// world frame): deformation octree (start level element_level, merged one level up),
+  /// voxel octree (or every link active), element matrices, fixed nodes, surface. Throws
+  /// InputError when the counts differ or a material is invalid.
+  Simulation(Scene scene, std::vector<VoxelGrid> grids, const SimulationParams& params = {});
+  Simulation(Simulation&&) noexcept = default;
+  Simulation& operator=(Simulation&&) noexcept = default;
+
+  /// Runs one frame from time frame() * dt to (frame() + 1) * dt. Throws InputError
+  /// naming the frame when a node position becomes non-finite.
+  FrameReport step();
+
+  [[nodiscard]] int frame() const { return frame_; }
+  [[nodiscard]] const Scene& scene() const { return scene_; }
+  [[nodiscard]] const std::vector<SimBody>& bodies() const { return bodies_; }
+  /// The current (deformed) surface of body b, compact, with area-weighted normals.
+  [[nodiscard]] SurfaceMesh deformedSurface(std::size_t b) const;
+  /// The largest distance of any node from its rest position, over all bodies (metres).
+  [[nodiscard]] double maxDisplacement() const;
+  /// Connected voxel pieces of body b (through connected links). O(voxels).
+  [[nodiscard]] int pieces(std::size_t b) const;
+
+ private:
+  void stepBody(SimBody& body, std::vector<double>& stageMs, FrameReport& report);
+  void embedVertices(SimBody& body, const std::vector<std::int32_t>* only);
+  void updateVertexPositions(SimBody& body) const;
+  void applyFixed(SimBody& body);
+
+  Scene scene_;
+  SimulationParams params_;
+  std::vector<SimBody> bodies_;
+  int frame_ = 0;
+};
+
+}  // namespace voxcut

@@ -1,0 +1,159 @@
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <numeric>
+#include <vector>
+
+#include "FemBodies.h"
+#include "voxcut/fem/ElasticModel.h"
+#include "voxcut/fem/ImplicitEuler.h"
+
+namespace voxcut {
+namespace {
+
+using namespace test;
+
+// --- Topology updates -------------------------------------------------------------------------
+
+TopologyChange identityChange(const DeformationOctree& oc) {
+  TopologyChange c;
+  c.changed = true;
+  c.elementSource.resize(oc.elementCount());
+  std::iota(c.elementSource.begin(), c.elementSource.end(), 0u);
+  c.nodeSource.resize(oc.nodeCount());
+  for (std::size_t n = 0; n < oc.nodeCount(); ++n) {
+    c.nodeSource[n].count = 1;
+    c.nodeSource[n].nodes[0] = static_cast<std::uint32_t>(n);
+    c.nodeSource[n].weights[0] = 1.0;
+  }
+  return c;
+}
+
+TEST(ElasticModelTopology, IdentityUpdateChangesNothing) {
+  Body a = smallBody(0.2, 1e-4);
+  std::vector<std::uint8_t> fixed(a.octree.nodeCount(), 0);
+  for (std::size_t n : {0, 5}) fixed.at(n) = 1;
+  a.model.setFixed(fixed);
+  perturb(a.octree, 5e-4);
+  ImplicitEulerParams p;
+  p.gravity = Vec3d(0, 0, -9.81);
+  ImplicitEuler sa(p);
+  for (int s = 0; s < 5; ++s) sa.step(a.model, a.octree);
+  DeformationOctree octree = a.octree;  // a copy, as a cut step would make
+  ElasticModel model = a.model;
+  ImplicitEuler sb = sa;
+  const TopologyChange change = identityChange(octree);
+  model.updateTopology(octree, a.grid, change);
+  sb.updateTopology(change);
+  EXPECT_EQ(model.fixed(), a.model.fixed());
+  EXPECT_EQ(sb.velocities(), sa.velocities());
+  for (int s = 0; s < 5; ++s) {
+    const StepStatus x = sa.step(a.model, a.octree), y = sb.step(model, octree);
+    EXPECT_EQ(x.iterations, y.iterations);
+  }
+  EXPECT_EQ(octree.positions(), a.octree.positions());
+}
+
+TEST(ElasticModelTopology, RenumberedNodesAndRecomputedElements) {
+  Body a = smallBody(0.2, 1e-4);
+  perturb(a.octree, 5e-4);
+  ImplicitEulerParams p;
+  p.gravity = Vec3d(0, 0, -9.81);
+  p.tolerance = 1e-12;
+  p.maxIterations = 1000;
+  ImplicitEuler sa(p);
+  for (int s = 0; s < 3; ++s) sa.step(a.model, a.octree);
+
+  // The same octree with its nodes numbered backwards.
+  const DeformationOctree& old = a.octree;
+  const auto count = static_cast<std::uint32_t>(old.nodeCount());
+  auto renumber = [count](std::uint32_t n) { return count - 1 - n; };
+  std::vector<OctreeElement> elements = old.elements();
+  for (OctreeElement& e : elements)
+    for (std::uint32_t& n : e.nodes) n = renumber(n);
+  std::vector<Index3> coords(count);
+  for (std::uint32_t n = 0; n < count; ++n) coords[renumber(n)] = old.nodeCoord(n);
+  std::vector<HangingNode> hanging = old.hangingNodes();
+  for (HangingNode& h : hanging) {
+    h.node = renumber(h.node);
+    for (int m = 0; m < h.masterCount; ++m)
+      h.masters[static_cast<std::size_t>(m)] = renumber(h.masters[static_cast<std::size_t>(m)]);
+  }
+  std::stable_sort(hanging.begin(), hanging.end(), [](const HangingNode& x, const HangingNode& y) {
+    return x.coarseLevel != y.coarseLevel ? x.coarseLevel > y.coarseLevel : x.node < y.node;
+  });
+  std::vector<VoxelEmbedding> embedding(a.grid.voxelCount());
+  for (std::size_t v = 0; v < embedding.size(); ++v) embedding[v] = old.embedding(v);
+  int maxLevel = 0;
+  for (const OctreeElement& e : elements) maxLevel = std::max(maxLevel, e.level);
+  DeformationOctree octree(a.grid, maxLevel, elements, coords, hanging, embedding);
+  for (std::uint32_t n = 0; n < count; ++n) octree.positions()[renumber(n)] = old.positions()[n];
+
+  TopologyChange change = identityChange(octree);
+  for (std::uint32_t n = 0; n < count; ++n) change.nodeSource[renumber(n)].nodes[0] = n;
+  for (std::size_t e = 0; e < change.elementSource.size(); e += 3)
+    change.elementSource[e] = kNewElement;
+  ElasticModel model = a.model;
+  ImplicitEuler sb = sa;
+  model.updateTopology(octree, a.grid, change);
+  sb.updateTopology(change);
+  for (std::uint32_t e = 0; e < model.elementCount(); ++e) {
+    const double scale = a.model.element(e).stiffness.cwiseAbs().maxCoeff();
+    EXPECT_LE((model.element(e).stiffness - a.model.element(e).stiffness).cwiseAbs().maxCoeff(),
+              e % 3 == 0 ? 1e-13 * scale : 0.0);
+  }
+  for (std::uint32_t n = 0; n < count; ++n) {
+    EXPECT_EQ(sb.velocities()[renumber(n)], sa.velocities()[n]);
+    EXPECT_EQ(model.nodeMass()[renumber(n)], a.model.nodeMass()[n]);
+  }
+  for (int s = 0; s < 5; ++s) {
+    EXPECT_TRUE(sa.step(a.model, a.octree).converged);
+    EXPECT_TRUE(sb.step(model, octree).converged);
+  }
+  for (std::uint32_t n = 0; n < count; ++n)
+    EXPECT_LE((octree.positions()[renumber(n)] - a.octree.positions()[n]).norm(), 1e-12);
+}
+
+TEST(ElasticModelTopology, WeightedSourcesAndFixedFlags) {
+  Body a = smallBody(0.0, 0.0);
+  std::vector<std::uint8_t> fixed(a.octree.nodeCount(), 0);
+  for (std::size_t n : {1, 2, 7}) fixed.at(n) = 1;
+  a.model.setFixed(fixed);
+  ImplicitEuler solver;
+  std::vector<Vec3d> v(a.octree.nodeCount());
+  for (std::size_t n = 0; n < v.size(); ++n) v[n] = Vec3d(1.0 * static_cast<double>(n), 2, 3);
+  solver.setVelocities(v);
+  TopologyChange change = identityChange(a.octree);
+  // Node 4 from nodes 1 and 2 (both fixed), node 6 from 7 (fixed) and 8 (free).
+  change.nodeSource[4] = {2, {1, 2}, {0.25, 0.75}};
+  change.nodeSource[6] = {2, {7, 8}, {0.5, 0.5}};
+  ElasticModel model = a.model;
+  model.updateTopology(a.octree, a.grid, change);
+  solver.updateTopology(change);
+  EXPECT_EQ(solver.velocities()[4], 0.25 * v[1] + 0.75 * v[2]);
+  EXPECT_EQ(solver.velocities()[6], 0.5 * v[7] + 0.5 * v[8]);
+  EXPECT_EQ(solver.velocities()[9], v[9]);
+  EXPECT_EQ(model.requestedFixed()[4], 1);
+  EXPECT_EQ(model.requestedFixed()[6], 0);
+  EXPECT_EQ(model.requestedFixed()[7], 1);
+  EXPECT_EQ(model.freeIndex(4), kNotFree);
+}
+
+TEST(ElasticModelTopology, FixingAHangingNodeFixesItsMasters) {
+  Body a = smallBody(0.0, 0.0);
+  ASSERT_GT(a.octree.hangingNodeCount(), 0u);
+  const HangingNode h = a.octree.hangingNodes().back();
+  std::vector<std::uint8_t> fixed(a.octree.nodeCount(), 0);
+  fixed[h.node] = 1;
+  a.model.setFixed(fixed);
+  for (int m = 0; m < h.masterCount; ++m)
+    EXPECT_EQ(a.model.fixed()[h.masters[static_cast<std::size_t>(m)]], 1);
+  ImplicitEulerParams p;
+  p.gravity = Vec3d(0, 0, -9.81);
+  ImplicitEuler solver(p);
+  for (int s = 0; s < 3; ++s) solver.step(a.model, a.octree);
+  EXPECT_EQ(a.octree.positions()[h.node], a.octree.restPositions()[h.node]);
+}
+
+}  // namespace
+}  // namespace voxcut

@@ -1,0 +1,537 @@
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "CubeFiles.h"
+#include "TempDir.h"
+#include "voxcut/core/Error.h"
+#include "voxcut/cutting/CutStep.h"
+#include "voxcut/io/SceneReader.h"
+#include "voxcut/sim/Scene.h"
+#include "voxcut/voxel/Pieces.h"
+#include "voxcut/voxel/Voxelizer.h"
+
+namespace voxcut {
+namespace {
+
+namespace fs = std::filesystem;
+using test::TempDir;
+
+/// Parses `text` as "scene.json" in the current directory.
+Scene parse(const std::string& text) {
+  return parseScene(text, "scene.json", fs::current_path());
+}
+
+/// The message of the InputError that parsing `text` throws; fails the test if none is.
+std::string parseError(const std::string& text) {
+  try {
+    (void)parse(text);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "no InputError for " << text;
+  return {};
+}
+
+/// A scene of one bunny whose body has the extra members `body` (JSON text after a comma).
+std::string withBody(const std::string& body) {
+  return R"({"bodies": [{"model": "bunny", )" + body + "}]}";
+}
+
+/// A scene with one bunny and the extra top-level members `top`.
+std::string withTop(const std::string& top) {
+  return R"({"bodies": [{"model": "bunny"}], )" + top + "}";
+}
+
+std::string shippedScene(const std::string& name) {
+  return std::string(VOXCUT_SOURCE_DIR) + "/scenes/" + name;
+}
+
+// ---- shipped scenes -------------------------------------------------------------------------
+
+TEST(SceneReader, ShippedScenesParseAndMatchTheirModels) {
+  for (const char* name :
+       {"bunny-ear.json", "liver-tumor.json", "starfish-arm.json", "cantilever.json"}) {
+    SCOPED_TRACE(name);
+    const Scene scene = readScene(shippedScene(name));
+    ASSERT_EQ(scene.bodies.size(), 1u);
+    const SceneBody& body = scene.bodies[0];
+    EXPECT_FALSE(body.fixed.empty());
+    EXPECT_TRUE(scene.frames.has_value());
+    EXPECT_FALSE(body.materials.empty());
+    const Model model = loadBodyModel(scene, 0);  // also checks the material names
+    EXPECT_FALSE(model.materials.empty());
+    for (const SceneTool& tool : scene.tools) {
+      ASSERT_GE(tool.keys.size(), 2u);
+      // The blade moves for about `frames` frames at most and stops inside the run.
+      EXPECT_LE(tool.keys.back().t, *scene.frames * scene.timeStep + 1e-12);
+    }
+  }
+  EXPECT_EQ(readScene(shippedScene("cantilever.json")).tools.size(), 0u);
+  for (const char* name : {"bunny-ear.json", "liver-tumor.json", "starfish-arm.json"})
+    EXPECT_EQ(readScene(shippedScene(name)).tools.size(), 1u) << name;
+  const Scene liver = readScene(shippedScene("liver-tumor.json"));
+  ASSERT_EQ(liver.bodies[0].materials.size(), 2u);
+  EXPECT_EQ(liver.bodies[0].materials[0].name, "liver");
+  EXPECT_EQ(liver.bodies[0].materials[1].name, "tumor");
+  EXPECT_GT(liver.bodies[0].materials[1].youngModulus, liver.bodies[0].materials[0].youngModulus);
+}
+
+/// Voxelizes body 0 of a shipped scene, drives its blade through it frame by frame at rest (no
+/// deformation) and returns the pieces afterwards, with the voxel counts of the pieces that
+/// hold a node of a fixed box. What the scene promises: exactly one piece comes off, and it is
+/// not held by a fixed node.
+struct RestCut {
+  int piecesBefore = 0, piecesAfter = 0;
+  std::vector<bool> pieceFixed;
+};
+
+RestCut cutAtRest(const Scene& scene) {
+  const SceneBody& body = scene.bodies.at(0);
+  const Model model = loadBodyModel(scene, 0);
+  VoxelizeParams vp;
+  vp.resolution.resolution = body.resolution.value_or(model.defaultResolution);
+  CutBodyParams cp;
+  cp.deformation.startLevel = body.elementLevel;
+  cp.deformation.maxLevel = body.elementLevel;
+  CutBody cut = makeCutBody(voxelize(model.materials, vp), cp);
+  RestCut out;
+  out.piecesBefore = findPieces(cut.grid).count;
+  std::uint64_t frame = 0;
+  for (const SceneTool& tool : scene.tools) {
+    const double t0 = tool.keys.front().t;
+    const int frames = static_cast<int>(std::lround((tool.keys.back().t - t0) / scene.timeStep));
+    for (int f = 0; f < frames; ++f) {
+      const BladePose from = bladePoseAt(tool, t0 + f * scene.timeStep);
+      const BladePose to = bladePoseAt(tool, t0 + (f + 1) * scene.timeStep);
+      (void)cutStep(cut, makeSweep(from, to, frame++));
+    }
+  }
+  const PieceLabels pieces = findPieces(cut.grid);
+  out.piecesAfter = pieces.count;
+  // A piece is held when an element owning one of its voxels has a fixed node (a corner
+  // inside a fixed box).
+  out.pieceFixed.assign(static_cast<std::size_t>(pieces.count), false);
+  const DeformationOctree& octree = cut.deformation;
+  for (std::size_t v = 0; v < cut.grid.voxelCount(); ++v) {
+    if (pieces.label[v] < 0) continue;
+    const OctreeElement& e = octree.element(octree.owner(v));
+    for (std::uint32_t n : e.nodes) {
+      const Vec3d& x = octree.restPositions()[n];
+      for (const FixedBox& box : body.fixed)
+        if ((x.array() >= box.lo.array()).all() && (x.array() <= box.hi.array()).all())
+          out.pieceFixed[static_cast<std::size_t>(pieces.label[v])] = true;
+    }
+  }
+  return out;
+}
+
+void expectOnePieceComesOff(const char* name) {
+  const RestCut cut = cutAtRest(readScene(shippedScene(name)));
+  EXPECT_EQ(cut.piecesBefore, 1);
+  ASSERT_EQ(cut.piecesAfter, 2);
+  EXPECT_TRUE(cut.pieceFixed[0] != cut.pieceFixed[1]) << "exactly one piece must be held";
+}
+
+TEST(SceneReader, BunnyEarComesOffAtRest) {
+  expectOnePieceComesOff("bunny-ear.json");
+}
+TEST(SceneReader, LiverTumorPartComesOffAtRest) {
+  expectOnePieceComesOff("liver-tumor.json");
+}
+TEST(SceneReader, StarfishArmComesOffAtRest) {
+  expectOnePieceComesOff("starfish-arm.json");
+}
+
+TEST(SceneReader, CantileverHasFourElementsThroughTheThickness) {
+  const Scene scene = readScene(shippedScene("cantilever.json"));
+  const SceneBody& body = scene.bodies[0];
+  ASSERT_TRUE(body.resolution.has_value());
+  const std::string prefix = "box:";
+  ASSERT_EQ(body.model.rfind(prefix, 0), 0u);
+  // box:L,H,W with L the longest side: the model spans resolution - 2 voxels along L.
+  double size[3] = {0, 0, 0};
+  ASSERT_EQ(
+      std::sscanf(body.model.c_str() + prefix.size(), "%lf,%lf,%lf", &size[0], &size[1], &size[2]),
+      3);
+  const double voxel = size[0] / (*body.resolution - 2);
+  const double element = voxel * (1 << body.elementLevel);
+  EXPECT_GE(std::min(size[1], size[2]) / element, 4.0 - 1e-9);
+  EXPECT_GE(size[0], std::max(size[1], size[2]));
+}
+
+// ---- defaults and values --------------------------------------------------------------------
+
+TEST(SceneReader, DefaultsForAMinimalScene) {
+  const Scene scene = parse(R"({"bodies": [{"model": "bunny"}]})");
+  EXPECT_EQ(scene.source, "scene.json");
+  EXPECT_EQ(scene.timeStep, 0.004);
+  EXPECT_EQ(scene.gravity, Vec3d(0, -9.81, 0));
+  EXPECT_EQ(scene.solver.tolerance, 1e-3);
+  EXPECT_EQ(scene.solver.maxIterations, 100);
+  EXPECT_FALSE(scene.frames.has_value());
+  EXPECT_TRUE(scene.tools.empty());
+  ASSERT_EQ(scene.bodies.size(), 1u);
+  const SceneBody& b = scene.bodies[0];
+  EXPECT_EQ(b.model, "bunny");
+  EXPECT_FALSE(b.resolution.has_value());
+  EXPECT_EQ(b.elementLevel, 3);
+  EXPECT_EQ(b.finestLevel, 0);
+  EXPECT_TRUE(b.materials.empty());
+  EXPECT_TRUE(b.fixed.empty());
+  EXPECT_EQ(b.offset, Vec3d::Zero());
+  const SceneMaterial m = sceneMaterial(b, "default");
+  const SceneMaterial defaults;
+  EXPECT_EQ(m.name, "default");
+  EXPECT_EQ(m.youngModulus, defaults.youngModulus);
+  EXPECT_EQ(m.poissonRatio, defaults.poissonRatio);
+  EXPECT_EQ(m.maxInternalLevel, 4);
+  EXPECT_EQ(m.maxBoundaryLevel, 0);
+}
+
+TEST(SceneReader, ReadsEveryKey) {
+  const Scene scene = parse(R"({
+    "description": "every key",
+    "time_step": 0.002, "gravity": [0, 0, -9.8], "frames": 50,
+    "solver": {"tolerance": 1e-5, "max_iterations": 250},
+    "bodies": [{
+      "model": "liver", "resolution": 64, "element_level": 2, "finest_level": 1,
+      "materials": {
+        "tumor": {"young_modulus": 3e5, "poisson_ratio": 0.45, "density": 1100,
+                  "damping": [0.5, 0.02], "max_internal_level": 3, "max_boundary_level": 1},
+        "liver": {"young_modulus": 6e4}
+      },
+      "fixed": [{"box": [[-1, -1, -1], [1, -0.05, 1]]}],
+      "offset": [0.1, 0.2, 0.3]
+    }],
+    "tools": [{"type": "blade", "keys": [
+      {"t": 0, "a": [0, 1, 0], "b": [0, -1, 0]},
+      {"t": 0.5, "a": [1, 1, 0], "b": [1, -1, 0]}]}]
+  })");
+  EXPECT_EQ(scene.timeStep, 0.002);
+  EXPECT_EQ(scene.gravity, Vec3d(0, 0, -9.8));
+  EXPECT_EQ(scene.frames, 50);
+  EXPECT_EQ(scene.solver.tolerance, 1e-5);
+  EXPECT_EQ(scene.solver.maxIterations, 250);
+  const SceneBody& b = scene.bodies[0];
+  EXPECT_EQ(b.resolution, 64);
+  EXPECT_EQ(b.elementLevel, 2);
+  EXPECT_EQ(b.finestLevel, 1);
+  ASSERT_EQ(b.materials.size(), 2u);
+  EXPECT_EQ(b.materials[0].name, "tumor");  // file order
+  EXPECT_EQ(b.materials[0].youngModulus, 3e5);
+  EXPECT_EQ(b.materials[0].poissonRatio, 0.45);
+  EXPECT_EQ(b.materials[0].density, 1100);
+  EXPECT_EQ(b.materials[0].massDamping, 0.5);
+  EXPECT_EQ(b.materials[0].stiffnessDamping, 0.02);
+  EXPECT_EQ(b.materials[0].maxInternalLevel, 3);
+  EXPECT_EQ(b.materials[0].maxBoundaryLevel, 1);
+  EXPECT_EQ(b.materials[1].name, "liver");
+  EXPECT_EQ(b.materials[1].youngModulus, 6e4);
+  EXPECT_EQ(b.materials[1].poissonRatio, SceneMaterial().poissonRatio);
+  EXPECT_EQ(sceneMaterial(b, "liver").youngModulus, 6e4);
+  ASSERT_EQ(b.fixed.size(), 1u);
+  EXPECT_EQ(b.fixed[0].lo, Vec3d(-1, -1, -1));
+  EXPECT_EQ(b.fixed[0].hi, Vec3d(1, -0.05, 1));
+  EXPECT_EQ(b.offset, Vec3d(0.1, 0.2, 0.3));
+  ASSERT_EQ(scene.tools.size(), 1u);
+  ASSERT_EQ(scene.tools[0].keys.size(), 2u);
+  EXPECT_EQ(scene.tools[0].type, ToolType::Blade);
+  EXPECT_EQ(scene.tools[0].keys[1].t, 0.5);
+  EXPECT_EQ(scene.tools[0].keys[1].pose.a, Vec3d(1, 1, 0));
+  EXPECT_EQ(scene.tools[0].keys[1].pose.b, Vec3d(1, -1, 0));
+  // Integral numbers written as floats are integers.
+  EXPECT_EQ(parse(withBody(R"("resolution": 64.0)")).bodies[0].resolution, 64);
+}
+
+// ---- blade interpolation --------------------------------------------------------------------
+
+TEST(SceneReader, BladePoseInterpolatesAndClamps) {
+  SceneTool tool;
+  tool.keys.push_back({1.0, {Vec3d(0, 0, 0), Vec3d(0, 1, 0)}});
+  tool.keys.push_back({2.0, {Vec3d(1, 0, 0), Vec3d(1, 1, 0)}});
+  tool.keys.push_back({4.0, {Vec3d(1, 0, 2), Vec3d(1, 3, 2)}});
+  auto expectPose = [&](double t, const Vec3d& a, const Vec3d& b) {
+    const BladePose p = bladePoseAt(tool, t);
+    EXPECT_TRUE(p.a.isApprox(a, 1e-15) || (p.a - a).norm() < 1e-15)
+        << "t=" << t << " a=" << p.a.transpose();
+    EXPECT_TRUE(p.b.isApprox(b, 1e-15) || (p.b - b).norm() < 1e-15)
+        << "t=" << t << " b=" << p.b.transpose();
+  };
+  expectPose(-5.0, Vec3d(0, 0, 0), Vec3d(0, 1, 0));  // before the first key
+  expectPose(1.0, Vec3d(0, 0, 0), Vec3d(0, 1, 0));
+  expectPose(1.25, Vec3d(0.25, 0, 0), Vec3d(0.25, 1, 0));
+  expectPose(2.0, Vec3d(1, 0, 0), Vec3d(1, 1, 0));
+  expectPose(3.0, Vec3d(1, 0, 1), Vec3d(1, 2, 1));
+  expectPose(3.5, Vec3d(1, 0, 1.5), Vec3d(1, 2.5, 1.5));
+  expectPose(4.0, Vec3d(1, 0, 2), Vec3d(1, 3, 2));
+  expectPose(9.0, Vec3d(1, 0, 2), Vec3d(1, 3, 2));  // after the last key
+  // Keys are hit exactly (bit for bit), so consecutive segments meet without a gap.
+  for (const ToolKey& k : tool.keys) {
+    EXPECT_EQ(bladePoseAt(tool, k.t).a, k.pose.a);
+    EXPECT_EQ(bladePoseAt(tool, k.t).b, k.pose.b);
+  }
+  SceneTool still;
+  still.keys.push_back({0.5, {Vec3d(1, 2, 3), Vec3d(4, 5, 6)}});
+  EXPECT_EQ(bladePoseAt(still, 0.0).a, Vec3d(1, 2, 3));
+  EXPECT_EQ(bladePoseAt(still, 7.0).b, Vec3d(4, 5, 6));
+}
+
+// ---- errors: each kind names the file and the key path --------------------------------------
+
+/// Expects parsing `text` to fail with a message that starts with "scene.json: " + `start`.
+void expectError(const std::string& text, const std::string& start) {
+  const std::string msg = parseError(text);
+  EXPECT_EQ(msg.rfind("scene.json: " + start, 0), 0u) << "message: " << msg;
+  EXPECT_EQ(msg.find('\n'), std::string::npos) << "one line: " << msg;
+}
+
+TEST(SceneReaderErrors, OutOfRangeNamesTheKeyPathAndTheValue) {
+  EXPECT_EQ(parseError(R"({"bodies": [{"model": "liver",
+                           "materials": {"tumor": {"poisson_ratio": 0.7}}}]})"),
+            "scene.json: bodies[0].materials.tumor.poisson_ratio: must be in [0, 0.5), got 0.7");
+  expectError(withBody(R"("materials": {"default": {"poisson_ratio": 0.5}})"),
+              "bodies[0].materials.default.poisson_ratio: must be in [0, 0.5), got 0.5");
+  expectError(withBody(R"("materials": {"default": {"young_modulus": -1}})"),
+              "bodies[0].materials.default.young_modulus: must be > 0, got -1");
+  expectError(withBody(R"("materials": {"default": {"density": 0}})"),
+              "bodies[0].materials.default.density: must be > 0, got 0");
+  expectError(withBody(R"("materials": {"default": {"damping": [0.1, -0.5]}})"),
+              "bodies[0].materials.default.damping[1]: must be >= 0, got -0.5");
+  expectError(withBody(R"("materials": {"default": {"max_internal_level": 8}})"),
+              "bodies[0].materials.default.max_internal_level: must be an integer in 0..7, got 8");
+  expectError(withBody(R"("materials": {"default": {"max_boundary_level": -1}})"),
+              "bodies[0].materials.default.max_boundary_level: must be an integer in 0..7");
+  expectError(withBody(R"("element_level": 7)"),
+              "bodies[0].element_level: must be an integer in 0..6, got 7");
+  expectError(withBody(R"("element_level": 2, "finest_level": 3)"),
+              "bodies[0].finest_level: must be <= element_level (2), got 3");
+  expectError(withBody(R"("resolution": 2)"), "bodies[0].resolution: must be an integer in 3..");
+  expectError(withBody(R"("resolution": 1e12)"), "bodies[0].resolution: must be an integer in");
+  expectError(withTop(R"("time_step": 0)"), "time_step: must be > 0, got 0");
+  expectError(withTop(R"("frames": 0)"), "frames: must be an integer in 1..");
+  expectError(withTop(R"("solver": {"tolerance": -1e-3})"), "solver.tolerance: must be > 0");
+  expectError(withTop(R"("solver": {"max_iterations": 0})"),
+              "solver.max_iterations: must be an integer in 1..");
+}
+
+TEST(SceneReaderErrors, NotAnIntegerIsAnError) {
+  expectError(withBody(R"("resolution": 64.5)"),
+              "bodies[0].resolution: must be an integer in 3..4096, got 64.5");
+  expectError(withTop(R"("frames": "100")"),
+              R"(frames: must be an integer in 1..100000000, got "100")");
+}
+
+TEST(SceneReaderErrors, WrongTypeIsAnError) {
+  expectError(withTop(R"("time_step": "fast")"), R"(time_step: must be a number, got "fast")");
+  expectError(withTop(R"("solver": [1, 2])"), "solver: must be an object, got a list");
+  expectError(withTop(R"("gravity": [0, -9.81])"),
+              "gravity: must be a list of 3 numbers [x, y, z], got [0,-9.81]");
+  expectError(withTop(R"("gravity": [0, null, 0])"), "gravity[1]: must be a number, got null");
+  expectError(withBody(R"("materials": [])"), "bodies[0].materials: must be an object, got a list");
+  expectError(withBody(R"("materials": {"default": 5})"),
+              "bodies[0].materials.default: must be an object, got a number");
+  expectError(withBody(R"("materials": {"default": {"damping": 0.1}})"),
+              "bodies[0].materials.default.damping: must be a list of 2 numbers [alpha, beta]");
+  expectError(withBody(R"("fixed": {"box": []})"),
+              "bodies[0].fixed: must be a list, got an object");
+  expectError(withBody(R"("offset": [1, 2, 3, 4])"),
+              "bodies[0].offset: must be a list of 3 numbers");
+  expectError(R"({"bodies": [{"model": 42}]})", "bodies[0].model: must be a string, got a number");
+  expectError(R"({"bodies": [{"model": ""}]})", "bodies[0].model: must not be empty");
+  expectError(R"([1, 2])", "top level: must be an object, got a list");
+  expectError(withTop(R"("description": 3)"), "description: must be a string");
+}
+
+TEST(SceneReaderErrors, UnknownKeysAnywhere) {
+  expectError(withTop(R"("timestep": 0.01)"), "timestep: unknown key (expected one of: ");
+  expectError(withTop(R"("solver": {"tol": 1})"), "solver.tol: unknown key");
+  expectError(withBody(R"("elements": 3)"), "bodies[0].elements: unknown key");
+  expectError(R"({"bodies": [{"model": "liver",
+                 "materials": {"tumor": {"youngs_modulus": 1e5}}}]})",
+              "bodies[0].materials.tumor.youngs_modulus: unknown key");
+  expectError(withBody(R"("fixed": [{"box": [[0,0,0],[1,1,1]], "sphere": 1}])"),
+              "bodies[0].fixed[0].sphere: unknown key");
+  expectError(withTop(R"("tools": [{"type": "blade", "speed": 1,
+                                     "keys": [{"t": 0, "a": [0,0,0], "b": [1,0,0]}]}])"),
+              "tools[0].speed: unknown key");
+  expectError(withTop(R"("tools": [{"type": "blade",
+                                     "keys": [{"t": 0, "a": [0,0,0], "b": [1,0,0], "c": 1}]}])"),
+              "tools[0].keys[0].c: unknown key");
+}
+
+TEST(SceneReaderErrors, MissingRequiredKeys) {
+  expectError(R"({"time_step": 0.01})", "bodies: missing (required)");
+  expectError(R"({"bodies": []})", "bodies: must be a non-empty list");
+  expectError(R"({"bodies": [{"resolution": 50}]})", "bodies[0].model: missing (required)");
+  expectError(withBody(R"("fixed": [{}])"), "bodies[0].fixed[0].box: missing (required)");
+  expectError(withTop(R"("tools": [{"keys": []}])"), "tools[0].type: missing (required)");
+  expectError(withTop(R"("tools": [{"type": "blade"}])"), "tools[0].keys: missing (required)");
+  expectError(withTop(R"("tools": [{"type": "blade", "keys": [{"t": 0, "a": [0,0,0]}]}])"),
+              "tools[0].keys[0].b: missing (required)");
+}
+
+TEST(SceneReaderErrors, BadFixedBox) {
+  expectError(withBody(R"("fixed": [{"box": [[0, 0.2, 0], [1, 0.1, 1]]}])"),
+              "bodies[0].fixed[0].box: must have y0 <= y1, got 0.2 > 0.1");
+  expectError(withBody(R"("fixed": [{"box": [[0, 0, 0]]}])"),
+              "bodies[0].fixed[0].box: must be [[x0, y0, z0], [x1, y1, z1]]");
+  expectError(withBody(R"("fixed": [{"box": [[0, 0, 0], [1, 1]]}])"),
+              "bodies[0].fixed[0].box[1]: must be a list of 3 numbers");
+  // A flat box (x0 == x1) is allowed: it fixes the nodes on a plane.
+  EXPECT_EQ(parse(withBody(R"("fixed": [{"box": [[0, 0, 0], [0, 1, 1]]}])")).bodies[0].fixed.size(),
+            1u);
+}
+
+TEST(SceneReaderErrors, BadTools) {
+  expectError(withTop(R"("tools": [{"type": "probe", "keys": []}])"),
+              R"(tools[0].type: unknown tool type "probe" (expected: "blade"))");
+  expectError(withTop(R"("tools": [{"type": "blade", "keys": []}])"),
+              "tools[0].keys: must be a non-empty list");
+  expectError(withTop(R"("tools": [{"type": "blade", "keys": [
+                {"t": 0, "a": [0,0,0], "b": [1,0,0]},
+                {"t": 0.1, "a": [0,0,0], "b": [1,0,0]},
+                {"t": 0.1, "a": [0,0,0], "b": [1,0,0]}]}])"),
+              "tools[0].keys[2].t: key times must increase strictly: must be > 0.1");
+  expectError(
+      withTop(R"("tools": [{"type": "blade", "keys": [{"t": 0, "a": [1,2,3], "b": [1,2,3]}]}])"),
+      "tools[0].keys[0]: the blade's ends a and b must differ");
+  expectError(withTop(R"("tools": {"type": "blade"})"), "tools: must be a list, got an object");
+}
+
+TEST(SceneReaderErrors, BadModels) {
+  expectError(R"({"bodies": [{"model": "box:0.1,0.2"}]})",
+              "bodies[0].model: bad model 'box:0.1,0.2'");
+  expectError(R"({"bodies": [{"model": "sphere:-1"}]})", "bodies[0].model: bad model 'sphere:-1'");
+  expectError(R"({"bodies": [{"model": "box"}]})", "bodies[0].model: model 'box' needs its size");
+  expectError(R"({"bodies": [{"model": "bunny"}, {"model": "no-such-mesh.obj"}]})",
+              "bodies[1].model: no built-in model and no such mesh file '" +
+                  (fs::current_path() / "no-such-mesh.obj").lexically_normal().string() + "'");
+}
+
+TEST(SceneReaderErrors, UnknownMaterialNameOnceTheModelIsLoaded) {
+  const Scene scene = parse(R"({"bodies": [{"model": "bunny"},
+      {"model": "liver", "materials": {"liver": {}, "tumour": {"young_modulus": 1e5}}}]})");
+  EXPECT_NO_THROW(checkMaterialNames(scene, 0, {"default"}));
+  try {
+    checkMaterialNames(scene, 1, {"liver", "tumor"});
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(),
+                 "scene.json: bodies[1].materials.tumour: model 'liver' has no material "
+                 "'tumour' (it has: liver, tumor)");
+  }
+  try {
+    (void)loadBodyModel(scene, 1);
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("scene.json: bodies[1].materials.tumour: ", 0), 0u)
+        << e.what();
+  }
+}
+
+TEST(SceneReaderErrors, JsonSyntaxErrorHasLineAndColumn) {
+  const std::string msg = parseError("{\n  \"time_step\": 0.004,\n  \"bodies\": [}\n}\n");
+  EXPECT_EQ(msg.rfind("scene.json: JSON syntax error at line 3, column 14: ", 0), 0u) << msg;
+  EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+  EXPECT_EQ(msg.find("json.exception"), std::string::npos) << msg;
+  const std::string empty = parseError("");
+  EXPECT_EQ(empty.rfind("scene.json: JSON syntax error at line 1, column 1: ", 0), 0u) << empty;
+  const std::string trailing = parseError(withTop(R"("time_step": 0.004,)"));
+  EXPECT_EQ(trailing.rfind("scene.json: JSON syntax error at line 1, column ", 0), 0u) << trailing;
+}
+
+TEST(SceneReaderErrors, NumberTooLarge) {
+  expectError(withTop(R"("time_step": 1e999)"), "JSON error: number overflow parsing '1e999'");
+}
+
+TEST(SceneReaderErrors, DuplicateKey) {
+  expectError(withTop(R"("time_step": 0.004, "time_step": 0.01)"),
+              R"(key "time_step" appears twice in one object)");
+}
+
+TEST(SceneReaderErrors, MissingOrUnreadableFile) {
+  const TempDir dir;
+  const std::string missing = dir.file("nothing.json");
+  try {
+    (void)readScene(missing);
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), missing + ": no such file");
+  }
+  try {
+    (void)readScene(dir.path().string());
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), dir.path().string() + ": is a directory, not a scene file");
+  }
+  const std::string bad = dir.write("bad.json", "{\"bodies\": [}");
+  try {
+    (void)readScene(bad);
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind(bad + ": JSON syntax error at line 1, column 13", 0), 0u)
+        << e.what();
+  }
+}
+
+// ---- model paths ----------------------------------------------------------------------------
+
+TEST(SceneReader, RelativeModelPathsStartAtTheScenesFolder) {
+  const TempDir dir;
+  fs::create_directories(dir.path() / "scenes" / "sub");
+  fs::create_directories(dir.path() / "meshes");
+  const std::string mesh = dir.write("meshes/cube.obj", test::cubeObj());
+  const std::string scenePath =
+      dir.write("scenes/sub/cube.json",
+                R"({"bodies": [{"model": "../../meshes/./cube.obj", "offset": [1, 0, 0],
+                      "materials": {"default": {"young_modulus": 2e5}}},
+                     {"model": ")" +
+                    mesh + R"("}]})");
+  const Scene scene = readScene(scenePath);
+  const std::string expected = fs::absolute(mesh).lexically_normal().string();
+  EXPECT_EQ(scene.bodies[0].model, expected);
+  EXPECT_TRUE(fs::path(scene.bodies[0].model).is_absolute());
+  EXPECT_EQ(scene.bodies[1].model, expected);  // absolute paths are kept
+  EXPECT_FALSE(isBuiltinModelSpec(scene.bodies[0].model));
+
+  // A mesh's single material is "default" in a scene, and the offset moves it.
+  const Model model = loadBodyModel(scene, 0);
+  ASSERT_EQ(model.materials.size(), 1u);
+  EXPECT_EQ(model.materials[0].name, "default");
+  const auto bounds = model.materials[0].mesh.bounds();
+  EXPECT_DOUBLE_EQ(bounds[0].x(), 1.25);
+  EXPECT_DOUBLE_EQ(bounds[1].x(), 1.75);
+  EXPECT_DOUBLE_EQ(bounds[0].y(), 0.25);
+
+  // The same relative path from another folder does not exist.
+  const std::string moved =
+      dir.write("cube.json", R"({"bodies": [{"model": "../meshes/cube.obj"}]})");
+  try {
+    (void)readScene(moved);
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    const std::string msg = e.what();
+    EXPECT_EQ(msg.rfind(moved + ": bodies[0].model: no built-in model and no such mesh file", 0),
+              0u)
+        << msg;
+    EXPECT_NE(msg.find("relative"), std::string::npos) << msg;
+  }
+}
+
+TEST(SceneReader, BuiltinNamesAreNotPaths) {
+  for (const char* spec : {"bunny", "liver", "starfish", "box:0.1,0.02,0.02", "sphere:0.05"}) {
+    EXPECT_TRUE(isBuiltinModelSpec(spec)) << spec;
+    EXPECT_EQ(parse(R"({"bodies": [{"model": ")" + std::string(spec) + R"("}]})").bodies[0].model,
+              spec);
+  }
+  EXPECT_FALSE(isBuiltinModelSpec("bunny.obj"));
+}
+
+}  // namespace
+}  // namespace voxcut
