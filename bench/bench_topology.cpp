@@ -117,7 +117,7 @@ void runCuts(benchmark::State& state, const std::vector<std::vector<std::uint64_
   }
   state.counters["threads"] = threads;
   state.counters["links"] = static_cast<double>(links);
-  state.counters["updates"] = static_cast<double>(cuts.size());
+  state.counters["updates"] = static_cast<double>(std::count_if(cuts.begin(), cuts.end(), [](const auto& c) { return !c.empty(); }));
   state.counters["elements"] = static_cast<double>(elements);
   state.counters["nodes"] = static_cast<double>(nodes);
   state.counters["hanging"] = static_cast<double>(hanging);

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cstdio>
 #include <random>
 
@@ -244,6 +245,100 @@ TEST(CutTopology, BunnyEarCut) {
   for (std::size_t v = 0; v < after.size(); ++v) ASSERT_LE((after[v] - moved[v]).norm(), 1e-12);
   shake(oc, 9);
   expectNoGap(g, oc, 1e-12);
+}
+
+/// The connected y-links crossed in each of `frames` frames by a horizontal blade at height y
+/// (voxel units) spanning x in [x0, x1) and sweeping z from z0 down to z1, like
+/// scenes/bunny-ear.json: frame f takes the links whose lower voxel has z in (z(f+1), z(f)].
+std::vector<std::vector<std::uint64_t>> bladeFrames(const VoxelGrid& g, int y, int x0, int x1, double z0,
+                                                    double z1, int frames) {
+  std::vector<std::vector<std::uint64_t>> out(static_cast<std::size_t>(frames));
+  for (int z = 0; z < g.dims().z; ++z)
+    for (int x = x0; x < x1; ++x) {
+      const std::size_t v = g.index(x, y, z);
+      if (!g.connected(v, 1)) continue;
+      const double f = (z0 - z) / (z0 - z1) * frames;
+      if (f >= 0 && f < frames) out[static_cast<std::size_t>(f)].push_back(VoxelGrid::linkId(v, 1));
+    }
+  return out;
+}
+
+/// Every array of two octrees and two changes is equal, bit for bit.
+void expectSame(const DeformationOctree& a, const DeformationOctree& b, const TopologyChange& ta,
+                const TopologyChange& tb) {
+  ASSERT_EQ(a.elementCount(), b.elementCount());
+  ASSERT_EQ(a.nodeCount(), b.nodeCount());
+  for (std::uint32_t e = 0; e < a.elementCount(); ++e) {
+    ASSERT_EQ(a.element(e).coord, b.element(e).coord);
+    ASSERT_EQ(a.element(e).level, b.element(e).level);
+    ASSERT_EQ(a.element(e).nodes, b.element(e).nodes);
+    ASSERT_EQ(a.nextCopy(e), b.nextCopy(e));
+  }
+  for (std::uint32_t n = 0; n < a.nodeCount(); ++n) ASSERT_EQ(a.nodeCoord(n), b.nodeCoord(n));
+  EXPECT_EQ(a.positions(), b.positions());
+  EXPECT_EQ(a.restPositions(), b.restPositions());
+  ASSERT_EQ(a.hangingNodeCount(), b.hangingNodeCount());
+  for (std::size_t i = 0; i < a.hangingNodeCount(); ++i) {
+    const HangingNode &ha = a.hangingNodes()[i], &hb = b.hangingNodes()[i];
+    ASSERT_EQ(ha.node, hb.node);
+    ASSERT_EQ(ha.element, hb.element);
+    ASSERT_EQ(ha.masters, hb.masters);
+  }
+  for (std::size_t v = 0; v < a.gridDims().x * std::size_t(a.gridDims().y) * a.gridDims().z; ++v) {
+    ASSERT_EQ(a.owner(v), b.owner(v));
+    ASSERT_EQ(a.embedding(v).offset, b.embedding(v).offset);
+  }
+  EXPECT_EQ(ta.changed, tb.changed);
+  EXPECT_EQ(ta.elementSource, tb.elementSource);
+  ASSERT_EQ(ta.nodeSource.size(), tb.nodeSource.size());
+  for (std::size_t n = 0; n < ta.nodeSource.size(); ++n) {
+    ASSERT_EQ(ta.nodeSource[n].count, tb.nodeSource[n].count);
+    ASSERT_EQ(ta.nodeSource[n].nodes, tb.nodeSource[n].nodes);
+    ASSERT_EQ(ta.nodeSource[n].weights, tb.nodeSource[n].weights);
+  }
+}
+
+// A blade advancing through the bunny's ears a few links per frame: each update keeps the
+// material in place, the octree valid and gap-free, and the results equal for 1 and 2
+// threads after every frame (this runs the refinement rounds for ambiguous hanging nodes).
+TEST(CutTopology, BunnyBladeSequence) {
+  VoxelizeParams vp;
+  vp.resolution.resolution = 101;
+  const VoxelGrid start = voxelize(loadModel("bunny").materials, vp);
+  const Index3 d = start.dims();
+  const auto frames = bladeFrames(start, static_cast<int>(0.8 * d.y), d.x / 8, d.x * 5 / 8, 0.8 * d.z, 0.2 * d.z, 30);
+  struct Run {
+    VoxelGrid grid;
+    DeformationOctree octree;
+  };
+  std::array<Run, 2> runs{Run{start, buildDeformationOctree(start)}, Run{start, buildDeformationOctree(start)}};
+  for (Run& r : runs) shake(r.octree, 21);
+  std::size_t links = 0, updates = 0;
+  for (const auto& cut : frames) {
+    if (cut.empty()) continue;
+    std::array<TopologyChange, 2> tc;
+    for (int t = 0; t < 2; ++t) {
+      ThreadLimit limit(t + 1);
+      Run& r = runs[static_cast<std::size_t>(t)];
+      for (std::uint64_t id : cut) r.grid.setConnected(id / 3, static_cast<int>(id % 3), false);
+      const std::vector<Vec3d> moved = t == 0 ? voxelPositions(r.grid, r.octree) : std::vector<Vec3d>{};
+      tc[static_cast<std::size_t>(t)] = updateCutTopology(r.octree, r.grid, cut);
+      if (t == 0) {
+        const std::vector<Vec3d> after = voxelPositions(r.grid, r.octree);
+        for (std::size_t v = 0; v < after.size(); ++v) ASSERT_LE((after[v] - moved[v]).norm(), 1e-12) << v;
+      }
+    }
+    expectSame(runs[0].octree, runs[1].octree, tc[0], tc[1]);
+    links += cut.size();
+    ++updates;
+  }
+  ASSERT_GT(updates, 5u);
+  ASSERT_GT(links, 30u);
+  expectOctreeInvariants(runs[0].grid, runs[0].octree, 3, 0, false);
+  DeformationOctree shaken = runs[0].octree;
+  shake(shaken, 5);
+  test::expectConforming(shaken, 1e-12);
+  expectNoGap(runs[0].grid, shaken, 1e-12);
 }
 
 }  // namespace

@@ -40,10 +40,18 @@ Vec3d perpendicularTo(const Vec3d& d) {
 
 BladeSweep makeSweep(const BladePose& from, const BladePose& to, std::uint64_t frame) {
   VOXCUT_ASSERT(frame < (std::uint64_t{1} << 62), "makeSweep: frame index too large");
+  return makeSweep(from, to, {2 * frame, 2 * frame + 1, 2 * frame + 3, 2 * frame + 2}, frame);
+}
+
+BladeSweep makeSweep(const BladePose& from, const BladePose& to,
+                     const std::array<std::uint64_t, 4>& ids, std::uint64_t frame) {
+  VOXCUT_ASSERT(ids[0] != ids[1] && ids[0] != ids[2] && ids[0] != ids[3] && ids[1] != ids[2] &&
+                    ids[1] != ids[3] && ids[2] != ids[3],
+                "makeSweep: the corners' ids must be distinct");
   BladeSweep s;
   s.frame = frame;
   s.corners = {from.a, from.b, to.b, to.a};
-  s.ids = {2 * frame, 2 * frame + 1, 2 * frame + 3, 2 * frame + 2};
+  s.ids = ids;
   std::array<std::optional<Vec3d>, 2> n;
   for (int t = 0; t < 2; ++t) {
     const auto& idx = BladeSweep::kTriangles[t];

@@ -43,9 +43,13 @@ void storePosition(CutBody& b, std::size_t v, const Vec3d& x) {
 }
 
 // Blade test of link (v, a) on current positions; Hermite data in the rest frame.
-std::optional<Hermite> testLink(const CutBody& b, const BladeSweep& sweep, std::size_t v, int a) {
+std::optional<Hermite> testLink(const CutBody& b, const std::vector<BladeSweep>& sweeps,
+                                std::size_t v, int a) {
   const std::size_t w = v + b.grid.stride(a);
-  const auto hit = intersectSegment(sweep, loadPosition(b, v), loadPosition(b, w), v, w);
+  const Vec3d pv = loadPosition(b, v), pw = loadPosition(b, w);
+  std::optional<SweepHit> hit;
+  for (const BladeSweep& sweep : sweeps)
+    if (const auto h = intersectSegment(sweep, pv, pw, v, w); h && (!hit || h->t < hit->t)) hit = h;
   if (!hit) return std::nullopt;
   // Pull the normal back with the element holding the nearer end.
   const std::size_t near = hit->t < 0.5 ? v : w;
@@ -92,6 +96,10 @@ CutBody makeCutBody(VoxelGrid grid, const CutBodyParams& params, bool threaded) 
 }
 
 CutStepResult cutStep(CutBody& b, const BladeSweep& sweep, bool threaded) {
+  return cutStep(b, std::vector<BladeSweep>{sweep}, threaded);
+}
+
+CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool threaded) {
   CutStepResult r;
   VoxelGrid& g = b.grid;
 
@@ -105,15 +113,17 @@ CutStepResult cutStep(CutBody& b, const BladeSweep& sweep, bool threaded) {
   timer.restart();
   b.deformation.updateElementBounds(b.elementBoxes, threaded);
   b.hash.build(b.elementBoxes, 0.0, threaded);
-  const Obb obb = sweepObb(sweep, b.obbMargin);
-  Eigen::AlignedBox3d obbBounds;
-  for (int k = 0; k < 8; ++k) {
-    Vec3d corner = obb.centre;
-    for (int i = 0; i < 3; ++i) corner += ((k >> i) & 1 ? 1.0 : -1.0) * obb.halfExtents[i] * obb.axes.col(i);
-    obbBounds.extend(corner);
+  std::vector<std::uint8_t> marked(b.elementBoxes.size(), 0);
+  for (const BladeSweep& sweep : sweeps) {
+    const Obb obb = sweepObb(sweep, b.obbMargin);
+    Eigen::AlignedBox3d obbBounds;
+    for (int k = 0; k < 8; ++k) {
+      Vec3d corner = obb.centre;
+      for (int i = 0; i < 3; ++i) corner += ((k >> i) & 1 ? 1.0 : -1.0) * obb.halfExtents[i] * obb.axes.col(i);
+      obbBounds.extend(corner);
+    }
+    b.hash.markElements(obbBounds, [&](const Eigen::AlignedBox3d& cell) { return overlaps(obb, cell); }, marked);
   }
-  std::vector<std::uint8_t> marked;
-  b.hash.markElements(obbBounds, [&](const Eigen::AlignedBox3d& cell) { return overlaps(obb, cell); }, marked);
   for (std::uint8_t m : marked) r.markedElements += m;
   const std::vector<std::uint32_t>& active = b.activity.activeVoxels;
   constexpr std::size_t kChunk = 4096;
@@ -139,7 +149,7 @@ CutStepResult cutStep(CutBody& b, const BladeSweep& sweep, bool threaded) {
             }
             if (!b.activity.linkActive(from, a) || !g.connected(from, a)) continue;
             ++tested[c];
-            if (const auto h = testLink(b, sweep, from, a)) found[c].push_back({VoxelGrid::linkId(from, a), *h});
+            if (const auto h = testLink(b, sweeps, from, a)) found[c].push_back({VoxelGrid::linkId(from, a), *h});
           }
         }
       }
@@ -159,7 +169,7 @@ CutStepResult cutStep(CutBody& b, const BladeSweep& sweep, bool threaded) {
     timer.restart();
     SubdivisionHooks hooks;
     hooks.updatePositions = [&](const std::vector<std::uint32_t>& voxels) { positionVoxelList(b, voxels); };
-    hooks.testLink = [&](std::size_t v, int a) { return testLink(b, sweep, v, a); };
+    hooks.testLink = [&](std::size_t v, int a) { return testLink(b, sweeps, v, a); };
     r.subdivision = subdivideCutCubes(b.activity, g, r.cuts, hooks, threaded);
     r.subdivisionMs = timer.ms();
     timer.restart();

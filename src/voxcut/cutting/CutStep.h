@@ -56,6 +56,13 @@ struct CutStepResult {
 /// as F^T n, normalised). Deterministic for any thread count.
 CutStepResult cutStep(CutBody& body, const BladeSweep& sweep, bool threaded = true);
 
+/// As cutStep for one sweep, for a strip of sweeps that together form the blade's swept
+/// surface this frame (a blade whose start edge was carried along with the material, see
+/// sim/BladeFront.h): elements under any sweep's OBB are marked, and a link crossing several
+/// sweeps takes the hit with the smallest t (ties: the first sweep). Empty: nothing is cut,
+/// only the positions are updated.
+CutStepResult cutStep(CutBody& body, const std::vector<BladeSweep>& sweeps, bool threaded = true);
+
 /// 64-bit FNV-1a hash of the cuts sorted by link id, with t and normals rounded to 1e-6.
 [[nodiscard]] std::uint64_t cutSetHash(std::vector<LinkCut> cuts);
 

@@ -40,6 +40,31 @@ std::uint64_t TopologyEditor::probeLeaf(const Index3& v, int minLevel) const {
   return kNoKey;
 }
 
+std::array<std::uint64_t, 8> TopologyEditor::leavesAround(const Index3& p) const {
+  std::array<std::uint64_t, 8> out{};
+  // Off the tile boundaries the 8 voxels share one tile: read it once.
+  constexpr int m = kTileSize - 1;
+  if ((p.x & m) != 0 && (p.y & m) != 0 && (p.z & m) != 0) {
+    const Index3 t{p.x >> kTileLevel, p.y >> kTileLevel, p.z >> kTileLevel};
+    if (t.x < tileDims_.x && t.y < tileDims_.y && t.z < tileDims_.z) {
+      const std::int32_t tile = tileIndex_[static_cast<std::size_t>(t.x + tileDims_.x * (t.y + tileDims_.y * t.z))];
+      if (tile >= 0) {
+        const std::int8_t* lv = tileLevels_.data() + static_cast<std::size_t>(tile) * kTileSize * kTileSize * kTileSize;
+        for (int d = 0; d < 8; ++d) {
+          const Index3 v{p.x - 1 + (d & 1), p.y - 1 + ((d >> 1) & 1), p.z - 1 + (d >> 2)};
+          const int L = lv[(v.x & m) + kTileSize * ((v.y & m) + kTileSize * (v.z & m))];
+          out[static_cast<std::size_t>(d)] =
+              L >= 0 ? DeformationOctree::cubeKey(L, {v.x >> L, v.y >> L, v.z >> L}) : kNoKey;
+        }
+        return out;
+      }
+    }
+  }
+  for (int d = 0; d < 8; ++d)
+    out[static_cast<std::size_t>(d)] = leafOf({p.x - 1 + (d & 1), p.y - 1 + ((d >> 1) & 1), p.z - 1 + (d >> 2)});
+  return out;
+}
+
 void TopologyEditor::buildTile(const Index3& v) {
   if (v.x < 0 || v.y < 0 || v.z < 0) return;
   const Index3 t{v.x >> kTileLevel, v.y >> kTileLevel, v.z >> kTileLevel};
@@ -151,7 +176,9 @@ void TopologyEditor::split(std::uint64_t first) {
         if (d == 13) continue;
         const Index3 nb{coord.x + d % 3 - 1, coord.y + (d / 3) % 3 - 1, coord.z + d / 9 - 1};
         if (nb.x < 0 || nb.y < 0 || nb.z < 0) continue;
-        const std::uint64_t k = leafOf({nb.x << (L - 1), nb.y << (L - 1), nb.z << (L - 1)}, L + 1);
+        const Index3 v{nb.x << (L - 1), nb.y << (L - 1), nb.z << (L - 1)};
+        buildTile(v);
+        const std::uint64_t k = leafOf(v, L + 1);
         if (k != kNoKey) queue.push_back(k);
       }
     }
@@ -207,6 +234,21 @@ CubeParts TopologyEditor::partition(std::uint64_t key) const {
   CubeParts out;
   const Index3 f = keyFirstVoxel(key), gd = grid_.dims();
   const int s = 1 << keyLevel(key);
+  if (s == 1) {
+    // One voxel (occupied, as in every leaf): one part, the same as its old level-0 copy.
+    const auto v = static_cast<std::uint32_t>(grid_.index(f));
+    VOXCUT_ASSERT(grid_.occupied(v), "an empty level-0 leaf");
+    const std::uint32_t o = oc_.embedding_[v].element;
+    NewCopy nc;
+    nc.key = key;
+    nc.minVoxel = v;
+    nc.origin = origin(o);
+    if (o < oldElements_ && oc_.elements_[o].level == 0) nc.sameAs = o;
+    out.voxels.push_back(v);
+    out.part.push_back(0);
+    out.parts.push_back(nc);
+    return out;
+  }
   const Index3 hi{std::min(f.x + s, gd.x), std::min(f.y + s, gd.y), std::min(f.z + s, gd.z)};
   std::vector<std::int32_t> local(static_cast<std::size_t>(s) * s * s, -1);
   auto li = [&](int x, int y, int z) {

@@ -8,12 +8,21 @@ namespace voxcut {
 
 using namespace topology_detail;
 
-std::vector<std::uint64_t> TopologyEditor::dirtyPoints() {
+void TopologyEditor::dirtyPoints(std::vector<std::uint64_t>& keys, std::vector<std::array<std::uint64_t, 8>>& around) {
+  // Points seen, one bit per node-grid point (leaves reach at most 2^maxLevel - 1 past the
+  // grid).
+  const Index3 gd = grid_.dims();
+  const int pad = (1 << oc_.maxLevel_) + 1;
+  const std::size_t nx = static_cast<std::size_t>(gd.x + pad), ny = static_cast<std::size_t>(gd.y + pad);
+  std::vector<std::uint64_t>& seen = seenPoints_;
+  seen.resize((nx * ny * static_cast<std::size_t>(gd.z + pad) + 63) / 64, 0);
   std::vector<std::uint64_t> pts;
-  KeyTable seen(32 * (partitioned_.size() + removedCubes_.size()));
   auto add = [&](const Index3& p) {
-    const std::uint64_t k = pointKey(p);
-    if (seen.insert(k)) pts.push_back(k);
+    const std::size_t i = static_cast<std::size_t>(p.x) + nx * (static_cast<std::size_t>(p.y) + ny * static_cast<std::size_t>(p.z));
+    const std::uint64_t bit = std::uint64_t{1} << (i & 63);
+    if (seen[i >> 6] & bit) return;
+    seen[i >> 6] |= bit;
+    pts.push_back(pointKey(p));
   };
   auto add27 = [&](std::uint64_t key) {
     const Index3 f = keyFirstVoxel(key);
@@ -22,51 +31,65 @@ std::vector<std::uint64_t> TopologyEditor::dirtyPoints() {
       for (int y = 0; y <= s; y += step)
         for (int x = 0; x <= s; x += step) add({f.x + x, f.y + y, f.z + z});
   };
+  // The leaves around points [from, pts.size()), after building the tiles they read (serial).
+  std::vector<std::array<std::uint64_t, 8>> leaves;
+  auto findLeaves = [&](std::size_t from) {
+    constexpr int m = kTileSize - 1;
+    for (std::size_t i = from; i < pts.size(); ++i) {
+      const Index3 p = pointOf(pts[i]);
+      if ((p.x & m) != 0 && (p.y & m) != 0 && (p.z & m) != 0) buildTile(p);  // one tile holds all 8
+      else
+        for (int d = 0; d < 8; ++d) buildTile({p.x - 1 + (d & 1), p.y - 1 + ((d >> 1) & 1), p.z - 1 + (d >> 2)});
+    }
+    leaves.resize(pts.size());
+    parallelFor(
+        from, pts.size(), 256,
+        [&](std::size_t b, std::size_t e) {
+          for (std::size_t i = b; i < e; ++i) leaves[i] = leavesAround(pointOf(pts[i]));
+        },
+        threaded_);
+  };
   for (const auto& kv : partitioned_) add27(kv.first);
   for (std::uint64_t k : removedCubes_) add27(k);
-  // The leaves touching those points: their hanging nodes' masters may have changed.
-  std::vector<std::uint64_t> cubes;
-  KeyTable cubeSeen(pts.size());
   const std::size_t first = pts.size();
-  for (std::size_t i = 0; i < first; ++i) {
-    const Index3 p = pointOf(pts[i]);
-    for (int d = 0; d < 8; ++d) {
-      const Index3 v{p.x - 1 + (d & 1), p.y - 1 + ((d >> 1) & 1), p.z - 1 + (d >> 2)};
-      buildTile(v);
-      const std::uint64_t k = leafOf(v);
-      if (k != kNoKey && cubeSeen.insert(k)) cubes.push_back(k);
+  findLeaves(0);
+  // The leaves touching those points: their hanging nodes' masters may have changed. Only
+  // their edge midpoints and face centres can hold such nodes.
+  KeyTable cubeSeen(first / 2);
+  for (std::size_t i = 0; i < first; ++i)
+    for (std::size_t d = 0; d < 8; ++d) {
+      const std::uint64_t k = leaves[i][d];
+      if (k == kNoKey || (d > 0 && k == leaves[i][d - 1]) || !cubeSeen.insert(k)) continue;
+      const int L = keyLevel(k);
+      if (L == 0) continue;
+      const Index3 f = keyFirstVoxel(k);
+      const int s = 1 << L, h = s / 2;
+      for (int z = 0; z <= s; z += h)
+        for (int y = 0; y <= s; y += h)
+          for (int x = 0; x <= s; x += h) {
+            const int mid = (x == h) + (y == h) + (z == h);
+            if (mid == 1 || mid == 2) add({f.x + x, f.y + y, f.z + z});
+          }
     }
-  }
-  // Only their edge midpoints and face centres can hold such nodes.
-  for (std::uint64_t k : cubes) {
-    const int L = keyLevel(k);
-    if (L == 0) continue;
-    const Index3 f = keyFirstVoxel(k);
-    const int s = 1 << L, h = s / 2;
-    for (int z = 0; z <= s; z += h)
-      for (int y = 0; y <= s; y += h)
-        for (int x = 0; x <= s; x += h) {
-          const int mid = (x == h) + (y == h) + (z == h);
-          if (mid == 1 || mid == 2) add({f.x + x, f.y + y, f.z + z});
-        }
-  }
-  // groupAt runs in parallel and must find the tiles built.
-  for (std::size_t i = first; i < pts.size(); ++i) {
+  findLeaves(first);
+  // Ascending point keys (distinct); the bitmap is left clear for the next round.
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> order(pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    order[i] = {pts[i], static_cast<std::uint32_t>(i)};
     const Index3 p = pointOf(pts[i]);
-    for (int d = 0; d < 8; ++d) buildTile({p.x - 1 + (d & 1), p.y - 1 + ((d >> 1) & 1), p.z - 1 + (d >> 2)});
+    seen[(static_cast<std::size_t>(p.x) + nx * (static_cast<std::size_t>(p.y) + ny * static_cast<std::size_t>(p.z))) >> 6] = 0;
   }
-  std::sort(pts.begin(), pts.end());
-  return pts;
+  std::sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  keys.resize(order.size());
+  around.resize(order.size());
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    keys[i] = order[i].first;
+    around[i] = leaves[order[i].second];
+  }
 }
 
-std::array<std::uint64_t, 8> TopologyEditor::leavesAround(const Index3& p) const {
-  std::array<std::uint64_t, 8> out{};
-  for (int d = 0; d < 8; ++d)
-    out[static_cast<std::size_t>(d)] = leafOf({p.x - 1 + (d & 1), p.y - 1 + ((d >> 1) & 1), p.z - 1 + (d >> 2)});
-  return out;
-}
-
-PointGroups TopologyEditor::groupAt(const Index3& p, const std::array<std::uint64_t, 8>& around) const {
+PointGroups TopologyEditor::groupAt(const Index3& p, const std::array<std::uint64_t, 8>& around,
+                                    GroupScratch& scratch) const {
   PointGroups out;
   out.p = p;
   std::array<std::uint64_t, 8> cubes{};
@@ -75,8 +98,8 @@ PointGroups TopologyEditor::groupAt(const Index3& p, const std::array<std::uint6
     if (k != kNoKey && std::find(cubes.begin(), cubes.begin() + static_cast<std::ptrdiff_t>(cubeCount), k) ==
                            cubes.begin() + static_cast<std::ptrdiff_t>(cubeCount))
       cubes[cubeCount++] = k;
-  std::vector<std::uint32_t> members;
-  members.reserve(16);
+  std::vector<std::uint32_t>& members = scratch.members;
+  members.clear();
   std::array<std::size_t, 9> firstOf{};
   for (std::size_t i = 0; i < cubeCount; ++i) {
     firstOf[i] = members.size();
@@ -90,7 +113,20 @@ PointGroups TopologyEditor::groupAt(const Index3& p, const std::array<std::uint6
     VOXCUT_ASSERT(false, "voxel owner is not a copy of its cube");
     return -1;
   };
-  UnionFind uf(members.size());
+  // Union-find over the members (roots are the lowest index of their set).
+  std::vector<int>& parent = scratch.parent;
+  parent.resize(members.size());
+  for (std::size_t m = 0; m < members.size(); ++m) parent[m] = static_cast<int>(m);
+  auto find = [&](int a) {
+    while (parent[static_cast<std::size_t>(a)] != a)
+      a = parent[static_cast<std::size_t>(a)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(a)])];
+    return a;
+  };
+  auto unite = [&](int a, int b) {
+    a = find(a);
+    b = find(b);
+    if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
+  };
   const Index3 gd = grid_.dims();
   for (std::size_t i = 0; i < cubeCount; ++i)
     for (std::size_t j = i + 1; j < cubeCount; ++j) {
@@ -117,8 +153,10 @@ PointGroups TopologyEditor::groupAt(const Index3& p, const std::array<std::uint6
       Index3 c;
       c[axis] = lo[axis] - 1;
       if (c[axis] + 1 >= gd[axis]) continue;
-      // With one copy on each side the first connected link settles the pair.
+      // With one copy on each side the first connected link settles the pair, and nothing is
+      // left to find when the two are joined already.
       const bool single = firstOf[low + 1] - firstOf[low] == 1 && firstOf[high + 1] - firstOf[high] == 1;
+      if (single && find(static_cast<int>(firstOf[low])) == find(static_cast<int>(firstOf[high]))) continue;
       bool done = false;
       for (c[w] = lo[w]; c[w] < std::min(hi[w], gd[w]) && !done; ++c[w])
         for (c[u] = lo[u]; c[u] < std::min(hi[u], gd[u]); ++c[u]) {
@@ -126,37 +164,44 @@ PointGroups TopologyEditor::groupAt(const Index3& p, const std::array<std::uint6
           if (!grid_.occupied(x) || !grid_.connected(x, axis)) continue;
           const std::size_t y = x + grid_.stride(axis);
           if (!grid_.occupied(y)) continue;
-          uf.unite(localIndex(low, oc_.embedding_[x].element), localIndex(high, oc_.embedding_[y].element));
+          unite(localIndex(low, oc_.embedding_[x].element), localIndex(high, oc_.embedding_[y].element));
           if (single) {
             done = true;
             break;
           }
         }
     }
-  std::vector<int> groupOf(members.size(), -1);
+  // Groups numbered in the order of their first member; each member's corner at p, or -1 on
+  // a coarse copy.
+  std::vector<int>& groupOf = scratch.groupOf;
+  groupOf.assign(2 * members.size(), -1);
+  int* memberGroup = groupOf.data() + members.size();
+  std::array<int, 9> cornerOf{};
+  int groupCount = 0;
   for (std::size_t c = 0; c < cubeCount; ++c) {
     const Index3 f = keyFirstVoxel(cubes[c]);
     const int s = 1 << keyLevel(cubes[c]);
-    const int kind = interiorAxes(f, s, p);
+    cornerOf[c] = interiorAxes(f, s, p) == 0 ? cornerIndex(f, s, p) : -1;
     for (std::size_t m = firstOf[c]; m < firstOf[c + 1]; ++m) {
-      const int r = uf.find(static_cast<int>(m));
-      if (groupOf[static_cast<std::size_t>(r)] < 0) {
-        groupOf[static_cast<std::size_t>(r)] = static_cast<int>(out.groups.size());
-        out.groups.emplace_back();
-      }
-      Group& g = out.groups[static_cast<std::size_t>(groupOf[static_cast<std::size_t>(r)])];
-      if (kind == 0) {
-        g.corners.emplace_back(members[m], cornerIndex(f, s, p));
-        if (members[m] < oldElements_)
-          out.oldNodes.push_back(oc_.elements_[members[m]].nodes[static_cast<std::size_t>(cornerIndex(f, s, p))]);
-      } else {
-        g.coarse.push_back(members[m]);
-      }
+      const auto r = static_cast<std::size_t>(find(static_cast<int>(m)));
+      if (groupOf[r] < 0) groupOf[r] = groupCount++;
+      memberGroup[m] = groupOf[r];
     }
   }
-  out.groups.erase(std::remove_if(out.groups.begin(), out.groups.end(),
-                                  [](const Group& g) { return g.corners.empty(); }),
-                   out.groups.end());
+  // Emit group by group, members in order; groups without a corner copy are dropped.
+  out.members.reserve(members.size());
+  for (int g = 0; g < groupCount; ++g) {
+    const std::size_t begin = out.members.size();
+    bool corner = false;
+    for (std::size_t c = 0; c < cubeCount; ++c)
+      for (std::size_t m = firstOf[c]; m < firstOf[c + 1]; ++m)
+        if (memberGroup[m] == g) {
+          out.members.push_back({members[m], static_cast<std::int8_t>(cornerOf[c]), false});
+          corner = corner || cornerOf[c] >= 0;
+        }
+    if (!corner) out.members.resize(begin);
+    else out.members.back().last = true;
+  }
   return out;
 }
 
@@ -164,17 +209,22 @@ void TopologyEditor::assignTempNodes() {
   cornerNodes_.clear();
   tempNodes_.clear();
   for (std::size_t i = 0; i < points_.size(); ++i)
-    for (std::size_t g = 0; g < points_[i].groups.size(); ++g) {
+    for (std::size_t b = 0; b < points_[i].members.size();) {
       const std::uint32_t t = kTempNode | static_cast<std::uint32_t>(tempNodes_.size());
-      tempNodes_.emplace_back(static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(g));
-      for (const auto& [copy, c] : points_[i].groups[g].corners) {
-        auto [it, fresh] = cornerNodes_.try_emplace(copy);
-        if (fresh) {
-          if (copy < oldElements_) it->second = oc_.elements_[copy].nodes;
-          else it->second.fill(kNoElement);
+      tempNodes_.emplace_back(static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(b));
+      for (;; ++b) {
+        const GroupMember& gm = points_[i].members[b];
+        if (gm.corner >= 0) {
+          auto [it, fresh] = cornerNodes_.try_emplace(gm.copy);
+          if (fresh) {
+            if (gm.copy < oldElements_) it->second = oc_.elements_[gm.copy].nodes;
+            else it->second.fill(kNoElement);
+          }
+          it->second[static_cast<std::size_t>(gm.corner)] = t;
         }
-        it->second[static_cast<std::size_t>(c)] = t;
+        if (gm.last) break;
       }
+      ++b;
     }
 }
 
@@ -192,12 +242,19 @@ std::vector<std::uint64_t> TopologyEditor::ambiguousCubes() const {
     const OctreeElement& e = oc_.elements_[copy];
     return DeformationOctree::cubeKey(e.level, e.coord);
   };
+  std::vector<std::uint32_t> coarse;
   for (const PointGroups& pg : points_)
-    for (const Group& g : pg.groups) {
-      if (g.coarse.size() < 2) continue;
+    for (std::size_t b = 0; b < pg.members.size();) {
+      coarse.clear();
+      for (;; ++b) {
+        if (pg.members[b].corner < 0) coarse.push_back(pg.members[b].copy);
+        if (pg.members[b].last) break;
+      }
+      ++b;
+      if (coarse.size() < 2) continue;
       std::vector<std::pair<std::uint64_t, std::uint32_t>> ref;
       bool same = true;
-      for (std::uint32_t copy : g.coarse) {
+      for (std::uint32_t copy : coarse) {
         const std::uint64_t k = keyOf(copy);
         const Index3 f = keyFirstVoxel(k);
         const int s = 1 << keyLevel(k);
@@ -212,7 +269,7 @@ std::vector<std::uint64_t> TopologyEditor::ambiguousCubes() const {
         else if (m != ref) same = false;
       }
       if (!same)
-        for (std::uint32_t copy : g.coarse) out.push_back(keyOf(copy));
+        for (std::uint32_t copy : coarse) out.push_back(keyOf(copy));
     }
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());
@@ -225,26 +282,26 @@ TopologyChange TopologyEditor::run() {
     partitionPending();
     // A point whose leaves are those of the last round has the same groups (a leaf keeps its
     // copies while it stays a leaf): those are moved over, the others regrouped.
-    const std::vector<std::uint64_t> pts = dirtyPoints();
-    std::vector<std::array<std::uint64_t, 8>> around(pts.size());
+    std::vector<std::uint64_t> pts;
+    std::vector<std::array<std::uint64_t, 8>> around;
+    dirtyPoints(pts, around);
     std::vector<PointGroups> groups(pts.size());
     parallelFor(
         0, pts.size(), 64,
         [&](std::size_t b, std::size_t e) {
+          GroupScratch scratch;
           for (std::size_t i = b; i < e; ++i) {
-            const Index3 p = pointOf(pts[i]);
-            around[i] = leavesAround(p);
             const auto it = std::lower_bound(lastPoints_.begin(), lastPoints_.end(), pts[i]);
             const auto j = static_cast<std::size_t>(it - lastPoints_.begin());
             if (it != lastPoints_.end() && *it == pts[i] && lastAround_[j] == around[i])
               groups[i] = std::move(points_[j]);
             else
-              groups[i] = groupAt(p, around[i]);
+              groups[i] = groupAt(pointOf(pts[i]), around[i], scratch);
           }
         },
         threaded_);
     points_ = std::move(groups);
-    lastPoints_ = pts;
+    lastPoints_ = std::move(pts);
     lastAround_ = std::move(around);
     assignTempNodes();
     const std::vector<std::uint64_t> ambiguous = ambiguousCubes();
@@ -269,12 +326,23 @@ TopologyChange TopologyEditor::finalize() {
   std::vector<TempNode> temp(tempNodes_.size());
   for (std::size_t t = 0; t < temp.size(); ++t) {
     const PointGroups& pg = points_[tempNodes_[t].first];
-    const Group& g = pg.groups[tempNodes_[t].second];
     TempNode& tn = temp[t];
     tn.p = pg.p;
-    if (!g.coarse.empty()) tn.coarse = g.coarse.front();
+    for (std::size_t b = tempNodes_[t].second;; ++b) {
+      if (pg.members[b].corner < 0) {
+        tn.coarse = pg.members[b].copy;
+        break;
+      }
+      if (pg.members[b].last) break;
+    }
     std::uint32_t fallback = kNoElement;
-    for (const auto& [copy, c] : g.corners) {
+    for (std::size_t b = tempNodes_[t].second;; ++b) {
+      const GroupMember& gm = pg.members[b];
+      if (gm.corner < 0) {
+        if (gm.last) break;
+        continue;
+      }
+      const std::uint32_t copy = gm.copy;
       const OctreeElement& oe = E[origin(copy)];
       if (interiorAxes(oe.firstVoxel(), oe.size(), pg.p) == 0) {
         tn.src.count = 1;
@@ -283,6 +351,7 @@ TopologyChange TopologyEditor::finalize() {
         break;
       }
       if (fallback == kNoElement) fallback = origin(copy);
+      if (gm.last) break;
     }
     if (tn.src.count == 0) {
       const OctreeElement& oe = E[fallback];
@@ -337,7 +406,8 @@ TopologyChange TopologyEditor::finalize() {
   for (std::uint32_t e : removed_)
     for (std::uint32_t n : E[e].nodes) freedNode[n] = 1;
   for (const PointGroups& pg : points_)
-    for (std::uint32_t n : pg.oldNodes) freedNode[n] = 1;
+    for (const GroupMember& gm : pg.members)
+      if (gm.corner >= 0 && gm.copy < oldElements_) freedNode[E[gm.copy].nodes[static_cast<std::size_t>(gm.corner)]] = 1;
   std::vector<std::uint32_t> nodeId(temp.size(), kNoElement);
   for (std::size_t t = 0; t < temp.size(); ++t) {
     const std::uint32_t s = temp[t].src.nodes[0];

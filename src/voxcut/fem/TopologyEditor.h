@@ -105,6 +105,12 @@ class KeyTable {
     return i == kAbsent ? nullptr : &values_[i];
   }
   [[nodiscard]] bool contains(std::uint64_t k) const { return position(k) != kAbsent; }
+  /// The value of key k, which must be present.
+  [[nodiscard]] std::uint32_t at(std::uint64_t k) const {
+    const std::size_t i = position(k);
+    VOXCUT_ASSERT(i != kAbsent, "key not in the table");
+    return values_[i];
+  }
   /// Inserts k or overwrites its value.
   void set(std::uint64_t k, std::uint32_t v) {
     if (const std::size_t i = position(k); i != kAbsent) {
@@ -180,15 +186,24 @@ struct CubeParts {
   std::vector<NewCopy> parts;         ///< in order of their lowest voxel
 };
 
-/// The element copies around one node-grid point that share one node copy there.
-struct Group {
-  std::vector<std::pair<std::uint32_t, int>> corners;  ///< (copy, corner index)
-  std::vector<std::uint32_t> coarse;                   ///< copies it hangs on
+/// One element copy around a node-grid point.
+struct GroupMember {
+  std::uint32_t copy = 0;
+  std::int8_t corner = -1;  ///< its corner index at the point; -1: a coarse copy (p hangs on it)
+  bool last = false;        ///< the last member of its group
 };
+/// The element copies around one node-grid point, group by group: the corner copies of a
+/// group share one node copy there, hanging on the group's coarse copies if any. Members keep
+/// the order of their cubes and copies within a group; groups come in the order of their
+/// first member; only groups with a corner copy are kept.
 struct PointGroups {
   Index3 p;
-  std::vector<Group> groups;
-  std::vector<std::uint32_t> oldNodes;  ///< nodes of untouched old copies at p
+  std::vector<GroupMember> members;
+};
+/// Buffers reused by groupAt across the points of one task.
+struct GroupScratch {
+  std::vector<std::uint32_t> members;
+  std::vector<int> parent, groupOf;
 };
 
 }  // namespace topology_detail
@@ -235,12 +250,16 @@ class TopologyEditor {
   }
   [[nodiscard]] topology_detail::CubeParts partition(std::uint64_t key) const;
   void partitionPending();
-  [[nodiscard]] std::vector<std::uint64_t> dirtyPoints();
+  /// The node-grid points to regroup (keys ascending) and the leaves around each: the points
+  /// of the partitioned and removed cubes, and the edge midpoints and face centres of the
+  /// leaves touching those. Builds the tiles they read.
+  void dirtyPoints(std::vector<std::uint64_t>& keys, std::vector<std::array<std::uint64_t, 8>>& around);
   /// The leaves holding the 8 voxels around node-grid point p (kNoKey where none), in the
   /// order of the offsets (d & 1, (d >> 1) & 1, d >> 2) - 1.
   [[nodiscard]] std::array<std::uint64_t, 8> leavesAround(const Index3& p) const;
   [[nodiscard]] topology_detail::PointGroups groupAt(const Index3& p,
-                                                     const std::array<std::uint64_t, 8>& around) const;
+                                                     const std::array<std::uint64_t, 8>& around,
+                                                     topology_detail::GroupScratch& scratch) const;
   void assignTempNodes();
   [[nodiscard]] std::uint32_t cornerNode(std::uint32_t copy, int c) const;
   [[nodiscard]] std::vector<std::uint64_t> ambiguousCubes() const;
@@ -265,11 +284,13 @@ class TopologyEditor {
   std::vector<topology_detail::NewCopy> copies_;
   std::vector<std::uint32_t> removed_;       ///< old elements whose slots are freed
   std::vector<std::uint64_t> removedCubes_;  ///< old leaves split or repartitioned
+  std::vector<std::uint64_t> seenPoints_;  ///< dirtyPoints' bitmap over the node grid, clear between calls
   std::vector<topology_detail::PointGroups> points_;
   std::vector<std::uint64_t> lastPoints_;                ///< keys of points_, ascending
   std::vector<std::array<std::uint64_t, 8>> lastAround_;  ///< their leaves
   std::unordered_map<std::uint32_t, std::array<std::uint32_t, 8>> cornerNodes_;
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> tempNodes_;  ///< (point, group)
+  /// (point, its group's first member) of each node made by this update.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> tempNodes_;
 };
 
 }  // namespace voxcut

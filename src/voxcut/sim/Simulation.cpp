@@ -89,6 +89,7 @@ Simulation::Simulation(Scene scene, std::vector<VoxelGrid> grids, const Simulati
     b.solver = ImplicitEuler(solver);
     b.fixedBoxes = sb.fixed;
     b.finestLevel = sb.finestLevel;
+    b.fronts.resize(scene_.tools.size());
     applyFixed(b);
     DualContourParams dc;
     dc.threaded = params_.threaded;
@@ -145,13 +146,36 @@ void Simulation::updateVertexPositions(SimBody& b) const {
 
 void Simulation::stepBody(SimBody& b, std::vector<double>& ms, FrameReport& report) {
   const double t0 = frame_ * scene_.timeStep, t1 = (frame_ + 1) * scene_.timeStep;
-  // Cutting tool collision, one sweep per moving blade.
+  // Cutting tool collision: per moving blade, the strip of sweeps from its cut front (carried
+  // with the material since the last frame) to its new pose.
   std::vector<std::uint64_t> cut;
-  for (const SceneTool& tool : scene_.tools) {
+  const int segs = params_.bladeSegments;
+  const std::uint64_t n = static_cast<std::uint64_t>(std::max(segs, 1)) + 1;
+  const auto frame = static_cast<std::uint64_t>(frame_);
+  std::vector<std::vector<Vec3d>> ends(scene_.tools.size());
+  std::vector<std::vector<std::uint64_t>> endIds(scene_.tools.size());
+  for (std::size_t ti = 0; ti < scene_.tools.size(); ++ti) {
+    const SceneTool& tool = scene_.tools[ti];
     const BladePose from = bladePoseAt(tool, t0), to = bladePoseAt(tool, t1);
     if (samePose(from, to)) continue;
-    const CutStepResult r = cutStep(b.cut, makeSweep(from, to, static_cast<std::uint64_t>(frame_)),
-                                    params_.threaded);
+    std::vector<BladeSweep> sweeps;
+    if (segs <= 0) {
+      sweeps.push_back(makeSweep(from, to, frame));
+    } else {
+      ends[ti] = sampleBlade(to, segs);
+      endIds[ti].resize(n);
+      for (std::uint64_t i = 0; i < n; ++i) endIds[ti][i] = (2 * frame + 1) * n + i;
+      std::vector<Vec3d> start;
+      std::vector<std::uint64_t> startIds;
+      if (b.fronts[ti].empty()) {
+        start = sampleBlade(from, segs);
+        for (std::uint64_t i = 0; i < n; ++i) startIds.push_back(2 * frame * n + i);
+      } else {
+        frontStart(b.fronts[ti], b.cut.deformation, 2 * frame * n, start, startIds);
+      }
+      sweeps = sweepStrip(start, startIds, ends[ti], endIds[ti], frame);
+    }
+    const CutStepResult r = cutStep(b.cut, sweeps, params_.threaded);
     ms[kPositionUpdate] += r.positionUpdateMs;
     ms[kIntersectionTest] += r.intersectionMs;
     ms[kOctreeSubdivision] += r.subdivisionMs;
@@ -163,7 +187,15 @@ void Simulation::stepBody(SimBody& b, std::vector<double>& ms, FrameReport& repo
 
   Timer timer;
   bool topologyChanged = false;
+  // Fronts of blades that did not move this frame, where they are now (re-embedded after a
+  // topology change, which renumbers elements but moves no material).
+  std::vector<std::vector<Vec3d>> still(scene_.tools.size());
   if (!cut.empty()) {
+    for (std::size_t ti = 0; ti < scene_.tools.size(); ++ti)
+      if (ends[ti].empty() && !b.fronts[ti].empty()) {
+        std::vector<std::uint64_t> ids;
+        frontStart(b.fronts[ti], b.cut.deformation, 0, still[ti], ids);
+      }
     const TopologyChange change = updateCutTopology(
         b.cut.deformation, b.cut.grid, cut, CutTopologyParams{b.finestLevel, params_.threaded});
     if (change.changed) {
@@ -172,6 +204,12 @@ void Simulation::stepBody(SimBody& b, std::vector<double>& ms, FrameReport& repo
       b.solver.updateTopology(change);
       applyFixed(b);
     }
+  }
+  for (std::size_t ti = 0; ti < scene_.tools.size(); ++ti) {
+    if (!ends[ti].empty())
+      b.fronts[ti] = embedFront(ends[ti], endIds[ti], b.cut.deformation);
+    else if (topologyChanged && !b.fronts[ti].empty())
+      b.fronts[ti] = embedFront(still[ti], b.fronts[ti].ids, b.cut.deformation);
   }
   ms[kCutTopology] += timer.ms();
 

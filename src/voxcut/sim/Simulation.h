@@ -17,6 +17,7 @@
 #include "voxcut/fem/CutTopology.h"
 #include "voxcut/fem/ElasticModel.h"
 #include "voxcut/fem/ImplicitEuler.h"
+#include "voxcut/sim/BladeFront.h"
 #include "voxcut/sim/Scene.h"
 #include "voxcut/surface/ContouredSurface.h"
 
@@ -26,6 +27,10 @@ namespace voxcut {
 struct SimulationParams {
   bool useOctree = true;  ///< false: the baseline, every link active, no voxel octree
   bool threaded = true;
+  /// Segments of the blade edge carried with the material between frames (BladeFront.h);
+  /// 0 sweeps from the blade's previous pose in the world instead (parts moving across the
+  /// blade's plane during a cut can then stay attached by bridges along the frames' seams).
+  int bladeSegments = 16;
 };
 
 /// Where a surface vertex lives: its element copy and trilinear coordinates there.
@@ -43,6 +48,7 @@ struct SimBody {
   std::vector<VertexEmbedding> embedding;  ///< per surface vertex id
   std::vector<Vec3d> vertexPositions;      ///< per surface vertex id, current (metres)
   std::vector<FixedBox> fixedBoxes;
+  std::vector<BladeFront> fronts;          ///< per scene tool: its cut front in this body
   int finestLevel = 0;
   std::size_t cutLinks = 0;                ///< links cut so far
 };
