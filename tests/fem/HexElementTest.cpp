@@ -212,6 +212,29 @@ TEST(HexElement, PolarRotationIsAProperRotationEvenWhenInverted) {
   EXPECT_EQ(polarRotation(bad), Eigen::Matrix3d::Identity());
 }
 
+TEST(HexElement, PolarRotationOfStronglyStretchedElements) {
+  // Large, anisotropic stretches (the Newton iteration's hard cases) and a nearly flat element
+  // (left to the SVD) still give the rotation to round-off.
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (const Vec3d& stretch : {Vec3d(10, 1, 0.05), Vec3d(0.01, 3, 2), Vec3d(1e-7, 1, 1),
+                               Vec3d(1, 1 + 1e-12, 1)}) {
+    for (int trial = 0; trial < 10; ++trial) {
+      const Eigen::Matrix3d q =
+          Eigen::AngleAxisd(3.0 * u(rng), Vec3d(u(rng), u(rng), u(rng)).normalized())
+              .toRotationMatrix();
+      const Eigen::Matrix3d v =
+          Eigen::AngleAxisd(3.0 * u(rng), Vec3d(u(rng), u(rng), u(rng)).normalized())
+              .toRotationMatrix();
+      const Eigen::Matrix3d s = v * stretch.asDiagonal() * v.transpose();
+      const Eigen::Matrix3d r = polarRotation(q * s);
+      EXPECT_LE((r - q).cwiseAbs().maxCoeff(), 1e-9 * std::max(1.0, 1e-7 / stretch.minCoeff()))
+          << stretch.transpose();
+      EXPECT_LE((r * r.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(), 1e-13);
+    }
+  }
+}
+
 TEST(HexElement, CorotatedDisplacementOfARigidMotionIsZero) {
   const Eigen::Matrix3d q =
       Eigen::AngleAxisd(2.5, Vec3d(1, -2, 0.5).normalized()).toRotationMatrix();

@@ -56,6 +56,7 @@ ElasticModel::ElasticModel(const DeformationOctree& octree, const VoxelGrid& gri
                 "the grid is not the octree's");
   elementNodes_.reserve(octree.elementCount());
   for (const OctreeElement& el : octree.elements()) elementNodes_.push_back(el.nodes);
+  copyNodeCoords(octree);
   hanging_ = octree.hangingNodes();
   elements_.resize(octree.elementCount());
   std::vector<std::uint32_t> all(octree.elementCount());
@@ -64,6 +65,12 @@ ElasticModel::ElasticModel(const DeformationOctree& octree, const VoxelGrid& gri
   requested_.assign(octree.nodeCount(), 0);
   buildNodeData();
   buildConstraints();
+}
+
+void ElasticModel::copyNodeCoords(const DeformationOctree& octree) {
+  nodeCoord_.resize(octree.nodeCount());
+  for (std::size_t n = 0; n < nodeCoord_.size(); ++n)
+    nodeCoord_[n] = octree.nodeCoord(static_cast<std::uint32_t>(n));
 }
 
 void ElasticModel::computeElements(const DeformationOctree& octree, const VoxelGrid& grid,
@@ -175,13 +182,19 @@ void ElasticModel::buildConstraints() {
       if (used[it->node]) used[it->masters[m]] = 1;
     }
 
+  // Unknowns in node-grid order (z, y, x, then node id): node copies made by cuts get their
+  // place among their neighbours, which keeps the incomplete Cholesky factor as good as on an
+  // uncut mesh (its quality depends on the order).
   freeNodes_.clear();
   freeIndex_.assign(nodes, kNotFree);
   for (std::size_t n = 0; n < nodes; ++n)
-    if (!hanging[n] && !fixed_[n] && used[n]) {
-      freeIndex_[n] = static_cast<std::uint32_t>(freeNodes_.size());
-      freeNodes_.push_back(static_cast<std::uint32_t>(n));
-    }
+    if (!hanging[n] && !fixed_[n] && used[n]) freeNodes_.push_back(static_cast<std::uint32_t>(n));
+  std::sort(freeNodes_.begin(), freeNodes_.end(), [&](std::uint32_t a, std::uint32_t b) {
+    const Index3 &ca = nodeCoord_[a], &cb = nodeCoord_[b];
+    return std::tie(ca.z, ca.y, ca.x, a) < std::tie(cb.z, cb.y, cb.x, b);
+  });
+  for (std::size_t i = 0; i < freeNodes_.size(); ++i)
+    freeIndex_[freeNodes_[i]] = static_cast<std::uint32_t>(i);
 
   // Prolongation rows; hanging rows front to back (masters first), merged by free index.
   using Row = std::vector<std::pair<std::uint32_t, double>>;
@@ -273,6 +286,7 @@ void ElasticModel::buildSparsity() {
     sparsity_.rowStart.push_back(static_cast<std::uint32_t>(sparsity_.column.size()));
     VOXCUT_ASSERT(sparsity_.diagonal[i] != kNotFree, "a free node without its diagonal block");
   }
+  factorPattern_ = incompleteCholeskyPattern(sparsity_);
 }
 
 void ElasticModel::updateTopology(const DeformationOctree& octree, const VoxelGrid& grid,
@@ -305,6 +319,7 @@ void ElasticModel::updateTopology(const DeformationOctree& octree, const VoxelGr
   elements_ = std::move(next);
   elementNodes_.clear();
   for (const OctreeElement& el : octree.elements()) elementNodes_.push_back(el.nodes);
+  copyNodeCoords(octree);
   hanging_ = octree.hangingNodes();
   requested_ = std::move(requested);
   computeElements(octree, grid, fresh);

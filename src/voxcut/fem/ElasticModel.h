@@ -5,7 +5,7 @@
 /// lumped masses, the hanging-node prolongation, fixed nodes, and the 3x3-block sparsity of the
 /// reduced system with the plan that gathers it each step. ImplicitEuler.h solves with it.
 ///
-/// Reduced unknowns ("free nodes"): the nodes that are neither hanging, nor fixed, nor unused
+/// Reduced unknowns ("free nodes", in node-grid order): the nodes that are neither hanging, nor fixed, nor unused
 /// (referenced by no element holding voxels, directly or as a master). The prolongation P maps free-node
 /// values to all nodes: a free node takes its own value, a fixed or unused node zero, a
 /// hanging node the mean of its masters' values (chains resolved, coarse first). The solver
@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "voxcut/core/Types.h"
+#include "voxcut/fem/BlockPreconditioner.h"
 #include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/fem/HexElement.h"
 #include "voxcut/fem/TopologyChange.h"
@@ -106,7 +107,8 @@ class ElasticModel {
 
   /// Number of reduced unknowns (free nodes, 3 DOFs each).
   [[nodiscard]] std::size_t freeNodeCount() const { return freeNodes_.size(); }
-  /// Free node ids, ascending; index i is reduced unknown i.
+  /// Free node ids in node-grid order (ascending z, y, x of their node-grid coordinates, then
+  /// id); index i is reduced unknown i.
   [[nodiscard]] const std::vector<std::uint32_t>& freeNodes() const { return freeNodes_; }
   /// Reduced index of node n, or kNotFree.
   [[nodiscard]] std::uint32_t freeIndex(std::uint32_t n) const { return freeIndex_[n]; }
@@ -118,11 +120,14 @@ class ElasticModel {
   /// is node n, ascending (weights unused, 1).
   [[nodiscard]] const WeightedRows& incidence() const { return incidence_; }
   [[nodiscard]] const BlockSparsity& sparsity() const { return sparsity_; }
+  /// The IC(0) pattern of sparsity() (BlockPreconditioner.h), rebuilt with it.
+  [[nodiscard]] const IncompleteCholeskyPattern& factorPattern() const { return factorPattern_; }
   [[nodiscard]] bool threaded() const { return threaded_; }
 
  private:
   void computeElements(const DeformationOctree& octree, const VoxelGrid& grid,
                        const std::vector<std::uint32_t>& which);
+  void copyNodeCoords(const DeformationOctree& octree);
   void buildNodeData();
   void buildConstraints();
   void buildSparsity();
@@ -132,6 +137,7 @@ class ElasticModel {
   std::vector<ElementMatrices> elements_;
   std::vector<std::array<std::uint32_t, 8>> elementNodes_;
   std::vector<HangingNode> hanging_;
+  std::vector<Index3> nodeCoord_;  ///< node-grid coordinates, orders the unknowns
   std::vector<double> nodeMass_;
   std::vector<double> nodeMassDamping_;
   std::vector<std::uint8_t> requested_;
@@ -142,6 +148,7 @@ class ElasticModel {
   WeightedRows restriction_;
   WeightedRows incidence_;
   BlockSparsity sparsity_;
+  IncompleteCholeskyPattern factorPattern_;
 };
 
 /// Corotated elastic forces on every node (N), #nodes: f = -sum_e R_e K_e y_e with y_e the

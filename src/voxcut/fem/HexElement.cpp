@@ -1,6 +1,8 @@
 #include "voxcut/fem/HexElement.h"
 
+#include <Eigen/LU>
 #include <Eigen/SVD>
+#include <cmath>
 
 #include "voxcut/core/Error.h"
 
@@ -157,10 +159,39 @@ Eigen::Matrix3d centreDeformationGradient(const std::array<Vec3d, 8>& displaceme
   return Eigen::Matrix3d::Identity() + f * (0.25 / edge);
 }
 
+namespace {
+
+/// R of F = R S for det F > 0 by Higham's scaled Newton iteration X <- (g X + X^-T / g) / 2
+/// (quadratic convergence, a few 3x3 inverses); false when it does not settle or F is nearly
+/// singular, which leaves the SVD to decide.
+bool newtonPolar(const Eigen::Matrix3d& f, Eigen::Matrix3d& r) {
+  const double norm = f.norm();
+  if (!(f.determinant() > 1e-6 * norm * norm * norm)) return false;
+  Eigen::Matrix3d x = f;
+  for (int k = 0; k < 30; ++k) {
+    const Eigen::Matrix3d inverseT = x.inverse().transpose();
+    // Frobenius scaling while far from orthogonal; unscaled near the end, where it would
+    // only add round-off.
+    const double g = k < 6 ? std::sqrt(inverseT.norm() / x.norm()) : 1.0;
+    const Eigen::Matrix3d next = 0.5 * (g * x + inverseT / g);
+    const double change = (next - x).norm();
+    x = next;
+    if (change <= 1e-14) {
+      r = x;
+      return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
 Eigen::Matrix3d polarRotation(const Eigen::Matrix3d& f) {
   // The identity (an undeformed or purely translated element) is common and must give
   // exactly R = I, so that the rest state has exactly zero force.
   if (!f.allFinite() || f == Eigen::Matrix3d::Identity()) return Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d r;
+  if (newtonPolar(f, r)) return r;
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(f, Eigen::ComputeFullU | Eigen::ComputeFullV);
   Eigen::Matrix3d u = svd.matrixU();
   const Eigen::Matrix3d& v = svd.matrixV();

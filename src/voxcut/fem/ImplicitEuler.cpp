@@ -6,6 +6,8 @@
 
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
+#include "voxcut/core/Timer.h"
+#include "voxcut/fem/BlockPreconditioner.h"
 #include "voxcut/fem/HexElement.h"
 
 namespace voxcut {
@@ -86,6 +88,16 @@ void prolong(const WeightedRows& p, const std::vector<Vec3d>& reduced, std::vect
 
 }  // namespace
 
+const char* preconditionerName(Preconditioner p) {
+  switch (p) {
+    case Preconditioner::Jacobi: return "jacobi";
+    case Preconditioner::BlockJacobi: return "block_jacobi";
+    case Preconditioner::SymmetricGaussSeidel: return "symmetric_gauss_seidel";
+    case Preconditioner::IncompleteCholesky: return "incomplete_cholesky";
+  }
+  return "unknown";
+}
+
 void ImplicitEuler::reset() {
   velocity_.clear();
   lastDv_.clear();
@@ -163,12 +175,15 @@ void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree&
           for (std::size_t c = 0; c < 8; ++c)
             elementForce_[e][c] = -(r * ky.segment<3>(3 * static_cast<Eigen::Index>(c)));
           const Eigen::Matrix3d cr = (dt * em.stiffnessDamping + dt * dt) * r;
+          const Eigen::Matrix3d rt = r.transpose();
           Eigen::Matrix3d* out = &elementBlocks_[64 * e];
           for (int a = 0; a < 8; ++a)
             for (int c = a; c < 8; ++c) {
-              const Eigen::Matrix3d block =
-                  cr * em.stiffness.block<3, 3>(3 * a, 3 * c) * r.transpose();
-              out[8 * a + c] = block;
+              // Fixed-size products into named 3x3s: no temporaries of dynamic size.
+              Eigen::Matrix3d krt;
+              krt.noalias() = em.stiffness.block<3, 3>(3 * a, 3 * c) * rt;
+              Eigen::Matrix3d& block = out[8 * a + c];
+              block.noalias() = cr * krt;
               if (c != a) out[8 * c + a] = block.transpose();
             }
         }
@@ -192,11 +207,14 @@ void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree&
       },
       threaded);
 
-  // Reduced rows: P^T b and the blocks of P^T A P, each summed over its sources in order.
+  // Reduced rows: P^T b and the blocks of P^T A P on and above the diagonal, each summed over
+  // its sources in order; the blocks below are their mirrors' transposes (A is symmetric, and
+  // so exactly symmetric in floating point too).
   const WeightedRows& res = model.restriction();
   const BlockSparsity& sp = model.sparsity();
+  const std::vector<std::uint32_t>& mirror = model.factorPattern().mirror;
   const auto massBase = static_cast<std::uint32_t>(64 * model.elementCount());
-  const bool block = params_.preconditioner == Preconditioner::BlockJacobi;
+  const bool block = params_.preconditioner != Preconditioner::Jacobi;
   parallelFor(
       0, model.freeNodeCount(), 128,
       [&](std::size_t b, std::size_t end) {
@@ -205,12 +223,12 @@ void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree&
           for (std::uint32_t k = res.start[i]; k < res.start[i + 1]; ++k)
             s += res.weight[k] * nodeRhs_[res.index[k]];
           b_[i] = s;
-          for (std::uint32_t slot = sp.rowStart[i]; slot < sp.rowStart[i + 1]; ++slot) {
+          for (std::uint32_t slot = sp.diagonal[i]; slot < sp.rowStart[i + 1]; ++slot) {
             Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
             for (std::uint32_t k = sp.sourceStart[slot]; k < sp.sourceStart[slot + 1]; ++k) {
               const std::uint32_t src = sp.source[k];
               if (src < massBase)
-                sum += sp.sourceWeight[k] * elementBlocks_[src];
+                sum.noalias() += sp.sourceWeight[k] * elementBlocks_[src];
               else
                 sum.diagonal().array() += sp.sourceWeight[k] * nodeDiagonal_[src - massBase];
             }
@@ -224,6 +242,14 @@ void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree&
             for (int a = 0; a < 3; ++a) preconditioner_[i](a, a) = 1.0 / diag(a, a);
           }
         }
+      },
+      threaded);
+  parallelFor(
+      0, model.freeNodeCount(), 256,
+      [&](std::size_t b, std::size_t end) {
+        for (std::size_t i = b; i < end; ++i)
+          for (std::uint32_t slot = sp.rowStart[i]; slot < sp.diagonal[i]; ++slot)
+            blocks_[slot] = blocks_[mirror[slot]].transpose();
       },
       threaded);
 }
@@ -250,6 +276,18 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
     }
     return Vec3d(s0, s1, s2);
   };
+  // Jacobi and block Jacobi act row by row, fused into the vector updates; the coupled
+  // preconditioners run as one sequential sweep over all rows after them.
+  const Preconditioner kind = params_.preconditioner;
+  const bool pointwise = kind == Preconditioner::Jacobi || kind == Preconditioner::BlockJacobi;
+  auto precondition = [&] {
+    if (kind == Preconditioner::IncompleteCholesky)
+      applyIncompleteCholesky(sp, factor_, r_, z_);
+    else
+      applySymmetricGaussSeidel(sp, blocks_, preconditioner_, r_, z_);
+    return chunkedSum(rows, partial_, threaded, [&](std::size_t i) { return r_[i].dot(z_[i]); });
+  };
+
   StepStatus status;
   const double bb = chunkedSum(rows, partial_, threaded, [&](std::size_t i) {
     x_[i] = params_.warmStart ? lastDv_[model.freeNodes()[i]] : Vec3d::Zero();
@@ -268,11 +306,18 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
   // r = b - A x0, z = M^-1 r, p = z.
   auto [rz, rr] = chunkedSum2(rows, partial_, partial2_, threaded, [&](std::size_t i) {
     r_[i] = b_[i] - multiply(x_, i);
+    if (!pointwise) return std::pair{0.0, r_[i].squaredNorm()};
     z_[i] = preconditioner_[i] * r_[i];
-    p_[i] = z_[i];
     return std::pair{r_[i].dot(z_[i]), r_[i].squaredNorm()};
   });
-  bool finite = std::isfinite(rz) && std::isfinite(rr);
+  bool finite = std::isfinite(rr);
+  if (finite && rr > stop && status.iterations < params_.maxIterations && !pointwise) {
+    if (kind == Preconditioner::IncompleteCholesky)
+      factorIncompleteCholesky(sp, model.factorPattern(), blocks_, factor_);
+    rz = precondition();
+  }
+  finite = finite && std::isfinite(rz);
+  std::copy(z_.begin(), z_.end(), p_.begin());
   while (finite && rr > stop && status.iterations < params_.maxIterations) {
     const double pq = chunkedSum(rows, partial_, threaded, [&](std::size_t i) {
       q_[i] = multiply(p_, i);
@@ -283,17 +328,20 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
       finite = std::isfinite(pq);
       break;  // pq == 0 (breakdown) or a non-finite value
     }
-    const auto [rzNew, rrNew] =
-        chunkedSum2(rows, partial_, partial2_, threaded, [&](std::size_t i) {
-          x_[i] += alpha * p_[i];
-          r_[i] -= alpha * q_[i];
-          z_[i] = preconditioner_[i] * r_[i];
-          return std::pair{r_[i].dot(z_[i]), r_[i].squaredNorm()};
-        });
+    auto [rzNew, rrNew] = chunkedSum2(rows, partial_, partial2_, threaded, [&](std::size_t i) {
+      x_[i] += alpha * p_[i];
+      r_[i] -= alpha * q_[i];
+      if (!pointwise) return std::pair{0.0, r_[i].squaredNorm()};
+      z_[i] = preconditioner_[i] * r_[i];
+      return std::pair{r_[i].dot(z_[i]), r_[i].squaredNorm()};
+    });
     ++status.iterations;
-    finite = std::isfinite(rzNew) && std::isfinite(rrNew);
     rr = rrNew;
+    finite = std::isfinite(rr);
     if (!finite || rr <= stop) break;
+    if (!pointwise) rzNew = precondition();
+    finite = std::isfinite(rzNew);
+    if (!finite) break;
     const double beta = rzNew / rz;
     rz = rzNew;
     parallelFor(
@@ -322,8 +370,13 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
   for (std::size_t i = 0; i < freeNodes.size(); ++i) vr_[i] = velocity_[freeNodes[i]];
   prolong(model.prolongation(), vr_, velocity_, threaded);
 
+  Timer timer;
   assemble(model, octree);
-  const StepStatus status = solve(model);
+  const double assemblyMs = timer.ms();
+  timer.restart();
+  StepStatus status = solve(model);
+  status.assemblyMs = assemblyMs;
+  status.solveMs = timer.ms();
   if (!status.finite) {
     std::fill(lastDv_.begin(), lastDv_.end(), Vec3d::Zero());
     return status;
