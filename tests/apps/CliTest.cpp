@@ -648,5 +648,62 @@ TEST(Cli, CutBadInput) {
   expectCleanFailure({"info", "bunny", "--boundary-level", "x"});
 }
 
+
+// --- run ---------------------------------------------------------------------------------------
+
+/// Writes `text` to a fresh scene file in the temporary folder and returns its path.
+std::string writeScene(const std::string& name, const std::string& text) {
+  const fs::path path = fs::temp_directory_path() / ("voxcut_cli_" + std::to_string(::getpid()) + "_" + name);
+  std::ofstream(path) << text;
+  return path.string();
+}
+
+TEST(Cli, RunCutsASphereInTwoAndReportsEveryKey) {
+  // No gravity: a blade sweeps across the whole sphere in 20 frames.
+  const std::string scene = writeScene("sphere.json", R"({
+    "time_step": 0.004, "gravity": [0, 0, 0],
+    "bodies": [{"model": "sphere:0.02", "resolution": 24, "element_level": 2}],
+    "tools": [{"type": "blade", "keys": [
+      {"t": 0.0, "a": [-0.05, 0.003, -0.03], "b": [0.05, 0.003, -0.03]},
+      {"t": 0.08, "a": [-0.05, 0.003, 0.03], "b": [0.05, 0.003, 0.03]}]}]})");
+  const fs::path dir = fs::temp_directory_path() / ("voxcut_cli_export_" + std::to_string(::getpid()));
+  const std::string csv = dir.string() + ".csv";
+  fs::remove_all(dir);
+  const json j = commandJson("run", {scene, "--frames", "30", "--csv", csv, "--export", dir.string(), "--every", "10"});
+  for (const char* key : {"frames", "cut_links", "pieces", "max_displacement", "solver_iterations_mean",
+                          "converged", "timings_ms", "frame_ms"})
+    EXPECT_TRUE(j.contains(key)) << key;
+  EXPECT_EQ(j["frames"], 30);
+  EXPECT_GT(j["cut_links"].get<long>(), 0);
+  EXPECT_EQ(j["pieces"], 2);
+  for (const char* stage : {"voxel_position_update", "intersection_test", "octree_subdivision", "deformation"}) {
+    EXPECT_TRUE(j["timings_ms"][stage].contains("mean")) << stage;
+    EXPECT_TRUE(j["timings_ms"][stage].contains("max")) << stage;
+  }
+  for (const char* k : {"mean", "p95", "max"}) EXPECT_TRUE(j["frame_ms"].contains(k)) << k;
+  // One CSV row per frame after the header; surfaces at frames 0, 10, 20 and 30, closed.
+  const std::string rows = readFile(csv);
+  EXPECT_EQ(std::count(rows.begin(), rows.end(), '\n'), 31);
+  for (const char* f : {"frame_00000.obj", "frame_00010.obj", "frame_00020.obj", "frame_00030.obj"}) {
+    ASSERT_TRUE(fs::exists(dir / f)) << f;
+    expectClosedOriented(readObj((dir / f).string()));
+  }
+  fs::remove_all(dir);
+  fs::remove(csv);
+  fs::remove(scene);
+}
+
+TEST(Cli, RunBadScenesFailCleanly) {
+  expectCleanFailure({"run", "/nonexistent/scene.json"});
+  const std::string bad = writeScene("bad.json", R"({"bodies": [{"model": "bunny", "materials": {"default": {"poisson_ratio": 0.7}}}]})");
+  expectCleanFailure({"run", bad});
+  const std::string unknown = writeScene("unknown.json", R"({"bodies": [{"model": "bunny"}], "gravitee": [0, 0, 0]})");
+  expectCleanFailure({"run", unknown});
+  const std::string broken = writeScene("broken.json", R"({"bodies": [ )");
+  expectCleanFailure({"run", broken});
+  expectCleanFailure({"run", bad, "--frames", "0"});
+  for (const std::string& p : {bad, unknown, broken}) fs::remove(p);
+}
+
 }  // namespace
 }  // namespace voxcut
