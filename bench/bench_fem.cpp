@@ -133,6 +133,7 @@ void runSteps(benchmark::State& state, const FemCase& base) {
   state.counters["free_nodes"] = static_cast<double>(base.model.freeNodeCount());
   state.counters["blocks"] = static_cast<double>(base.model.sparsity().blockCount());
   state.counters["factor_pairs"] = static_cast<double>(base.model.factorPattern().pairCount());
+  state.counters["aggregates"] = static_cast<double>(base.model.aggregation().count());
   state.counters["iterations"] = iterations / steps;
   state.counters["assembly_ms"] = assembly / steps;
   state.counters["solve_ms"] = solve / steps;
@@ -156,7 +157,7 @@ void Cantilever(benchmark::State& state) {
 }
 
 void allSettings(benchmark::internal::Benchmark* b) {
-  for (int p = 0; p < 4; ++p)
+  for (int p = 0; p < 5; ++p)
     for (int t : {1, 2}) b->Args({t, p});
   b->UseManualTime()->Unit(benchmark::kMillisecond)->MinTime(0.3);
 }

@@ -39,7 +39,7 @@ SubdivisionStats cutWithOctree(VoxelGrid& g, VoxelOctree& oct, const Vec3d& n, d
   for (std::uint32_t v : oct.activeVoxels)
     for (int a = 0; a < 3; ++a)
       if (oct.linkActive(v, a) && g.connected(v, a))
-        if (const auto h = planeTest(g, n, d, v, a)) cuts.push_back({VoxelGrid::linkId(v, a), *h});
+        if (const auto h = planeTest(g, n, d, v, a)) cuts.push_back({VoxelGrid::linkId(v, a), *h, std::nullopt});
   for (const LinkCut& c : cuts) {
     g.setConnected(static_cast<std::size_t>(c.link / 3), static_cast<int>(c.link % 3), false);
     g.hermite().set(c.link, c.hermite);

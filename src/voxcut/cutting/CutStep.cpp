@@ -149,7 +149,7 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
             }
             if (!b.activity.linkActive(from, a) || !g.connected(from, a)) continue;
             ++tested[c];
-            if (const auto h = testLink(b, sweeps, from, a)) found[c].push_back({VoxelGrid::linkId(from, a), *h});
+            if (const auto h = testLink(b, sweeps, from, a)) found[c].push_back({VoxelGrid::linkId(from, a), *h, std::nullopt});
           }
         }
       }
@@ -158,8 +158,9 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
     r.testedLinks += tested[c];
     r.cuts.insert(r.cuts.end(), found[c].begin(), found[c].end());
   }
-  for (const LinkCut& lc : r.cuts) {
+  for (LinkCut& lc : r.cuts) {
     g.setConnected(static_cast<std::size_t>(lc.link / 3), static_cast<int>(lc.link % 3), false);
+    if (const Hermite* old = g.hermite().find(lc.link)) lc.previous = *old;
     g.hermite().set(lc.link, lc.hermite);
   }
   r.intersectionMs = timer.ms();

@@ -104,24 +104,6 @@ void factorIncompleteCholesky(const BlockSparsity& sp, const IncompleteCholeskyP
   }
 }
 
-namespace {
-
-/// sum over slots [begin, end) of blocks[slot] * x[column[slot]] (3x3 column-major blocks).
-inline Vec3d rowProduct(const Eigen::Matrix3d* blocks, const std::uint32_t* column,
-                        const Vec3d* x, std::uint32_t begin, std::uint32_t end) {
-  double s0 = 0.0, s1 = 0.0, s2 = 0.0;
-  for (std::uint32_t slot = begin; slot < end; ++slot) {
-    const double* a = blocks[slot].data();
-    const double* v = x[column[slot]].data();
-    s0 += a[0] * v[0] + a[3] * v[1] + a[6] * v[2];
-    s1 += a[1] * v[0] + a[4] * v[1] + a[7] * v[2];
-    s2 += a[2] * v[0] + a[5] * v[1] + a[8] * v[2];
-  }
-  return Vec3d(s0, s1, s2);
-}
-
-}  // namespace
-
 void applyIncompleteCholesky(const BlockSparsity& sp, const IncompleteCholeskyFactor& factor,
                              const std::vector<Vec3d>& r, std::vector<Vec3d>& z) {
   const std::size_t rows = sp.diagonal.size();
@@ -131,11 +113,11 @@ void applyIncompleteCholesky(const BlockSparsity& sp, const IncompleteCholeskyFa
   // Forward: y_i = r_i - sum_{k<i} L_ik y_k, kept as z_i = D_i^-1 y_i.
   std::vector<Vec3d>& y = z;
   for (std::size_t i = 0; i < rows; ++i)
-    y[i] = r[i] - rowProduct(l, column, y.data(), sp.rowStart[i], sp.diagonal[i]);
+    y[i] = r[i] - blockRowProduct(l, column, y.data(), sp.rowStart[i], sp.diagonal[i]);
   // D^-1 then backward: z_i = (D^-1 y)_i - sum_{k>i} L_ki^T z_k, L_ki^T stored at (i, k).
   for (std::size_t i = rows; i-- > 0;)
     z[i] = factor.pivotInverse[i] * y[i] -
-           rowProduct(l, column, z.data(), sp.diagonal[i] + 1, sp.rowStart[i + 1]);
+           blockRowProduct(l, column, z.data(), sp.diagonal[i] + 1, sp.rowStart[i + 1]);
 }
 
 void applySymmetricGaussSeidel(const BlockSparsity& sp, const std::vector<Eigen::Matrix3d>& blocks,
@@ -147,10 +129,10 @@ void applySymmetricGaussSeidel(const BlockSparsity& sp, const std::vector<Eigen:
   const std::uint32_t* column = sp.column.data();
   for (std::size_t i = 0; i < rows; ++i)
     z[i] = diagonalInverse[i] *
-           (r[i] - rowProduct(a, column, z.data(), sp.rowStart[i], sp.diagonal[i]));
+           (r[i] - blockRowProduct(a, column, z.data(), sp.rowStart[i], sp.diagonal[i]));
   for (std::size_t i = rows; i-- > 0;)
     z[i] -= diagonalInverse[i] *
-            rowProduct(a, column, z.data(), sp.diagonal[i] + 1, sp.rowStart[i + 1]);
+            blockRowProduct(a, column, z.data(), sp.diagonal[i] + 1, sp.rowStart[i + 1]);
 }
 
 }  // namespace voxcut

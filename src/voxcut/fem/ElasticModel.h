@@ -28,6 +28,7 @@
 #include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/fem/HexElement.h"
 #include "voxcut/fem/TopologyChange.h"
+#include "voxcut/fem/TwoLevelPreconditioner.h"
 #include "voxcut/voxel/VoxelGrid.h"
 
 namespace voxcut {
@@ -122,6 +123,9 @@ class ElasticModel {
   [[nodiscard]] const BlockSparsity& sparsity() const { return sparsity_; }
   /// The IC(0) pattern of sparsity() (BlockPreconditioner.h), rebuilt with it.
   [[nodiscard]] const IncompleteCholeskyPattern& factorPattern() const { return factorPattern_; }
+  /// The aggregates of the free nodes for the two-level preconditioner
+  /// (TwoLevelPreconditioner.h), rebuilt with sparsity().
+  [[nodiscard]] const NodeAggregation& aggregation() const { return aggregation_; }
   [[nodiscard]] bool threaded() const { return threaded_; }
 
  private:
@@ -149,6 +153,7 @@ class ElasticModel {
   WeightedRows incidence_;
   BlockSparsity sparsity_;
   IncompleteCholeskyPattern factorPattern_;
+  NodeAggregation aggregation_;
 };
 
 /// Corotated elastic forces on every node (N), #nodes: f = -sum_e R_e K_e y_e with y_e the

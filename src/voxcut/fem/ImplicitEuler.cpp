@@ -94,6 +94,7 @@ const char* preconditionerName(Preconditioner p) {
     case Preconditioner::BlockJacobi: return "block_jacobi";
     case Preconditioner::SymmetricGaussSeidel: return "symmetric_gauss_seidel";
     case Preconditioner::IncompleteCholesky: return "incomplete_cholesky";
+    case Preconditioner::TwoLevel: return "two_level";
   }
   return "unknown";
 }
@@ -128,6 +129,24 @@ double ImplicitEuler::kineticEnergy(const ElasticModel& model) const {
   for (std::size_t n = 0; n < velocity_.size(); ++n)
     sum += 0.5 * model.nodeMass()[n] * velocity_[n].squaredNorm();
   return sum;
+}
+
+Eigen::SparseMatrix<double> ImplicitEuler::reducedMatrix(const ElasticModel& model) const {
+  const std::size_t rows = model.freeNodeCount();
+  const BlockSparsity& sp = model.sparsity();
+  if (blocks_.size() != sp.blockCount() || preconditioner_.size() != rows) return {};
+  std::vector<Eigen::Triplet<double>> entries;
+  entries.reserve(9 * sp.blockCount());
+  for (std::size_t i = 0; i < rows; ++i)
+    for (std::uint32_t slot = sp.rowStart[i]; slot < sp.rowStart[i + 1]; ++slot)
+      for (int a = 0; a < 3; ++a)
+        for (int c = 0; c < 3; ++c)
+          entries.emplace_back(static_cast<int>(3 * i) + a, static_cast<int>(3 * sp.column[slot]) + c,
+                               blocks_[slot](a, c));
+  Eigen::SparseMatrix<double> m(static_cast<Eigen::Index>(3 * rows),
+                                static_cast<Eigen::Index>(3 * rows));
+  m.setFromTriplets(entries.begin(), entries.end());
+  return m;
 }
 
 void ImplicitEuler::resize(const ElasticModel& model) {
@@ -283,6 +302,8 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
   auto precondition = [&] {
     if (kind == Preconditioner::IncompleteCholesky)
       applyIncompleteCholesky(sp, factor_, r_, z_);
+    else if (kind == Preconditioner::TwoLevel)
+      twoLevel_.apply(sp, model.aggregation(), blocks_, preconditioner_, r_, z_, threaded);
     else
       applySymmetricGaussSeidel(sp, blocks_, preconditioner_, r_, z_);
     return chunkedSum(rows, partial_, threaded, [&](std::size_t i) { return r_[i].dot(z_[i]); });
@@ -314,6 +335,8 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
   if (finite && rr > stop && status.iterations < params_.maxIterations && !pointwise) {
     if (kind == Preconditioner::IncompleteCholesky)
       factorIncompleteCholesky(sp, model.factorPattern(), blocks_, factor_);
+    if (kind == Preconditioner::TwoLevel)
+      (void)twoLevel_.setup(sp, model.aggregation(), blocks_, threaded);
     rz = precondition();
   }
   finite = finite && std::isfinite(rz);

@@ -15,7 +15,8 @@
 ///
 /// The system is solved by preconditioned conjugate gradients on a 3x3-block sparse matrix
 /// assembled each step (each block on or above the diagonal gathered from its sources in a
-/// fixed order, the ones below mirrored), preconditioned by symmetric block Gauss-Seidel by default, warm-started
+/// fixed order, the ones below mirrored), preconditioned by default by the two-level V-cycle of
+/// TwoLevelPreconditioner.h (block Gauss-Seidel around a coarse correction), warm-started
 /// from the previous step's dv. Parallel over elements and rows; dot products are summed over
 /// fixed chunks in a fixed order and triangular solves are sequential, so results are
 /// bit-identical for any thread count.
@@ -24,6 +25,7 @@
 /// once, reused, so steps do not allocate once the sizes settle).
 
 #include <Eigen/Core>
+#include <Eigen/SparseCore>
 #include <cstdint>
 #include <vector>
 
@@ -32,29 +34,34 @@
 #include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/fem/ElasticModel.h"
 #include "voxcut/fem/TopologyChange.h"
+#include "voxcut/fem/TwoLevelPreconditioner.h"
 
 namespace voxcut {
 
 /// Preconditioner of the conjugate gradients. Iterations per step measured with
-/// bench/bench_fem (scene settings, after 20 steps from rest):
+/// bench/bench_fem (after 20 steps from rest; the bunny cases with E 1e5 Pa):
 ///
-///   case                                   Jacobi  BlockJacobi  SymGaussSeidel  IC(0)
-///   bunny, 766 free nodes, tol 1e-3            56           50              26     11
-///   bunny after the ear cut, 1,704 free      >100         >100              62     37
-///   cantilever, 4,869 free, tol 1e-4         >400         >400             190    123
+///   case                                   Jacobi  BlockJacobi  SymGaussSeidel  IC(0)  TwoLevel
+///   bunny, 766 free nodes, tol 1e-3            55           50              26     11        13
+///   bunny after the ear cut, 1,704 free      >100         >100              63     36        17
+///   cantilever, 4,869 free, tol 1e-4         >400         >400             190    123        73
 ///
 /// IC(0) costs a factorisation per step (about 4 matrix-vector products' worth of work) and a
-/// sequential solve per iteration (about one product). It needs the fewest iterations on every
-/// case, but where a pivot breaks down it falls back to block Jacobi for that row, and the
-/// result is then not guaranteed positive definite: in the bunny-ear scene, after the ear came
-/// off, a run with IC(0) went unstable (a piece flew off). Symmetric Gauss-Seidel is positive
-/// definite for any SPD matrix and stays stable there, hence the default. All are
-/// deterministic for any thread count.
+/// sequential solve per iteration (about one product). Where a pivot breaks down it falls back
+/// to block Jacobi for that row; in the bunny-ear scene, after the ear came off, a run with
+/// IC(0) went unstable (a piece flew off). Symmetric Gauss-Seidel is positive definite for any
+/// SPD matrix and stable there, but its iterations grow with the body's size, with the
+/// contrast between element sizes and on a cut-off piece that hangs on its mass alone. The
+/// two-level V-cycle (the default) adds a coarse correction on node aggregates for those
+/// smooth motions: a sweep pair costs about two products and the coarse factor is dense (3 per
+/// aggregate), but its iterations stay low in every case. All are deterministic for any thread
+/// count.
 enum class Preconditioner {
   Jacobi,                ///< inverse of the diagonal entries
   BlockJacobi,           ///< inverse of each node's 3x3 diagonal block
   SymmetricGaussSeidel,  ///< one forward and one backward block Gauss-Seidel sweep
   IncompleteCholesky,    ///< block IC(0), refactorised every step (BlockPreconditioner.h)
+  TwoLevel,  ///< Gauss-Seidel around a coarse correction on aggregates (TwoLevelPreconditioner.h)
 };
 
 /// Name of a preconditioner ("jacobi", "block_jacobi", ...), for reports.
@@ -66,7 +73,7 @@ struct ImplicitEulerParams {
   Vec3d gravity = Vec3d::Zero();  ///< g (m/s^2), as external force M g
   double tolerance = 1e-3;        ///< stop when |r| <= tolerance |b| (reduced 2-norms)
   int maxIterations = 200;        ///< conjugate-gradient iteration cap (>= 0)
-  Preconditioner preconditioner = Preconditioner::SymmetricGaussSeidel;
+  Preconditioner preconditioner = Preconditioner::TwoLevel;
   bool warmStart = true;  ///< start from the previous step's dv
 };
 
@@ -112,6 +119,10 @@ class ImplicitEuler {
   /// with P (equals 1/2 v_r^T P^T M P v_r).
   [[nodiscard]] double kineticEnergy(const ElasticModel& model) const;
 
+  /// The reduced system matrix P^T (M + dt C + dt^2 K) P of the last step, 3 #free square
+  /// (DOF 3 i + axis of free node i), both triangles; empty before the first step.
+  [[nodiscard]] Eigen::SparseMatrix<double> reducedMatrix(const ElasticModel& model) const;
+
  private:
   void resize(const ElasticModel& model);
   void assemble(const ElasticModel& model, const DeformationOctree& octree);
@@ -129,6 +140,7 @@ class ImplicitEuler {
   std::vector<Eigen::Matrix3d> blocks_;          ///< reduced matrix, one per sparsity block
   std::vector<Eigen::Matrix3d> preconditioner_;  ///< per free node: (block) diagonal inverse
   IncompleteCholeskyFactor factor_;
+  TwoLevelPreconditioner twoLevel_;
   std::vector<Vec3d> b_, x_, r_, z_, p_, q_, vr_;
   std::vector<double> partial_, partial2_;  ///< per chunk of rows, for dot products
 };

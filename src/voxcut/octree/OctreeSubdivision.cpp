@@ -80,7 +80,7 @@ struct Worker {
     if (!linkConnected(grid, v, a)) return;
     if (const auto hit = hooks.testLink(v, a)) {
       disconnect(grid, v, a);
-      cuts.push_back({VoxelGrid::linkId(v, a), *hit});
+      cuts.push_back({VoxelGrid::linkId(v, a), *hit, std::nullopt});
       found.push_back({p, a});
     }
   }
@@ -325,7 +325,8 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     }
     // Hermite data of this round's cuts; they are next round's newly cut links (6).
     pending.clear();
-    for (const LinkCut& lc : roundCuts) {
+    for (LinkCut& lc : roundCuts) {
+      if (const Hermite* old = grid.hermite().find(lc.link)) lc.previous = *old;
       grid.hermite().set(lc.link, lc.hermite);
       pending.push_back(lc.link);
     }

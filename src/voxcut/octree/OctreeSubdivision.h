@@ -19,6 +19,9 @@ namespace voxcut {
 struct LinkCut {
   std::uint64_t link = 0;
   Hermite hermite;
+  /// The link's Hermite data before the cut replaced it (a material interface), if any; set
+  /// when the cut is applied, so that the cut can be undone (cutting/Fragments.h).
+  std::optional<Hermite> previous;
 };
 
 /// What subdivision needs from the cutting step. Both may be called from several threads at

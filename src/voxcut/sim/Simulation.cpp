@@ -2,10 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <string>
 
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
+#include "voxcut/cutting/Fragments.h"
 #include "voxcut/voxel/Pieces.h"
 
 namespace voxcut {
@@ -149,6 +151,7 @@ void Simulation::stepBody(SimBody& b, std::vector<double>& ms, FrameReport& repo
   // Cutting tool collision: per moving blade, the strip of sweeps from its cut front (carried
   // with the material since the last frame) to its new pose.
   std::vector<std::uint64_t> cut;
+  std::vector<LinkCut> frameCuts;
   const int segs = params_.bladeSegments;
   const std::uint64_t n = static_cast<std::uint64_t>(std::max(segs, 1)) + 1;
   const auto frame = static_cast<std::uint64_t>(frame_);
@@ -175,13 +178,19 @@ void Simulation::stepBody(SimBody& b, std::vector<double>& ms, FrameReport& repo
       }
       sweeps = sweepStrip(start, startIds, ends[ti], endIds[ti], frame);
     }
-    const CutStepResult r = cutStep(b.cut, sweeps, params_.threaded);
+    CutStepResult r = cutStep(b.cut, sweeps, params_.threaded);
     ms[kPositionUpdate] += r.positionUpdateMs;
     ms[kIntersectionTest] += r.intersectionMs;
     ms[kOctreeSubdivision] += r.subdivisionMs;
     ms[kDeferredUpdates] += r.deferredMs;
-    for (const LinkCut& c : r.cuts) cut.push_back(c.link);
+    frameCuts.insert(frameCuts.end(), std::make_move_iterator(r.cuts.begin()),
+                     std::make_move_iterator(r.cuts.end()));
   }
+  // Debris: undo the fewest cuts that keep every tiny fragment attached (cutting/Fragments.h).
+  std::sort(frameCuts.begin(), frameCuts.end(),
+            [](const LinkCut& x, const LinkCut& y) { return x.link < y.link; });
+  (void)healSmallFragments(b.cut.grid, frameCuts, params_.minFragmentVoxels);
+  for (const LinkCut& c : frameCuts) cut.push_back(c.link);
   report.cutLinks += cut.size();
   b.cutLinks += cut.size();
 

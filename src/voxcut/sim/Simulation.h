@@ -31,6 +31,9 @@ struct SimulationParams {
   /// 0 sweeps from the blade's previous pose in the world instead (parts moving across the
   /// blade's plane during a cut can then stay attached by bridges along the frames' seams).
   int bladeSegments = 16;
+  /// Cuts that would leave a fragment of fewer voxels than this are undone
+  /// (cutting/Fragments.h); 0 or 1 keeps every cut.
+  std::size_t minFragmentVoxels = 8;
 };
 
 /// Where a surface vertex lives: its element copy and trilinear coordinates there.
