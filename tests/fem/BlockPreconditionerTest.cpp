@@ -39,19 +39,8 @@ DenseCase denseCase(int rows, unsigned seed) {
   return c;
 }
 
-std::vector<Vec3d> randomVector(std::size_t rows, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(-1, 1);
-  std::vector<Vec3d> r(rows);
-  for (Vec3d& v : r) v = Vec3d(u(rng), u(rng), u(rng));
-  return r;
-}
-
-Eigen::VectorXd flat(const std::vector<Vec3d>& v) {
-  Eigen::VectorXd out(static_cast<Eigen::Index>(3 * v.size()));
-  for (std::size_t i = 0; i < v.size(); ++i) out.segment<3>(3 * static_cast<Eigen::Index>(i)) = v[i];
-  return out;
-}
+using test::flat;
+using test::randomVector;
 
 TEST(BlockPreconditioner, IncompleteCholeskyOfAFullPatternIsExact) {
   // With every block in the pattern nothing is dropped: IC(0) is the exact block LDL^T.

@@ -1,7 +1,9 @@
 #pragma once
 // Small FEM test bodies shared by the fem tests: hand-filled grids, composite materials.
 
+#include <Eigen/Core>
 #include <cmath>
+#include <random>
 #include <vector>
 
 #include "voxcut/fem/DeformationOctree.h"
@@ -9,6 +11,22 @@
 #include "voxcut/voxel/VoxelGrid.h"
 
 namespace voxcut::test {
+
+/// Random 3-vectors with entries in [-1, 1], one per row.
+inline std::vector<Vec3d> randomVector(std::size_t rows, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<Vec3d> r(rows);
+  for (Vec3d& v : r) v = Vec3d(u(rng), u(rng), u(rng));
+  return r;
+}
+
+/// The 3-vectors one after the other, as one vector.
+inline Eigen::VectorXd flat(const std::vector<Vec3d>& v) {
+  Eigen::VectorXd out(static_cast<Eigen::Index>(3 * v.size()));
+  for (std::size_t i = 0; i < v.size(); ++i) out.segment<3>(3 * static_cast<Eigen::Index>(i)) = v[i];
+  return out;
+}
 
 /// A grid filled by `material(x, y, z)` (0 = empty), links between occupied voxels connected.
 template <class Fn>

@@ -115,17 +115,14 @@ void TwoLevelPreconditioner::apply(const BlockSparsity& sp, const NodeAggregatio
   t_.resize(rows);
   const Eigen::Matrix3d* a = blocks.data();
   const std::uint32_t* column = sp.column.data();
+  if (!valid_) {
+    applySymmetricGaussSeidel(sp, blocks, diagonalInverse, r, z);
+    return;
+  }
   // u = (D + L)^-1 r.
   for (std::size_t i = 0; i < rows; ++i)
     u_[i] = diagonalInverse[i] *
             (r[i] - blockRowProduct(a, column, u_.data(), sp.rowStart[i], sp.diagonal[i]));
-  if (!valid_) {
-    // Symmetric Gauss-Seidel: z = u - D^-1 U z, backwards.
-    for (std::size_t i = rows; i-- > 0;)
-      z[i] = u_[i] - diagonalInverse[i] * blockRowProduct(a, column, z.data(),
-                                                          sp.diagonal[i] + 1, sp.rowStart[i + 1]);
-    return;
-  }
   // t = r - A u = -U u (the forward sweep solved (D + L) u = r exactly).
   parallelFor(
       0, rows, 256,
