@@ -318,6 +318,19 @@ TEST(SceneReaderErrors, OutOfRangeNamesTheKeyPathAndTheValue) {
   expectError(withTop(R"("solver": {"tolerance": -1e-3})"), "solver.tolerance: must be > 0");
   expectError(withTop(R"("solver": {"max_iterations": 0})"),
               "solver.max_iterations: must be an integer in 1..");
+  expectError(withTop(R"("solver": {"preconditioner": "multigrid"})"),
+              R"(solver.preconditioner: unknown preconditioner "multigrid" (expected one of: "jacobi", "block_jacobi", "symmetric_gauss_seidel", "incomplete_cholesky", "two_level"))");
+  expectError(withTop(R"("solver": {"preconditioner": 3})"),
+              "solver.preconditioner: unknown preconditioner 3");
+}
+
+TEST(SceneReader, PreconditionerByName) {
+  for (Preconditioner kind : kPreconditioners) {
+    const Scene scene = parse(withTop(std::string(R"("solver": {"preconditioner": ")") +
+                                      preconditionerName(kind) + "\"}"));
+    EXPECT_EQ(scene.solver.preconditioner, kind) << preconditionerName(kind);
+  }
+  EXPECT_EQ(parse(withTop(R"("frames": 3)")).solver.preconditioner, Preconditioner::TwoLevel);
 }
 
 TEST(SceneReaderErrors, NotAnIntegerIsAnError) {

@@ -64,7 +64,13 @@ enum class Preconditioner {
   TwoLevel,  ///< Gauss-Seidel around a coarse correction on aggregates (TwoLevelPreconditioner.h)
 };
 
-/// Name of a preconditioner ("jacobi", "block_jacobi", ...), for reports.
+/// Every preconditioner, in declaration order.
+inline constexpr Preconditioner kPreconditioners[] = {
+    Preconditioner::Jacobi, Preconditioner::BlockJacobi, Preconditioner::SymmetricGaussSeidel,
+    Preconditioner::IncompleteCholesky, Preconditioner::TwoLevel};
+
+/// Name of a preconditioner ("jacobi", "block_jacobi", "symmetric_gauss_seidel",
+/// "incomplete_cholesky", "two_level"), for reports and scene files.
 [[nodiscard]] const char* preconditionerName(Preconditioner p);
 
 /// Settings of a time step.

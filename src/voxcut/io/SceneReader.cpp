@@ -149,8 +149,23 @@ const Json& list(const Reader& r, const Json& v, const std::string& path) {
 
 SolverSettings readSolver(const Reader& r, const Json& v, const std::string& path) {
   expectObject(r, v, path);
-  checkKeys(r, v, path, {"tolerance", "max_iterations"});
+  checkKeys(r, v, path, {"tolerance", "max_iterations", "preconditioner"});
   SolverSettings s;
+  if (v.contains("preconditioner")) {
+    const Json& p = v["preconditioner"];
+    std::string names;
+    bool found = false;
+    for (Preconditioner kind : kPreconditioners) {
+      names += std::string(names.empty() ? "" : ", ") + "\"" + preconditionerName(kind) + "\"";
+      if (p.is_string() && p.get<std::string>() == preconditionerName(kind)) {
+        s.preconditioner = kind;
+        found = true;
+      }
+    }
+    if (!found)
+      r.fail(child(path, "preconditioner"),
+             "unknown preconditioner " + shown(p) + " (expected one of: " + names + ")");
+  }
   if (v.contains("tolerance")) s.tolerance = positive(r, v["tolerance"], child(path, "tolerance"));
   if (v.contains("max_iterations"))
     s.maxIterations = integer(r, v["max_iterations"], child(path, "max_iterations"), 1, 1000000);

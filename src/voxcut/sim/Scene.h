@@ -14,6 +14,7 @@
 
 #include "voxcut/core/Types.h"
 #include "voxcut/cutting/Blade.h"
+#include "voxcut/fem/ImplicitEuler.h"
 
 namespace voxcut {
 
@@ -21,6 +22,7 @@ namespace voxcut {
 struct SolverSettings {
   double tolerance = 1e-3;  ///< relative residual at which PCG stops, > 0
   int maxIterations = 100;  ///< PCG iteration cap, >= 1
+  Preconditioner preconditioner = Preconditioner::TwoLevel;  ///< ImplicitEuler.h
 };
 
 /// A material's physical and voxel-octree parameters. The defaults are a soft tissue (about

@@ -76,6 +76,7 @@ Simulation::Simulation(Scene scene, std::vector<VoxelGrid> grids, const Simulati
   solver.gravity = scene_.gravity;
   solver.tolerance = scene_.solver.tolerance;
   solver.maxIterations = scene_.solver.maxIterations;
+  solver.preconditioner = scene_.solver.preconditioner;
   bodies_.resize(grids.size());
   for (std::size_t i = 0; i < grids.size(); ++i) {
     const SceneBody& sb = scene_.bodies[i];
