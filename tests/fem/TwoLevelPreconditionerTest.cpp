@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <cmath>
 #include <random>
 #include <vector>
 
@@ -105,48 +106,111 @@ TEST(TwoLevelPreconditioner, AggregatesNeverSpanTwoPieces) {
   }
 }
 
+/// The positions of the free nodes of `body` (reduced order), bent so they are not a grid.
+std::vector<Vec3d> freePositions(const test::Body& body) {
+  std::vector<Vec3d> x;
+  for (std::uint32_t n : body.model.freeNodes()) {
+    const Vec3d p = body.octree.restPositions()[n];
+    x.push_back(p + 0.1 * Vec3d(std::sin(20 * p.y()), 0.0, std::cos(20 * p.x())) * 0.01);
+  }
+  return x;
+}
+
+/// T (3 #rows x #coarse) of the file comment, built directly from its definition.
+Eigen::MatrixXd densePrologation(const NodeAggregation& agg, const std::vector<Vec3d>* x) {
+  std::vector<Eigen::Index> start{0};
+  std::vector<Vec3d> offset(agg.aggregate.size(), Vec3d::Zero());
+  for (std::size_t g = 0; g < agg.count(); ++g) {
+    const auto size = static_cast<double>(agg.start[g + 1] - agg.start[g]);
+    bool rotations = false;
+    if (x != nullptr && size >= 3) {
+      Vec3d c = Vec3d::Zero();
+      for (std::uint32_t m = agg.start[g]; m < agg.start[g + 1]; ++m) c += (*x)[agg.member[m]];
+      c /= size;
+      Eigen::Matrix3d moment = Eigen::Matrix3d::Zero();
+      for (std::uint32_t m = agg.start[g]; m < agg.start[g + 1]; ++m)
+        moment += ((*x)[agg.member[m]] - c) * ((*x)[agg.member[m]] - c).transpose();
+      const Vec3d l = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(moment).eigenvalues();
+      rotations = l(1) > 1e-3 * l(2);
+      const double radius = std::sqrt(moment.trace() / size);
+      if (rotations)
+        for (std::uint32_t m = agg.start[g]; m < agg.start[g + 1]; ++m)
+          offset[agg.member[m]] = ((*x)[agg.member[m]] - c) / radius;
+    }
+    start.push_back(start.back() + (rotations ? 6 : 3));
+  }
+  const auto rows = static_cast<Eigen::Index>(3 * agg.aggregate.size());
+  Eigen::MatrixXd t = Eigen::MatrixXd::Zero(rows, start.back());
+  for (std::size_t i = 0; i < agg.aggregate.size(); ++i) {
+    const Eigen::Index r = 3 * static_cast<Eigen::Index>(i), c = start[agg.aggregate[i]];
+    t.block<3, 3>(r, c).setIdentity();
+    if (start[agg.aggregate[i] + 1] - c == 6)
+      for (int k = 0; k < 3; ++k)  // column: rotation about axis k, e_k x d_i
+        t.block<3, 1>(r, c + 3 + k) = Vec3d::Unit(k).cross(offset[i]);
+  }
+  return t;
+}
+
 TEST(TwoLevelPreconditioner, ApplyIsTheSymmetricVCycle) {
   // z = u + (D + U)^-1 (r - A u) with u = (D + L)^-1 r + T A_c^-1 T^T (r - A (D + L)^-1 r),
-  // built densely; M^-1 symmetric positive definite; same bits with and without threads.
+  // built densely, with and without rotations; M^-1 symmetric positive definite; same bits
+  // with and without threads.
   MeshCase c = meshCase();
   const BlockSparsity& sp = c.body.model.sparsity();
   const NodeAggregation& agg = c.body.model.aggregation();
+  const std::vector<Vec3d> x = freePositions(c.body);
   const auto n = c.a.rows();
-  const auto nc = static_cast<Eigen::Index>(3 * agg.count());
   Eigen::MatrixXd lower = Eigen::MatrixXd::Zero(n, n), upper = Eigen::MatrixXd::Zero(n, n);
   for (Eigen::Index i = 0; i < n; ++i)
     for (Eigen::Index j = 0; j < n; ++j) {
       if (i / 3 >= j / 3) lower(i, j) = c.a(i, j);
       if (i / 3 <= j / 3) upper(i, j) = c.a(i, j);
     }
-  Eigen::MatrixXd t = Eigen::MatrixXd::Zero(n, nc);
-  for (Eigen::Index i = 0; i < n; ++i) t(i, 3 * agg.aggregate[static_cast<std::size_t>(i / 3)] + i % 3) = 1.0;
-  const Eigen::MatrixXd coarse = t.transpose() * c.a * t;
   const std::vector<Vec3d> r1 = randomVector(sp.diagonal.size(), 1),
                            r2 = randomVector(sp.diagonal.size(), 2);
-  const Eigen::VectorXd r = flat(r1);
-  // Block triangular (full 3x3 diagonal blocks): solved densely.
-  Eigen::VectorXd u = lower.partialPivLu().solve(r);
-  u += t * coarse.llt().solve(t.transpose() * (r - c.a * u));
-  const Eigen::VectorXd expected = u + upper.partialPivLu().solve(r - c.a * u);
+  for (const std::vector<Vec3d>* positions : {static_cast<const std::vector<Vec3d>*>(nullptr), &x}) {
+    SCOPED_TRACE(positions ? "rigid modes" : "translations");
+    const Eigen::MatrixXd t = densePrologation(agg, positions);
+    if (positions) {
+      EXPECT_GT(t.cols(), static_cast<Eigen::Index>(5 * agg.count()));  // rotations, mostly
+    }
+    const Eigen::MatrixXd coarse = t.transpose() * c.a * t;
+    const Eigen::VectorXd r = flat(r1);
+    // Block triangular (full 3x3 diagonal blocks): solved densely.
+    Eigen::VectorXd u = lower.partialPivLu().solve(r);
+    u += t * coarse.llt().solve(t.transpose() * (r - c.a * u));
+    const Eigen::VectorXd expected = u + upper.partialPivLu().solve(r - c.a * u);
 
-  TwoLevelPreconditioner pre;
-  ASSERT_TRUE(pre.setup(sp, agg, c.blocks, true));
-  EXPECT_EQ(pre.coarseSize(), nc);
-  std::vector<Vec3d> z1, z2, serial;
-  pre.apply(sp, agg, c.blocks, c.inverse, r1, z1, true);
-  EXPECT_LE((flat(z1) - expected).norm(), 1e-10 * expected.norm());
-  pre.apply(sp, agg, c.blocks, c.inverse, r2, z2, true);
-  const double lhs = flat(r2).dot(flat(z1)), rhs = flat(r1).dot(flat(z2));
-  EXPECT_NEAR(lhs, rhs, 1e-10 * std::abs(lhs));
-  EXPECT_GT(flat(r1).dot(flat(z1)), 0.0);
-  {
-    const ThreadLimit one(1);
-    TwoLevelPreconditioner alone;
-    ASSERT_TRUE(alone.setup(sp, agg, c.blocks, false));
-    alone.apply(sp, agg, c.blocks, c.inverse, r1, serial, false);
+    TwoLevelPreconditioner pre;
+    ASSERT_TRUE(pre.setup(sp, agg, c.blocks, positions, true));
+    EXPECT_EQ(pre.coarseSize(), t.cols());
+    std::vector<Vec3d> z1, z2, serial;
+    pre.apply(sp, agg, c.blocks, c.inverse, r1, z1, true);
+    EXPECT_LE((flat(z1) - expected).norm(), 1e-9 * expected.norm());
+    pre.apply(sp, agg, c.blocks, c.inverse, r2, z2, true);
+    const double lhs = flat(r2).dot(flat(z1)), rhs = flat(r1).dot(flat(z2));
+    EXPECT_NEAR(lhs, rhs, 1e-10 * std::abs(lhs));
+    EXPECT_GT(flat(r1).dot(flat(z1)), 0.0);
+    {
+      const ThreadLimit one(1);
+      TwoLevelPreconditioner alone;
+      ASSERT_TRUE(alone.setup(sp, agg, c.blocks, positions, false));
+      alone.apply(sp, agg, c.blocks, c.inverse, r1, serial, false);
+    }
+    for (std::size_t i = 0; i < serial.size(); ++i) EXPECT_EQ(serial[i], z1[i]) << "row " << i;
   }
-  for (std::size_t i = 0; i < serial.size(); ++i) EXPECT_EQ(serial[i], z1[i]) << "row " << i;
+}
+
+TEST(TwoLevelPreconditioner, CollinearAggregatesKeepTranslationsOnly) {
+  // Every position on one line: no aggregate can rotate, the coarse space is translations.
+  MeshCase c = meshCase();
+  const BlockSparsity& sp = c.body.model.sparsity();
+  const NodeAggregation& agg = c.body.model.aggregation();
+  std::vector<Vec3d> line(sp.diagonal.size());
+  for (std::size_t i = 0; i < line.size(); ++i) line[i] = Vec3d(0.001 * static_cast<double>(i), 0, 0);
+  TwoLevelPreconditioner pre;
+  ASSERT_TRUE(pre.setup(sp, agg, c.blocks, &line, true));
+  EXPECT_EQ(pre.coarseSize(), static_cast<Eigen::Index>(3 * agg.count()));
 }
 
 TEST(TwoLevelPreconditioner, WithoutACoarseFactorItIsSymmetricGaussSeidel) {
@@ -157,7 +221,7 @@ TEST(TwoLevelPreconditioner, WithoutACoarseFactorItIsSymmetricGaussSeidel) {
   std::vector<Eigen::Matrix3d> negative = c.blocks;
   for (Eigen::Matrix3d& b : negative) b = -b;
   TwoLevelPreconditioner pre;
-  EXPECT_FALSE(pre.setup(sp, agg, negative, true));
+  EXPECT_FALSE(pre.setup(sp, agg, negative, nullptr, true));
   const std::vector<Vec3d> r = randomVector(sp.diagonal.size(), 4);
   std::vector<Vec3d> z, sgs;
   pre.apply(sp, agg, c.blocks, c.inverse, r, z, true);

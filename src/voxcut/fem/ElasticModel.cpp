@@ -287,7 +287,7 @@ void ElasticModel::buildSparsity() {
     VOXCUT_ASSERT(sparsity_.diagonal[i] != kNotFree, "a free node without its diagonal block");
   }
   factorPattern_ = incompleteCholeskyPattern(sparsity_);
-  aggregation_ = aggregateNodes(sparsity_);
+  aggregation_ = aggregateNodes(sparsity_, kAggregatePairings);
 }
 
 void ElasticModel::updateTopology(const DeformationOctree& octree, const VoxelGrid& grid,

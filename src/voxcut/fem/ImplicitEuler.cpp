@@ -336,7 +336,7 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
     if (kind == Preconditioner::IncompleteCholesky)
       factorIncompleteCholesky(sp, model.factorPattern(), blocks_, factor_);
     if (kind == Preconditioner::TwoLevel)
-      (void)twoLevel_.setup(sp, model.aggregation(), blocks_, threaded);
+      (void)twoLevel_.setup(sp, model.aggregation(), blocks_, &freePositions_, threaded);
     rz = precondition();
   }
   finite = finite && std::isfinite(rz);
@@ -393,6 +393,9 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
   for (std::size_t i = 0; i < freeNodes.size(); ++i) vr_[i] = velocity_[freeNodes[i]];
   prolong(model.prolongation(), vr_, velocity_, threaded);
 
+  freePositions_.resize(freeNodes.size());
+  for (std::size_t i = 0; i < freeNodes.size(); ++i)
+    freePositions_[i] = octree.positions()[freeNodes[i]];
   Timer timer;
   assemble(model, octree);
   const double assemblyMs = timer.ms();

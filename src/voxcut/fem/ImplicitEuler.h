@@ -147,6 +147,7 @@ class ImplicitEuler {
   std::vector<Eigen::Matrix3d> preconditioner_;  ///< per free node: (block) diagonal inverse
   IncompleteCholeskyFactor factor_;
   TwoLevelPreconditioner twoLevel_;
+  std::vector<Vec3d> freePositions_;  ///< current positions of the free nodes
   std::vector<Vec3d> b_, x_, r_, z_, p_, q_, vr_;
   std::vector<double> partial_, partial2_;  ///< per chunk of rows, for dot products
 };

@@ -1,6 +1,8 @@
 #include "voxcut/fem/TwoLevelPreconditioner.h"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <cmath>
 
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
@@ -9,7 +11,48 @@
 
 namespace voxcut {
 
-NodeAggregation aggregateNodes(const BlockSparsity& sp) {
+namespace {
+
+/// Merges aggregates in pairs: each aggregate not yet paired, in order, takes the unpaired
+/// neighbour aggregate it shares the most blocks with (the lowest id on ties). Returns the
+/// new count; `aggregate` is relabelled in order of first appearance of each pair.
+std::uint32_t pairAggregates(const BlockSparsity& sp, std::vector<std::uint32_t>& aggregate,
+                             std::uint32_t count) {
+  constexpr std::uint32_t kNone = 0xffffffffu;
+  // Couplings between aggregates: (I, J, blocks), summed.
+  std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> couple(count);
+  for (std::size_t i = 0; i < aggregate.size(); ++i)
+    for (std::uint32_t s = sp.rowStart[i]; s < sp.rowStart[i + 1]; ++s) {
+      const std::uint32_t a = aggregate[i], b = aggregate[sp.column[s]];
+      if (a == b) continue;
+      auto& list = couple[a];
+      auto it = std::find_if(list.begin(), list.end(), [&](const auto& e) { return e.first == b; });
+      if (it == list.end())
+        list.emplace_back(b, 1u);
+      else
+        ++it->second;
+    }
+  std::vector<std::uint32_t> relabel(count, kNone);
+  std::uint32_t next = 0;
+  for (std::uint32_t a = 0; a < count; ++a) {
+    if (relabel[a] != kNone) continue;
+    std::uint32_t best = kNone, weight = 0;
+    for (const auto& [b, w] : couple[a])
+      if (relabel[b] == kNone && (w > weight || (w == weight && b < best))) {
+        best = b;
+        weight = w;
+      }
+    relabel[a] = next;
+    if (best != kNone) relabel[best] = next;
+    ++next;
+  }
+  for (std::uint32_t& a : aggregate) a = relabel[a];
+  return next;
+}
+
+}  // namespace
+
+NodeAggregation aggregateNodes(const BlockSparsity& sp, int pairings) {
   const std::size_t rows = sp.diagonal.size();
   constexpr std::uint32_t kNone = 0xffffffffu;
   NodeAggregation out;
@@ -37,6 +80,7 @@ NodeAggregation aggregateNodes(const BlockSparsity& sp) {
       }
     VOXCUT_ASSERT(out.aggregate[i] != kNone, "a row without an aggregated neighbour");
   }
+  for (int k = 0; k < pairings; ++k) count = pairAggregates(sp, out.aggregate, count);
   // Members by aggregate, rows ascending (counting sort).
   out.start.assign(count + 1, 0);
   for (std::uint32_t a : out.aggregate) ++out.start[a + 1];
@@ -66,37 +110,90 @@ NodeAggregation aggregateNodes(const BlockSparsity& sp) {
   return out;
 }
 
+namespace {
+
+/// S = -[d]x, so that T_i = [I, S_i] maps (t, w) to t + w x d_i.
+Eigen::Matrix3d skewOf(const Vec3d& d) {
+  Eigen::Matrix3d s;
+  s << 0.0, d.z(), -d.y(), -d.z(), 0.0, d.x(), d.y(), -d.x(), 0.0;
+  return s;
+}
+
+}  // namespace
+
 bool TwoLevelPreconditioner::setup(const BlockSparsity& sp, const NodeAggregation& agg,
-                                   const std::vector<Eigen::Matrix3d>& blocks, bool threaded) {
-  VOXCUT_ASSERT(blocks.size() == sp.blockCount() && agg.aggregate.size() == sp.diagonal.size(),
-                "the blocks or the aggregation do not match the sparsity");
-  const auto n = static_cast<Eigen::Index>(3 * agg.count());
-  // B_iJ: each row's blocks summed per aggregate, slots in ascending order.
+                                   const std::vector<Eigen::Matrix3d>& blocks,
+                                   const std::vector<Vec3d>* positions, bool threaded) {
+  const std::size_t rows = sp.diagonal.size();
+  VOXCUT_ASSERT(blocks.size() == sp.blockCount() && agg.aggregate.size() == rows &&
+                    (positions == nullptr || positions->size() == rows),
+                "the blocks, positions or aggregation do not match the sparsity");
+  // Modes of each aggregate: translations, and rotations about its centroid (offsets scaled
+  // by its RMS radius) where it has positions that are not all on one line.
+  offset_.assign(rows, Vec3d::Zero());
+  columnStart_.assign(agg.count() + 1, 0);
+  for (std::size_t g = 0; g < agg.count(); ++g) {
+    int modes = 3;
+    if (positions != nullptr && agg.start[g + 1] - agg.start[g] >= 3) {
+      Vec3d centre = Vec3d::Zero();
+      for (std::uint32_t m = agg.start[g]; m < agg.start[g + 1]; ++m)
+        centre += (*positions)[agg.member[m]];
+      centre /= static_cast<double>(agg.start[g + 1] - agg.start[g]);
+      Eigen::Matrix3d moment = Eigen::Matrix3d::Zero();
+      for (std::uint32_t m = agg.start[g]; m < agg.start[g + 1]; ++m) {
+        const Vec3d d = (*positions)[agg.member[m]] - centre;
+        moment += d * d.transpose();
+      }
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(moment,
+                                                              Eigen::EigenvaluesOnly);
+      const Vec3d lambda = eig.eigenvalues();  // ascending
+      if (lambda(2) > 0.0 && lambda(1) > 1e-3 * lambda(2)) {
+        modes = 6;
+        const double radius = std::sqrt(moment.trace() / (agg.start[g + 1] - agg.start[g]));
+        for (std::uint32_t m = agg.start[g]; m < agg.start[g + 1]; ++m)
+          offset_[agg.member[m]] = ((*positions)[agg.member[m]] - centre) / radius;
+      }
+    }
+    columnStart_[g + 1] = columnStart_[g] + static_cast<std::uint32_t>(modes);
+  }
+  const auto n = static_cast<Eigen::Index>(columnStart_.back());
+  // B_iJ = sum over the slots of row i reaching J of A_ij T_j, slots in ascending order.
   link_.resize(agg.linkAggregate.size());
   parallelFor(
-      0, sp.diagonal.size(), 128,
+      0, rows, 128,
       [&](std::size_t b, std::size_t e) {
         for (std::size_t i = b; i < e; ++i) {
           for (std::uint32_t k = agg.linkStart[i]; k < agg.linkStart[i + 1]; ++k)
             link_[k].setZero();
-          for (std::uint32_t s = sp.rowStart[i]; s < sp.rowStart[i + 1]; ++s)
-            link_[agg.slotLink[s]] += blocks[s];
+          for (std::uint32_t s = sp.rowStart[i]; s < sp.rowStart[i + 1]; ++s) {
+            LinkBlock& out = link_[agg.slotLink[s]];
+            out.leftCols<3>() += blocks[s];
+            out.rightCols<3>().noalias() += blocks[s] * skewOf(offset_[sp.column[s]]);
+          }
         }
       },
       threaded);
-  // A_c(I, J) = sum of B_iJ over the members i of I, ascending; row blocks of I are written
-  // by I's task alone.
+  // A_c(I, J) = sum over the members i of I, ascending, of T_i^T B_iJ; the rows of I are
+  // written by I's task alone.
   coarse_.setZero(n, n);
   parallelFor(
       0, agg.count(), 4,
       [&](std::size_t b, std::size_t e) {
-        for (std::size_t a = b; a < e; ++a)
+        for (std::size_t a = b; a < e; ++a) {
+          const Eigen::Index row = columnStart_[a], rowsI = columnStart_[a + 1] - row;
           for (std::uint32_t m = agg.start[a]; m < agg.start[a + 1]; ++m) {
             const std::uint32_t i = agg.member[m];
-            for (std::uint32_t k = agg.linkStart[i]; k < agg.linkStart[i + 1]; ++k)
-              coarse_.block<3, 3>(static_cast<Eigen::Index>(3 * a),
-                                  3 * static_cast<Eigen::Index>(agg.linkAggregate[k])) += link_[k];
+            const Eigen::Matrix3d st = skewOf(offset_[i]).transpose();
+            for (std::uint32_t k = agg.linkStart[i]; k < agg.linkStart[i + 1]; ++k) {
+              const std::uint32_t j = agg.linkAggregate[k];
+              const Eigen::Index col = columnStart_[j], colsJ = columnStart_[j + 1] - col;
+              Eigen::Matrix<double, 6, 6> block;
+              block.topRows<3>() = link_[k];
+              block.bottomRows<3>().noalias() = st * link_[k];
+              coarse_.block(row, col, rowsI, colsJ) += block.topLeftCorner(rowsI, colsJ);
+            }
           }
+        }
       },
       threaded);
   factor_.compute(coarse_);
@@ -131,31 +228,46 @@ void TwoLevelPreconditioner::apply(const BlockSparsity& sp, const NodeAggregatio
           t_[i] = -blockRowProduct(a, column, u_.data(), sp.diagonal[i] + 1, sp.rowStart[i + 1]);
       },
       threaded);
-  // Coarse correction c = T A_c^-1 T^T t.
+  // Coarse correction c = T A_c^-1 T^T t, with (T^T t)_I = sum over i in I of (t_i, d_i x t_i).
   coarseRhs_.resize(coarse_.rows());
   parallelFor(
       0, agg.count(), 16,
       [&](std::size_t b, std::size_t e) {
         for (std::size_t g = b; g < e; ++g) {
-          Vec3d s = Vec3d::Zero();
-          for (std::uint32_t m = agg.start[g]; m < agg.start[g + 1]; ++m) s += t_[agg.member[m]];
-          coarseRhs_.segment<3>(static_cast<Eigen::Index>(3 * g)) = s;
+          Vec3d force = Vec3d::Zero(), torque = Vec3d::Zero();
+          for (std::uint32_t m = agg.start[g]; m < agg.start[g + 1]; ++m) {
+            const std::uint32_t i = agg.member[m];
+            force += t_[i];
+            torque += offset_[i].cross(t_[i]);
+          }
+          const auto col = static_cast<Eigen::Index>(columnStart_[g]);
+          coarseRhs_.segment<3>(col) = force;
+          if (columnStart_[g + 1] - columnStart_[g] == 6) coarseRhs_.segment<3>(col + 3) = torque;
         }
       },
       threaded);
+  const Eigen::VectorXd solution = factor_.solve(coarseRhs_);
   coarseSolution_.resize(agg.count());
-  if (!coarseSolution_.empty())
-    Eigen::Map<Eigen::VectorXd>(coarseSolution_[0].data(), coarse_.rows()) =
-        factor_.solve(coarseRhs_);
-  // u += c and t -= A c (A c = sum_J B_iJ c_J): t is again r - A u.
-  const Vec3d* c = coarseSolution_.data();
+  for (std::size_t g = 0; g < agg.count(); ++g) {
+    const auto col = static_cast<Eigen::Index>(columnStart_[g]);
+    coarseSolution_[g].head<3>() = solution.segment<3>(col);
+    if (columnStart_[g + 1] - columnStart_[g] == 6)
+      coarseSolution_[g].tail<3>() = solution.segment<3>(col + 3);
+    else
+      coarseSolution_[g].tail<3>().setZero();
+  }
+  // u += c (c_i = t_J + w_J x d_i) and t -= A c (A c = sum_J B_iJ (t_J, w_J)): t is again
+  // r - A u.
   parallelFor(
       0, rows, 256,
       [&](std::size_t b, std::size_t e) {
         for (std::size_t i = b; i < e; ++i) {
-          t_[i] -= blockRowProduct(link_.data(), agg.linkAggregate.data(), c, agg.linkStart[i],
-                                   agg.linkStart[i + 1]);
-          u_[i] += c[agg.aggregate[i]];
+          Vec3d ac = Vec3d::Zero();
+          for (std::uint32_t k = agg.linkStart[i]; k < agg.linkStart[i + 1]; ++k)
+            ac.noalias() += link_[k] * coarseSolution_[agg.linkAggregate[k]];
+          t_[i] -= ac;
+          const Mode& mode = coarseSolution_[agg.aggregate[i]];
+          u_[i] += mode.head<3>() + mode.tail<3>().cross(offset_[i]);
         }
       },
       threaded);
