@@ -132,7 +132,6 @@ void runSteps(benchmark::State& state, const FemCase& base) {
   state.counters["threads"] = threads;
   state.counters["free_nodes"] = static_cast<double>(base.model.freeNodeCount());
   state.counters["blocks"] = static_cast<double>(base.model.sparsity().blockCount());
-  state.counters["factor_pairs"] = static_cast<double>(base.model.factorPattern().pairCount());
   state.counters["aggregates"] = static_cast<double>(base.model.aggregation().count());
   state.counters["iterations"] = iterations / steps;
   state.counters["assembly_ms"] = assembly / steps;

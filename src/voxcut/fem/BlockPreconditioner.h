@@ -56,6 +56,9 @@ inline Vec3d blockRowProduct(const Eigen::Matrix3d* blocks, const std::uint32_t*
   return Vec3d(s0, s1, s2);
 }
 
+/// Per block slot (i, k) of `sparsity`, the slot (k, i) (the pattern is symmetric).
+[[nodiscard]] std::vector<std::uint32_t> blockMirrors(const BlockSparsity& sparsity);
+
 /// Builds the IC(0) pattern of `sparsity`. Cost: one merge of two rows per lower block.
 [[nodiscard]] IncompleteCholeskyPattern incompleteCholeskyPattern(const BlockSparsity& sparsity);
 

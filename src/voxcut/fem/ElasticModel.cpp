@@ -1,6 +1,7 @@
 #include "voxcut/fem/ElasticModel.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <string>
 #include <tuple>
@@ -235,13 +236,28 @@ void ElasticModel::buildSparsity() {
   // Row i of P^T A P gathers, for every node n that restricts to i (weight wn): every element
   // corner a at n, coupled to every corner b and through P to free node j (weight wj); and
   // n's mass, coupled through P to free node j.
-  using Entry = std::tuple<std::uint32_t, std::uint32_t, double>;  // column, source, weight
-  std::vector<std::vector<Entry>> perRow(rows);
+  // Per row: its columns ascending, and per column the sources in the order they are met
+  // (restriction, incidence, corner, prolongation order: fixed, so assembly sums are too).
+  struct Row {
+    std::vector<std::uint32_t> column, sourceStart, source;
+    std::vector<double> weight;
+  };
+  std::vector<Row> perRow(rows);
   parallelFor(
       0, rows, 16,
       [&](std::size_t b, std::size_t end) {
+        std::vector<std::uint32_t> position(rows, kNotFree);  // column -> index in the row
+        std::vector<std::uint32_t> entryColumn, entrySource;
+        std::vector<double> entryWeight;
         for (std::size_t i = b; i < end; ++i) {
-          std::vector<Entry>& out = perRow[i];
+          entryColumn.clear();
+          entrySource.clear();
+          entryWeight.clear();
+          auto add = [&](std::uint32_t column, std::uint32_t source, double weight) {
+            entryColumn.push_back(column);
+            entrySource.push_back(source);
+            entryWeight.push_back(weight);
+          };
           for (std::uint32_t r = restriction_.start[i]; r < restriction_.start[i + 1]; ++r) {
             const std::uint32_t n = restriction_.index[r];
             const double wn = restriction_.weight[r];
@@ -251,17 +267,35 @@ void ElasticModel::buildSparsity() {
                 const std::uint32_t nb = elementNodes_[e][c];
                 for (std::uint32_t p = prolongation_.start[nb]; p < prolongation_.start[nb + 1];
                      ++p)
-                  out.emplace_back(prolongation_.index[p], 64 * e + 8 * a + c,
-                                   wn * prolongation_.weight[p]);
+                  add(prolongation_.index[p], 64 * e + 8 * a + c, wn * prolongation_.weight[p]);
               }
             }
             for (std::uint32_t p = prolongation_.start[n]; p < prolongation_.start[n + 1]; ++p)
-              out.emplace_back(prolongation_.index[p], massBase + n, wn * prolongation_.weight[p]);
+              add(prolongation_.index[p], massBase + n, wn * prolongation_.weight[p]);
           }
-          std::sort(out.begin(), out.end(), [](const Entry& x, const Entry& y) {
-            return std::tie(std::get<0>(x), std::get<1>(x)) <
-                   std::tie(std::get<0>(y), std::get<1>(y));
-          });
+          // Distinct columns, ascending; then the entries bucketed by column, in order.
+          Row& out = perRow[i];
+          for (std::uint32_t j : entryColumn)
+            if (position[j] == kNotFree) {
+              position[j] = 0;
+              out.column.push_back(j);
+            }
+          std::sort(out.column.begin(), out.column.end());
+          out.sourceStart.assign(out.column.size() + 1, 0);
+          for (std::size_t k = 0; k < out.column.size(); ++k)
+            position[out.column[k]] = static_cast<std::uint32_t>(k);
+          for (std::uint32_t j : entryColumn) ++out.sourceStart[position[j] + 1];
+          for (std::size_t k = 0; k < out.column.size(); ++k)
+            out.sourceStart[k + 1] += out.sourceStart[k];
+          out.source.resize(entryColumn.size());
+          out.weight.resize(entryColumn.size());
+          std::vector<std::uint32_t> fill(out.sourceStart.begin(), out.sourceStart.end() - 1);
+          for (std::size_t k = 0; k < entryColumn.size(); ++k) {
+            const std::uint32_t at = fill[position[entryColumn[k]]]++;
+            out.source[at] = entrySource[k];
+            out.weight[at] = entryWeight[k];
+          }
+          for (std::uint32_t j : out.column) position[j] = kNotFree;
         }
       },
       threaded_);
@@ -269,24 +303,23 @@ void ElasticModel::buildSparsity() {
   sparsity_ = BlockSparsity{};
   sparsity_.diagonal.assign(rows, kNotFree);
   for (std::size_t i = 0; i < rows; ++i) {
-    const std::vector<Entry>& entries = perRow[i];
-    for (std::size_t k = 0; k < entries.size(); ++k) {
-      const std::uint32_t j = std::get<0>(entries[k]);
-      if (k == 0 || std::get<0>(entries[k - 1]) != j) {
-        if (k > 0)
-          sparsity_.sourceStart.push_back(static_cast<std::uint32_t>(sparsity_.source.size()));
-        if (j == i) sparsity_.diagonal[i] = static_cast<std::uint32_t>(sparsity_.column.size());
-        sparsity_.column.push_back(j);
-      }
-      sparsity_.source.push_back(std::get<1>(entries[k]));
-      sparsity_.sourceWeight.push_back(std::get<2>(entries[k]));
+    const Row& row = perRow[i];
+    const auto base = static_cast<std::uint32_t>(sparsity_.source.size());
+    for (std::size_t k = 0; k < row.column.size(); ++k) {
+      if (row.column[k] == i)
+        sparsity_.diagonal[i] = static_cast<std::uint32_t>(sparsity_.column.size());
+      sparsity_.column.push_back(row.column[k]);
+      sparsity_.sourceStart.push_back(base + row.sourceStart[k + 1]);
     }
-    if (!entries.empty())
-      sparsity_.sourceStart.push_back(static_cast<std::uint32_t>(sparsity_.source.size()));
+    sparsity_.source.insert(sparsity_.source.end(), row.source.begin(), row.source.end());
+    sparsity_.sourceWeight.insert(sparsity_.sourceWeight.end(), row.weight.begin(),
+                                  row.weight.end());
     sparsity_.rowStart.push_back(static_cast<std::uint32_t>(sparsity_.column.size()));
     VOXCUT_ASSERT(sparsity_.diagonal[i] != kNotFree, "a free node without its diagonal block");
   }
-  factorPattern_ = incompleteCholeskyPattern(sparsity_);
+  sparsity_.mirror = blockMirrors(sparsity_);
+  static std::atomic<std::uint64_t> revisions{0};
+  sparsityRevision_ = ++revisions;
   aggregation_ = aggregateNodes(sparsity_, kAggregatePairings);
 }
 

@@ -58,6 +58,7 @@ struct BlockSparsity {
   std::vector<std::uint32_t> sourceStart{0};
   std::vector<std::uint32_t> source;
   std::vector<double> sourceWeight;
+  std::vector<std::uint32_t> mirror;  ///< per slot (i, k), the slot (k, i)
 
   [[nodiscard]] std::size_t blockCount() const { return column.size(); }
 };
@@ -121,8 +122,9 @@ class ElasticModel {
   /// is node n, ascending (weights unused, 1).
   [[nodiscard]] const WeightedRows& incidence() const { return incidence_; }
   [[nodiscard]] const BlockSparsity& sparsity() const { return sparsity_; }
-  /// The IC(0) pattern of sparsity() (BlockPreconditioner.h), rebuilt with it.
-  [[nodiscard]] const IncompleteCholeskyPattern& factorPattern() const { return factorPattern_; }
+  /// Changes whenever sparsity() is rebuilt (unique across models; copies share it), so that
+  /// a solver can keep structures derived from the sparsity (ImplicitEuler's IC(0) pattern).
+  [[nodiscard]] std::uint64_t sparsityRevision() const { return sparsityRevision_; }
   /// The aggregates of the free nodes for the two-level preconditioner
   /// (TwoLevelPreconditioner.h), rebuilt with sparsity().
   [[nodiscard]] const NodeAggregation& aggregation() const { return aggregation_; }
@@ -152,7 +154,7 @@ class ElasticModel {
   WeightedRows restriction_;
   WeightedRows incidence_;
   BlockSparsity sparsity_;
-  IncompleteCholeskyPattern factorPattern_;
+  std::uint64_t sparsityRevision_ = 0;
   NodeAggregation aggregation_;
 };
 

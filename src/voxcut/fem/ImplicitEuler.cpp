@@ -231,7 +231,7 @@ void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree&
   // so exactly symmetric in floating point too).
   const WeightedRows& res = model.restriction();
   const BlockSparsity& sp = model.sparsity();
-  const std::vector<std::uint32_t>& mirror = model.factorPattern().mirror;
+  const std::vector<std::uint32_t>& mirror = sp.mirror;
   const auto massBase = static_cast<std::uint32_t>(64 * model.elementCount());
   const bool block = params_.preconditioner != Preconditioner::Jacobi;
   parallelFor(
@@ -334,7 +334,13 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
   bool finite = std::isfinite(rr);
   if (finite && rr > stop && status.iterations < params_.maxIterations && !pointwise) {
     if (kind == Preconditioner::IncompleteCholesky)
-      factorIncompleteCholesky(sp, model.factorPattern(), blocks_, factor_);
+    {
+      if (icRevision_ != model.sparsityRevision()) {
+        icPattern_ = incompleteCholeskyPattern(sp);
+        icRevision_ = model.sparsityRevision();
+      }
+      factorIncompleteCholesky(sp, icPattern_, blocks_, factor_);
+    }
     if (kind == Preconditioner::TwoLevel)
       (void)twoLevel_.setup(sp, model.aggregation(), blocks_, &freePositions_, threaded);
     rz = precondition();

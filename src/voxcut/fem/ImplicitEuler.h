@@ -145,6 +145,8 @@ class ImplicitEuler {
   std::vector<Vec3d> nodeRhs_;
   std::vector<Eigen::Matrix3d> blocks_;          ///< reduced matrix, one per sparsity block
   std::vector<Eigen::Matrix3d> preconditioner_;  ///< per free node: (block) diagonal inverse
+  IncompleteCholeskyPattern icPattern_;  ///< of the sparsity with revision icRevision_
+  std::uint64_t icRevision_ = 0;
   IncompleteCholeskyFactor factor_;
   TwoLevelPreconditioner twoLevel_;
   std::vector<Vec3d> freePositions_;  ///< current positions of the free nodes
