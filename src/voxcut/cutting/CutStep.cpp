@@ -165,8 +165,8 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   }
   r.intersectionMs = timer.ms();
 
-  // Octree subdivision around the new cuts.
-  if (b.useOctree) {
+  // Octree subdivision around the new cuts (nothing to subdivide or update without any).
+  if (b.useOctree && !r.cuts.empty()) {
     timer.restart();
     SubdivisionHooks hooks;
     hooks.updatePositions = [&](const std::vector<std::uint32_t>& voxels) { positionVoxelList(b, voxels); };
