@@ -19,19 +19,24 @@ namespace {
 std::uint32_t pairAggregates(const BlockSparsity& sp, std::vector<std::uint32_t>& aggregate,
                              std::uint32_t count) {
   constexpr std::uint32_t kNone = 0xffffffffu;
-  // Couplings between aggregates: (I, J, blocks), summed.
-  std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> couple(count);
+  // Couplings between aggregates: per I, (J, blocks between them), J in order of first meeting.
+  std::vector<std::vector<std::uint32_t>> members(count);
   for (std::size_t i = 0; i < aggregate.size(); ++i)
-    for (std::uint32_t s = sp.rowStart[i]; s < sp.rowStart[i + 1]; ++s) {
-      const std::uint32_t a = aggregate[i], b = aggregate[sp.column[s]];
-      if (a == b) continue;
-      auto& list = couple[a];
-      auto it = std::find_if(list.begin(), list.end(), [&](const auto& e) { return e.first == b; });
-      if (it == list.end())
-        list.emplace_back(b, 1u);
-      else
-        ++it->second;
-    }
+    members[aggregate[i]].push_back(static_cast<std::uint32_t>(i));
+  std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> couple(count);
+  std::vector<std::uint32_t> seenBy(count, kNone), at(count, 0);
+  for (std::uint32_t a = 0; a < count; ++a)
+    for (std::uint32_t i : members[a])
+      for (std::uint32_t s = sp.rowStart[i]; s < sp.rowStart[i + 1]; ++s) {
+        const std::uint32_t b = aggregate[sp.column[s]];
+        if (a == b) continue;
+        if (seenBy[b] != a) {
+          seenBy[b] = a;
+          at[b] = static_cast<std::uint32_t>(couple[a].size());
+          couple[a].emplace_back(b, 0u);
+        }
+        ++couple[a][at[b]].second;
+      }
   std::vector<std::uint32_t> relabel(count, kNone);
   std::uint32_t next = 0;
   for (std::uint32_t a = 0; a < count; ++a) {
@@ -91,21 +96,24 @@ NodeAggregation aggregateNodes(const BlockSparsity& sp, int pairings) {
     out.member[next[out.aggregate[i]]++] = static_cast<std::uint32_t>(i);
   // Row-to-aggregate links: the distinct aggregates of each row's columns, ascending.
   out.slotLink.resize(sp.blockCount());
-  std::vector<std::uint32_t> reached;
+  std::vector<std::uint32_t> reached, seenBy(count, kNone), position(count, 0);
   for (std::size_t i = 0; i < rows; ++i) {
     reached.clear();
-    for (std::uint32_t s = sp.rowStart[i]; s < sp.rowStart[i + 1]; ++s)
-      reached.push_back(out.aggregate[sp.column[s]]);
+    for (std::uint32_t s = sp.rowStart[i]; s < sp.rowStart[i + 1]; ++s) {
+      const std::uint32_t g = out.aggregate[sp.column[s]];
+      if (seenBy[g] != i) {
+        seenBy[g] = static_cast<std::uint32_t>(i);
+        reached.push_back(g);
+      }
+    }
     std::sort(reached.begin(), reached.end());
-    reached.erase(std::unique(reached.begin(), reached.end()), reached.end());
     const auto base = static_cast<std::uint32_t>(out.linkAggregate.size());
+    for (std::size_t k = 0; k < reached.size(); ++k)
+      position[reached[k]] = base + static_cast<std::uint32_t>(k);
     out.linkAggregate.insert(out.linkAggregate.end(), reached.begin(), reached.end());
     out.linkStart.push_back(static_cast<std::uint32_t>(out.linkAggregate.size()));
     for (std::uint32_t s = sp.rowStart[i]; s < sp.rowStart[i + 1]; ++s)
-      out.slotLink[s] = base + static_cast<std::uint32_t>(
-                                   std::lower_bound(reached.begin(), reached.end(),
-                                                    out.aggregate[sp.column[s]]) -
-                                   reached.begin());
+      out.slotLink[s] = position[out.aggregate[sp.column[s]]];
   }
   return out;
 }
