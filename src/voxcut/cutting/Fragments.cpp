@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <unordered_map>
+#include <unordered_set>
 
 namespace voxcut {
 
@@ -24,8 +25,12 @@ std::uint64_t linkTowards(const VoxelGrid& g, std::size_t v, int a, int dir) {
   return VoxelGrid::linkId(w, a);
 }
 
-/// The voxels connected to `start`, if fewer than `limit`; empty otherwise.
-std::vector<std::size_t> smallComponent(const VoxelGrid& g, std::size_t start, std::size_t limit) {
+/// The voxels connected to `start`, if fewer than `limit` (then also as a set in `inside`);
+/// empty otherwise. Visits at most `limit` voxels.
+std::vector<std::size_t> smallComponent(const VoxelGrid& g, std::size_t start, std::size_t limit,
+                                        std::unordered_set<std::size_t>& inside) {
+  inside.clear();
+  inside.insert(start);
   std::vector<std::size_t> found{start};
   for (std::size_t k = 0; k < found.size(); ++k) {
     const std::size_t v = found[k];
@@ -35,7 +40,7 @@ std::vector<std::size_t> smallComponent(const VoxelGrid& g, std::size_t start, s
         if (!across(g, v, a, dir, w)) continue;
         const std::uint64_t link = linkTowards(g, v, a, dir);
         if (!g.connected(static_cast<std::size_t>(link / 3), static_cast<int>(link % 3))) continue;
-        if (std::find(found.begin(), found.end(), w) != found.end()) continue;
+        if (!inside.insert(w).second) continue;
         found.push_back(w);
         if (found.size() >= limit) return {};
       }
@@ -51,6 +56,7 @@ std::vector<std::uint64_t> healSmallFragments(VoxelGrid& grid, std::vector<LinkC
   if (minVoxels <= 1 || cuts.empty()) return healed;
   std::unordered_map<std::uint64_t, std::size_t> open;  // this frame's cut links still cut
   for (std::size_t k = 0; k < cuts.size(); ++k) open.emplace(cuts[k].link, k);
+  std::unordered_set<std::size_t> inside;
   for (std::size_t k = 0; k < cuts.size(); ++k) {
     const auto v = static_cast<std::size_t>(cuts[k].link / 3);
     const int axis = static_cast<int>(cuts[k].link % 3);
@@ -59,16 +65,14 @@ std::vector<std::uint64_t> healSmallFragments(VoxelGrid& grid, std::vector<LinkC
     for (std::size_t end : {v, w}) {
       if (!grid.occupied(end)) continue;
       for (;;) {
-        const std::vector<std::size_t> fragment = smallComponent(grid, end, minVoxels);
+        const std::vector<std::size_t> fragment = smallComponent(grid, end, minVoxels, inside);
         if (fragment.empty()) break;
         std::uint64_t best = ~std::uint64_t{0};
         for (std::size_t u : fragment)
           for (int a = 0; a < 3; ++a)
             for (int dir : {-1, 1}) {
               std::size_t x = 0;
-              if (!across(grid, u, a, dir, x) ||
-                  std::find(fragment.begin(), fragment.end(), x) != fragment.end())
-                continue;
+              if (!across(grid, u, a, dir, x) || inside.count(x) != 0) continue;
               const std::uint64_t link = linkTowards(grid, u, a, dir);
               if (open.count(link) != 0) best = std::min(best, link);
             }
