@@ -139,6 +139,30 @@ TEST(ElasticModelTopology, WeightedSourcesAndFixedFlags) {
   EXPECT_EQ(model.freeIndex(4), kNotFree);
 }
 
+TEST(ElasticModelTopology, GivenFixedFlagsEqualSetFixedAfterTheUpdate) {
+  // updateTopology with fixed flags builds the constraints once: the same model as deriving
+  // them from the sources and then calling setFixed.
+  Body a = smallBody(0.0, 0.0);
+  std::vector<std::uint8_t> before(a.octree.nodeCount(), 0);
+  before.at(3) = 1;
+  a.model.setFixed(before);
+  TopologyChange change = identityChange(a.octree);
+  change.elementSource[0] = kNewElement;
+  std::vector<std::uint8_t> after(a.octree.nodeCount(), 0);
+  for (std::size_t n : {0, 1, 9}) after.at(n) = 1;
+  ElasticModel once = a.model, twice = a.model;
+  once.updateTopology(a.octree, a.grid, change, &after);
+  twice.updateTopology(a.octree, a.grid, change);
+  twice.setFixed(after);
+  EXPECT_EQ(once.requestedFixed(), twice.requestedFixed());
+  EXPECT_EQ(once.fixed(), twice.fixed());
+  EXPECT_EQ(once.requestedFixed()[3], 0);
+  EXPECT_EQ(once.freeNodes(), twice.freeNodes());
+  EXPECT_EQ(once.sparsity().column, twice.sparsity().column);
+  EXPECT_EQ(once.sparsity().source, twice.sparsity().source);
+  EXPECT_EQ(once.aggregation().aggregate, twice.aggregation().aggregate);
+}
+
 TEST(ElasticModelTopology, FixingAHangingNodeFixesItsMasters) {
   Body a = smallBody(0.0, 0.0);
   ASSERT_GT(a.octree.hangingNodeCount(), 0u);

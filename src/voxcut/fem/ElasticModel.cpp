@@ -324,7 +324,8 @@ void ElasticModel::buildSparsity() {
 }
 
 void ElasticModel::updateTopology(const DeformationOctree& octree, const VoxelGrid& grid,
-                                  const TopologyChange& change) {
+                                  const TopologyChange& change,
+                                  const std::vector<std::uint8_t>* fixed) {
   if (!change.changed) return;
   VOXCUT_ASSERT(change.elementSource.size() == octree.elementCount(),
                 "one element source per element");
@@ -341,14 +342,18 @@ void ElasticModel::updateTopology(const DeformationOctree& octree, const VoxelGr
     }
   }
   std::vector<std::uint8_t> requested(octree.nodeCount(), 0);
-  for (std::size_t n = 0; n < requested.size(); ++n) {
-    const NodeSource& src = change.nodeSource[n];
-    bool all = src.count > 0;
-    for (int k = 0; k < src.count; ++k) {
-      VOXCUT_ASSERT(src.nodes[k] < requested_.size(), "node source out of range");
-      all = all && requested_[src.nodes[k]] != 0;
+  if (fixed != nullptr) {
+    std::copy_n(fixed->begin(), std::min(fixed->size(), requested.size()), requested.begin());
+  } else {
+    for (std::size_t n = 0; n < requested.size(); ++n) {
+      const NodeSource& src = change.nodeSource[n];
+      bool all = src.count > 0;
+      for (int k = 0; k < src.count; ++k) {
+        VOXCUT_ASSERT(src.nodes[k] < requested_.size(), "node source out of range");
+        all = all && requested_[src.nodes[k]] != 0;
+      }
+      requested[n] = all ? 1 : 0;
     }
-    requested[n] = all ? 1 : 0;
   }
   elements_ = std::move(next);
   elementNodes_.clear();

@@ -81,11 +81,13 @@ class ElasticModel {
 
   /// Follows a topology update of the octree (`octree` and `grid` as they are after it):
   /// elements with a source keep their matrices, new elements (kNewElement) get theirs
-  /// computed; the requested fixed flag of a node becomes "every source node was fixed";
-  /// node masses, prolongation and sparsity are rebuilt. The solver's node state is remapped
+  /// computed; the requested fixed flag of a node becomes `fixed[n]` when given (as
+  /// setFixed would take it, in the same rebuild), else "every source node was fixed"; node
+  /// masses, prolongation and sparsity are rebuilt. The solver's node state is remapped
   /// separately (ImplicitEuler::updateTopology). No-op when !change.changed.
   void updateTopology(const DeformationOctree& octree, const VoxelGrid& grid,
-                      const TopologyChange& change);
+                      const TopologyChange& change,
+                      const std::vector<std::uint8_t>* fixed = nullptr);
 
   [[nodiscard]] const std::vector<ElasticMaterial>& materials() const { return materials_; }
   [[nodiscard]] std::size_t elementCount() const { return elements_.size(); }

@@ -102,14 +102,17 @@ Simulation::Simulation(Scene scene, std::vector<VoxelGrid> grids, const Simulati
   }
 }
 
-void Simulation::applyFixed(SimBody& b) {
-  if (b.fixedBoxes.empty()) return;
+std::vector<std::uint8_t> Simulation::fixedFlags(const SimBody& b) {
   const std::vector<Vec3d>& rest = b.cut.deformation.restPositions();
   std::vector<std::uint8_t> fixed(rest.size(), 0);
   for (std::size_t n = 0; n < rest.size(); ++n)
     for (const FixedBox& box : b.fixedBoxes)
       if (inside(box, rest[n])) fixed[n] = 1;
-  b.model.setFixed(std::move(fixed));
+  return fixed;
+}
+
+void Simulation::applyFixed(SimBody& b) {
+  if (!b.fixedBoxes.empty()) b.model.setFixed(fixedFlags(b));
 }
 
 void Simulation::embedVertices(SimBody& b, const std::vector<std::int32_t>* only) {
@@ -210,9 +213,12 @@ void Simulation::stepBody(SimBody& b, std::vector<double>& ms, FrameReport& repo
         b.cut.deformation, b.cut.grid, cut, CutTopologyParams{b.finestLevel, params_.threaded});
     if (change.changed) {
       topologyChanged = true;
-      b.model.updateTopology(b.cut.deformation, b.cut.grid, change);
+      // The fixed boxes, applied to the new nodes in the same rebuild of the constraints.
+      const std::vector<std::uint8_t> fixed =
+          b.fixedBoxes.empty() ? std::vector<std::uint8_t>{} : fixedFlags(b);
+      b.model.updateTopology(b.cut.deformation, b.cut.grid, change,
+                             b.fixedBoxes.empty() ? nullptr : &fixed);
       b.solver.updateTopology(change);
-      applyFixed(b);
     }
   }
   for (std::size_t ti = 0; ti < scene_.tools.size(); ++ti) {

@@ -100,6 +100,8 @@ class Simulation {
   void embedVertices(SimBody& body, const std::vector<std::int32_t>* only);
   void updateVertexPositions(SimBody& body) const;
   void applyFixed(SimBody& body);
+  /// Per node of the body's octree: 1 where its rest position is in a fixed box.
+  [[nodiscard]] static std::vector<std::uint8_t> fixedFlags(const SimBody& body);
 
   Scene scene_;
   SimulationParams params_;
