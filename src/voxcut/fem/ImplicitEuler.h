@@ -43,8 +43,8 @@ namespace voxcut {
 ///
 ///   case                                   Jacobi  BlockJacobi  SymGaussSeidel  IC(0)  TwoLevel
 ///   bunny, 766 free nodes, tol 1e-3            55           50              26     11        13
-///   bunny after the ear cut, 1,704 free      >100         >100              63     36        17
-///   cantilever, 4,869 free, tol 1e-4         >400         >400             190    123        73
+///   bunny after the ear cut, 1,704 free      >100         >100              63     36        13
+///   cantilever, 4,869 free, tol 1e-4         >400         >400             190    123        11
 ///
 /// IC(0) costs a factorisation per step (about 4 matrix-vector products' worth of work) and a
 /// sequential solve per iteration (about one product). Where a pivot breaks down it falls back
@@ -52,10 +52,10 @@ namespace voxcut {
 /// IC(0) went unstable (a piece flew off). Symmetric Gauss-Seidel is positive definite for any
 /// SPD matrix and stable there, but its iterations grow with the body's size, with the
 /// contrast between element sizes and on a cut-off piece that hangs on its mass alone. The
-/// two-level V-cycle (the default) adds a coarse correction on node aggregates for those
-/// smooth motions: a sweep pair costs about two products and the coarse factor is dense (3 per
-/// aggregate), but its iterations stay low in every case. All are deterministic for any thread
-/// count.
+/// two-level V-cycle (the default) adds a coarse correction by the rigid motions of node
+/// aggregates: an iteration costs about 2.5 products and the coarse matrix (6 unknowns per
+/// aggregate) is factorised densely every step, but its iterations stay low in every case.
+/// All are deterministic for any thread count.
 enum class Preconditioner {
   Jacobi,                ///< inverse of the diagonal entries
   BlockJacobi,           ///< inverse of each node's 3x3 diagonal block
