@@ -204,8 +204,9 @@ bool TwoLevelPreconditioner::setup(const BlockSparsity& sp, const NodeAggregatio
         }
       },
       threaded);
-  factor_.compute(coarse_);
-  valid_ = n > 0 && factor_.info() == Eigen::Success;
+  if (!factor_) factor_.emplace();
+  factor_->compute(coarse_);
+  valid_ = n > 0 && factor_->info() == Eigen::Success;
   return valid_;
 }
 
@@ -254,7 +255,7 @@ void TwoLevelPreconditioner::apply(const BlockSparsity& sp, const NodeAggregatio
         }
       },
       threaded);
-  const Eigen::VectorXd solution = factor_.solve(coarseRhs_);
+  const Eigen::VectorXd solution = factor_->solve(coarseRhs_);
   coarseSolution_.resize(agg.count());
   for (std::size_t g = 0; g < agg.count(); ++g) {
     const auto col = static_cast<Eigen::Index>(columnStart_[g]);

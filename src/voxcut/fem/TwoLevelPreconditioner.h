@@ -43,6 +43,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "voxcut/core/Types.h"
@@ -105,7 +106,9 @@ class TwoLevelPreconditioner {
   std::vector<Vec3d> offset_;    ///< per row: (x_i - centre_I) / radius_I, 0 without rotations
   std::vector<std::uint32_t> columnStart_;  ///< per aggregate, its first coarse unknown
   Eigen::MatrixXd coarse_;
-  Eigen::LLT<Eigen::MatrixXd> factor_;
+  /// Empty until the first setup: a default-constructed Eigen::LLT leaves its status
+  /// uninitialised, and copying or moving it reads that (UBSan reports it).
+  std::optional<Eigen::LLT<Eigen::MatrixXd>> factor_;
   bool valid_ = false;
   std::vector<Vec3d> u_, t_;
   Eigen::VectorXd coarseRhs_;
