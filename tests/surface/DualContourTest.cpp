@@ -2,6 +2,7 @@
 
 #include <random>
 
+#include "RandomGrids.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/surface/DualCell.h"
 #include "voxcut/surface/DualContour.h"
@@ -13,39 +14,7 @@
 namespace voxcut {
 namespace {
 
-// A grid with random materials and random link states: links between two occupied voxels are
-// connected with probability pConnect, otherwise cut; every link with material on a side that
-// is not connected gets random Hermite data. The hardest test of closedness there is.
-VoxelGrid randomGrid(int n, double pOccupied, double pConnect, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> U(0.0, 1.0);
-  VoxelGrid g(Index3{n, n, n}, Vec3d::Zero(), 1.0);
-  g.setMaterialNames({"a", "b"});
-  for (int z = 1; z + 1 < n; ++z)
-    for (int y = 1; y + 1 < n; ++y)
-      for (int x = 1; x + 1 < n; ++x)
-        if (U(rng) < pOccupied) g.setMaterial(g.index(x, y, z), U(rng) < 0.8 ? 1 : 2);
-  for (std::size_t v = 0; v < g.voxelCount(); ++v) {
-    const Index3 c = g.coord(v);
-    for (int a = 0; a < 3; ++a) {
-      if (c[a] + 1 >= n) continue;
-      const bool o0 = g.occupied(v), o1 = g.occupied(v + g.stride(a));
-      if (!o0 && !o1) continue;
-      const bool conn = o0 && o1 && U(rng) < pConnect;
-      g.setConnected(v, a, conn);
-      if (!conn) {
-        Hermite h;
-        h.t = static_cast<float>(0.05 + 0.9 * U(rng));
-        Vec3d nrm(U(rng) - 0.5, U(rng) - 0.5, U(rng) - 0.5);
-        nrm[a] = std::abs(nrm[a]) + 0.1;
-        nrm.normalize();
-        for (int i = 0; i < 3; ++i) h.n[i] = static_cast<float>(nrm[i]);
-        g.hermite().set(VoxelGrid::linkId(v, a), h);
-      }
-    }
-  }
-  return g;
-}
+using test::randomCutGrid;
 
 TEST(DualCell, PatchesAreConsistentAndCoverEveryIncidence) {
   // Exhaustive over occupancy; random connectivity of occupied edges.
@@ -130,7 +99,7 @@ TEST(DualContour, RandomLinkStatesAlwaysGiveClosedManifoldSurfaces) {
   for (unsigned seed = 1; seed <= 12; ++seed) {
     const double pOcc = 0.3 + 0.05 * (seed % 8);
     const double pConn = (seed % 4) / 3.0;
-    const VoxelGrid g = randomGrid(12, pOcc, pConn, seed);
+    const VoxelGrid g = randomCutGrid(12, pOcc, pConn, seed);
     const SurfaceMesh m = dualContour(g);
     const SurfaceTopology t = surfaceTopology(m);
     ASSERT_TRUE(t.closed) << "seed " << seed;
@@ -219,7 +188,7 @@ TEST(DualContour, PlaneCutsSeparatePiecesAndCracksStayClosed) {
 }
 
 TEST(DualContour, ResultDoesNotDependOnThreadCount) {
-  const VoxelGrid g = randomGrid(20, 0.6, 0.7, 99);
+  const VoxelGrid g = randomCutGrid(20, 0.6, 0.7, 99);
   SurfaceMesh a, b;
   {
     ThreadLimit one(1);
