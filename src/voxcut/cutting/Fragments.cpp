@@ -17,14 +17,6 @@ bool across(const VoxelGrid& g, std::size_t v, int a, int dir, std::size_t& out)
   return true;
 }
 
-/// The link joining v to its neighbour along axis a in direction dir.
-std::uint64_t linkTowards(const VoxelGrid& g, std::size_t v, int a, int dir) {
-  if (dir > 0) return VoxelGrid::linkId(v, a);
-  std::size_t w = 0;
-  (void)across(g, v, a, -1, w);
-  return VoxelGrid::linkId(w, a);
-}
-
 /// The voxels connected to `start`, if fewer than `limit` (then also as a set in `inside`);
 /// empty otherwise. Visits at most `limit` voxels.
 std::vector<std::size_t> smallComponent(const VoxelGrid& g, std::size_t start, std::size_t limit,
@@ -38,7 +30,7 @@ std::vector<std::size_t> smallComponent(const VoxelGrid& g, std::size_t start, s
       for (int dir : {-1, 1}) {
         std::size_t w = 0;
         if (!across(g, v, a, dir, w)) continue;
-        const std::uint64_t link = linkTowards(g, v, a, dir);
+        const std::uint64_t link = VoxelGrid::linkId(dir > 0 ? v : w, a);
         if (!g.connected(static_cast<std::size_t>(link / 3), static_cast<int>(link % 3))) continue;
         if (!inside.insert(w).second) continue;
         found.push_back(w);
@@ -73,7 +65,7 @@ std::vector<std::uint64_t> healSmallFragments(VoxelGrid& grid, std::vector<LinkC
             for (int dir : {-1, 1}) {
               std::size_t x = 0;
               if (!across(grid, u, a, dir, x) || inside.count(x) != 0) continue;
-              const std::uint64_t link = linkTowards(grid, u, a, dir);
+              const std::uint64_t link = VoxelGrid::linkId(dir > 0 ? u : x, a);
               if (open.count(link) != 0) best = std::min(best, link);
             }
         if (best == ~std::uint64_t{0}) break;  // apart before this frame

@@ -50,7 +50,6 @@ IncompleteCholeskyPattern incompleteCholeskyPattern(const BlockSparsity& sp) {
     }
   }
   VOXCUT_ASSERT(out.pairStart.size() == sp.blockCount() + 1, "one pair range per block");
-  out.mirror = blockMirrors(sp);
   return out;
 }
 
@@ -64,7 +63,7 @@ constexpr double kPivotFloor = 0.05;
 void factorIncompleteCholesky(const BlockSparsity& sp, const IncompleteCholeskyPattern& pattern,
                               const std::vector<Eigen::Matrix3d>& blocks,
                               IncompleteCholeskyFactor& factor) {
-  VOXCUT_ASSERT(blocks.size() == sp.blockCount() &&
+  VOXCUT_ASSERT(blocks.size() == sp.blockCount() && sp.mirror.size() == sp.blockCount() &&
                     pattern.pairStart.size() == sp.blockCount() + 1,
                 "the blocks or the pattern do not match the sparsity");
   const std::size_t rows = sp.diagonal.size();
@@ -84,7 +83,7 @@ void factorIncompleteCholesky(const BlockSparsity& sp, const IncompleteCholeskyP
       const Eigen::Matrix3d l = f * factor.pivotInverse[sp.column[s]];
       pivot.noalias() -= l * f.transpose();
       factor.lower[s] = l;
-      factor.lower[pattern.mirror[s]] = l.transpose();
+      factor.lower[sp.mirror[s]] = l.transpose();
       factor.scaled[s] = f;
     }
     // Symmetrise against round-off before the positive-definiteness check.
@@ -100,7 +99,7 @@ void factorIncompleteCholesky(const BlockSparsity& sp, const IncompleteCholeskyP
       // every later row that meets it.
       for (std::uint32_t s = sp.rowStart[i]; s < diagonal; ++s) {
         factor.lower[s].setZero();
-        factor.lower[pattern.mirror[s]].setZero();
+        factor.lower[sp.mirror[s]].setZero();
         factor.scaled[s].setZero();
       }
       pivot = a;

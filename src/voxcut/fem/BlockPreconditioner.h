@@ -36,7 +36,6 @@ struct BlockSparsity;
 struct IncompleteCholeskyPattern {
   std::vector<std::uint32_t> pairStart{0};  ///< #blocks + 1 offsets (empty range off the lower part)
   std::vector<std::uint32_t> pair;          ///< 2 slots per pair: (i, j) then (k, j)
-  std::vector<std::uint32_t> mirror;        ///< per slot (i, k), the slot (k, i)
 
   [[nodiscard]] std::size_t pairCount() const { return pair.size() / 2; }
 };
@@ -56,7 +55,8 @@ inline Vec3d blockRowProduct(const Eigen::Matrix3d* blocks, const std::uint32_t*
   return Vec3d(s0, s1, s2);
 }
 
-/// Per block slot (i, k) of `sparsity`, the slot (k, i) (the pattern is symmetric).
+/// Per block slot (i, k) of `sparsity`, the slot (k, i) (the pattern is symmetric): what
+/// BlockSparsity::mirror holds.
 [[nodiscard]] std::vector<std::uint32_t> blockMirrors(const BlockSparsity& sparsity);
 
 /// Builds the IC(0) pattern of `sparsity`. Cost: one merge of two rows per lower block.
