@@ -399,9 +399,11 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
   for (std::size_t i = 0; i < freeNodes.size(); ++i) vr_[i] = velocity_[freeNodes[i]];
   prolong(model.prolongation(), vr_, velocity_, threaded);
 
-  freePositions_.resize(freeNodes.size());
-  for (std::size_t i = 0; i < freeNodes.size(); ++i)
-    freePositions_[i] = octree.positions()[freeNodes[i]];
+  if (params_.preconditioner == Preconditioner::TwoLevel) {  // its coarse space's rotations
+    freePositions_.resize(freeNodes.size());
+    for (std::size_t i = 0; i < freeNodes.size(); ++i)
+      freePositions_[i] = octree.positions()[freeNodes[i]];
+  }
   Timer timer;
   assemble(model, octree);
   const double assemblyMs = timer.ms();
