@@ -10,23 +10,23 @@
 namespace voxcut {
 namespace {
 
-// Deformation gradient F = dx/dX of element e at trilinear coordinates xi (rest frame).
-Eigen::Matrix3d deformationGradient(const DeformationOctree& d, std::uint32_t e, const Vec3d& xi) {
-  const OctreeElement& el = d.element(e);
-  const double H = d.voxelSize() * el.size();
-  Eigen::Matrix3d F = Eigen::Matrix3d::Zero();
-  for (int c = 0; c < 8; ++c) {
-    const int b[3] = {c & 1, (c >> 1) & 1, (c >> 2) & 1};
-    Vec3d grad;
-    for (int i = 0; i < 3; ++i) {
-      double g = b[i] ? 1.0 : -1.0;
-      for (int j = 0; j < 3; ++j)
-        if (j != i) g *= b[j] ? xi[j] : 1.0 - xi[j];
-      grad[i] = g / H;
-    }
-    F += d.positions()[el.nodes[c]] * grad.transpose();
+// F^T n up to a positive factor, with F = dx/dX of element e at trilinear coordinates xi (rest
+// frame): column i of F is the derivative along xi_i, the bilinear blend (over the other two
+// coordinates) of the element's four edge vectors along axis i, divided by the element's size
+// (a positive factor, left out: the caller normalises).
+Vec3d pullBackNormal(const DeformationOctree& d, std::uint32_t e, const Vec3d& xi, const Vec3d& n) {
+  const auto& nodes = d.element(e).nodes;
+  const std::vector<Vec3d>& x = d.positions();
+  Vec3d out;
+  for (int i = 0; i < 3; ++i) {
+    const int u = i == 0 ? 1 : 0, w = i == 2 ? 1 : 2;  // the other two axes, u < w
+    const int bi = 1 << i, bu = 1 << u, bw = 1 << w;
+    auto edge = [&](int c) { return Vec3d(x[nodes[c | bi]] - x[nodes[c]]); };
+    const Vec3d lo = edge(0) + xi[u] * (edge(bu) - edge(0));
+    const Vec3d hi = edge(bw) + xi[u] * (edge(bu | bw) - edge(bw));
+    out[i] = (lo + xi[w] * (hi - lo)).dot(n);
   }
-  return F;
+  return out;
 }
 
 // Positions are read and written through relaxed atomics: during the octree subdivision two
@@ -56,7 +56,7 @@ std::optional<Hermite> testLink(const CutBody& b, const std::vector<BladeSweep>&
   const std::uint32_t e = b.deformation.owner(near);
   Vec3d xi = b.deformation.localCoordinates(near);
   xi[a] += (near == v ? hit->t : hit->t - 1.0) / b.deformation.element(e).size();
-  Vec3d n = deformationGradient(b.deformation, e, xi).transpose() * hit->normal;
+  Vec3d n = pullBackNormal(b.deformation, e, xi, hit->normal);
   const double len = n.norm();
   n = len > 0 ? Vec3d(n / len) : hit->normal;
   if (n[a] < 0) n = -n;
@@ -68,6 +68,12 @@ std::optional<Hermite> testLink(const CutBody& b, const std::vector<BladeSweep>&
 
 // Positions of a short list of voxels for the subdivision (a line or a face of a cube).
 void positionVoxelList(CutBody& b, const std::vector<std::uint32_t>& voxels) {
+  // The voxels of a line lie far apart in memory (unless it runs along x): fetch them all
+  // before the first is needed.
+  for (std::uint32_t v : voxels) {
+    __builtin_prefetch(&b.deformation.embedding(v));
+    __builtin_prefetch(&b.positions[v], 1);
+  }
   for (std::uint32_t v : voxels) storePosition(b, v, b.deformation.voxelPosition(v));
 }
 

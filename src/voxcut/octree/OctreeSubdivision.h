@@ -41,6 +41,9 @@ struct SubdivisionStats {
   std::size_t testedLinks = 0;    ///< links the subdivision examined (tested unless already cut)
   std::size_t cutLinks = 0;       ///< of which crossed
   std::size_t positionedVoxels = 0;  ///< voxels positioned (a voxel on a shared face may count twice)
+  double facesMs = 0;             ///< wall time in sub-steps (2)-(4), the affected cubes' faces
+  double splitMs = 0;             ///< in sub-step (5), the splits
+  double bookkeepingMs = 0;       ///< the rest: marking, gathering, storing the sub-cubes
 };
 
 /// Runs sub-steps (1)-(6). `cuts` holds the links cut so far this frame (already disconnected
