@@ -207,13 +207,12 @@ TEST(DeformationOctree, VoxelPositionListMatchesSingleAndThreads) {
   ASSERT_EQ(one.size(), voxels.size());
   EXPECT_EQ(one, two);
   for (std::size_t i = 0; i < voxels.size(); ++i) ASSERT_EQ(one[i], oc.voxelPosition(voxels[i]));
-  std::vector<Vec3d> byVoxel(g.voxelCount(), Vec3d::Constant(-7.0));
-  oc.scatterVoxelPositions(voxels, byVoxel);
-  for (std::size_t i = 0; i < voxels.size(); ++i) ASSERT_EQ(byVoxel[voxels[i]], one[i]);
-  for (std::size_t v = 0; v < g.voxelCount(); ++v)
-    if (!g.occupied(v)) {
-      ASSERT_EQ(byVoxel[v], Vec3d::Constant(-7.0));
-    }
+  std::vector<Vec3d> three;
+  std::vector<std::uint32_t> owners;
+  oc.updateVoxelPositions(voxels, three, owners);
+  EXPECT_EQ(three, one);
+  ASSERT_EQ(owners.size(), voxels.size());
+  for (std::size_t i = 0; i < voxels.size(); ++i) ASSERT_EQ(owners[i], oc.owner(voxels[i]));
   // Element bounds hold their voxels.
   std::vector<Eigen::AlignedBox3d> boxes;
   oc.updateElementBounds(boxes);

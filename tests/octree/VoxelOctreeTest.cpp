@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include "ActiveTables.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/io/ModelSource.h"
 #include "voxcut/octree/VoxelOctree.h"
@@ -128,6 +129,7 @@ TEST(VoxelOctree, ActivationMarksShellAndFrameOnly) {
       ASSERT_EQ(oct.activeVoxels[k++], v);
     }
   EXPECT_EQ(k, oct.activeVoxels.size());
+  expectActiveTablesConsistent(g, oct);
   (void)d;
 }
 
@@ -164,6 +166,7 @@ TEST(VoxelOctree, BaselineActivatesEverything) {
   }
   EXPECT_EQ(all.activeVoxels.size(), voxels);
   EXPECT_EQ(all.activeLinkCount(), links);
+  expectActiveTablesConsistent(g, all);
   // Level 0 everywhere is the baseline too.
   const VoxelOctree none = buildVoxelOctree(g, OctreeParams::uniform(1, 0, 0));
   EXPECT_TRUE(none.cubes.empty());

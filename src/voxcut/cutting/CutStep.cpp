@@ -29,8 +29,8 @@ Vec3d pullBackNormal(const DeformationOctree& d, std::uint32_t e, const Vec3d& x
   return out;
 }
 
-// Positions are read and written through relaxed atomics: during the octree subdivision two
-// tasks may position the same voxel on a shared face (to the same value) while a third reads it.
+// Subdivision positions are read and written through relaxed atomics: two tasks may position
+// the same voxel on a shared face (to the same value) while a third reads it.
 Vec3d loadPosition(const CutBody& b, std::size_t v) {
   auto& p = const_cast<Vec3d&>(b.positions[v]);
   return {std::atomic_ref<double>(p[0]).load(std::memory_order_relaxed),
@@ -42,11 +42,10 @@ void storePosition(CutBody& b, std::size_t v, const Vec3d& x) {
   for (int i = 0; i < 3; ++i) std::atomic_ref<double>(b.positions[v][i]).store(x[i], std::memory_order_relaxed);
 }
 
-// Blade test of link (v, a) on current positions; Hermite data in the rest frame.
+// Blade test of link (v, a) whose ends are now at pv and pw; Hermite data in the rest frame.
 std::optional<Hermite> testLink(const CutBody& b, const std::vector<BladeSweep>& sweeps,
-                                std::size_t v, int a) {
+                                std::size_t v, int a, const Vec3d& pv, const Vec3d& pw) {
   const std::size_t w = v + b.grid.stride(a);
-  const Vec3d pv = loadPosition(b, v), pw = loadPosition(b, w);
   std::optional<SweepHit> hit;
   for (const BladeSweep& sweep : sweeps)
     if (const auto h = intersectSegment(sweep, pv, pw, v, w); h && (!hit || h->t < hit->t)) hit = h;
@@ -98,6 +97,8 @@ CutBody makeCutBody(VoxelGrid grid, const CutBodyParams& params, bool threaded) 
   b.grid.hermite().reserve(2 * b.grid.hermite().size() + 4096);
   b.obbMargin = params.obbMargin > 0 ? params.obbMargin : 0.5 * b.grid.voxelSize();
   b.positions.assign(b.grid.voxelCount(), Vec3d::Zero());
+  b.activePositions.assign(b.activity.activeVoxels.size(), Vec3d::Zero());
+  b.activeOwners.assign(b.activity.activeVoxels.size(), kNoElement);
   return b;
 }
 
@@ -109,9 +110,11 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   CutStepResult r;
   VoxelGrid& g = b.grid;
 
-  // Voxel position update: the active voxels only.
+  // Voxel position update: the active voxels only, stored in active order (with their
+  // elements, for the culling below).
   Timer timer;
-  b.deformation.scatterVoxelPositions(b.activity.activeVoxels, b.positions, threaded);
+  const std::vector<std::uint32_t>& active = b.activity.activeVoxels;
+  b.deformation.updateVoxelPositions(active, b.activePositions, b.activeOwners, threaded);
   r.positionUpdateMs = timer.ms();
 
   // Intersection test: hash of element boxes, elements under the sweep's OBB, their active
@@ -131,32 +134,26 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
     b.hash.markElements(obbBounds, [&](const Eigen::AlignedBox3d& cell) { return overlaps(obb, cell); }, marked);
   }
   for (std::uint8_t m : marked) r.markedElements += m;
-  const std::vector<std::uint32_t>& active = b.activity.activeVoxels;
+  const auto inMarked = [&](std::size_t i) {
+    const std::uint32_t e = b.activeOwners[i];
+    return e != kNoElement && marked[e];
+  };
   constexpr std::size_t kChunk = 4096;
   std::vector<std::vector<LinkCut>> found((active.size() + kChunk - 1) / kChunk);
   std::vector<std::size_t> tested(found.size(), 0);
   parallelFor(0, found.size(), 1, [&](std::size_t c0, std::size_t c1) {
     for (std::size_t c = c0; c < c1; ++c)
       for (std::size_t i = c * kChunk; i < std::min(active.size(), (c + 1) * kChunk); ++i) {
+        // Each active link (v, a) once, from its low voxel v, when either end lies in a
+        // marked element.
+        const bool here = inMarked(i);
         const std::size_t v = active[i];
-        const std::uint32_t e = b.deformation.owner(v);
-        if (e == kNoElement || !marked[e]) continue;
-        const Index3 p = g.coord(v);
         for (int a = 0; a < 3; ++a) {
-          // Own links, and links from a -a neighbour whose element is not marked (tested
-          // here so that each link is tested once).
-          for (int dir = 0; dir < 2; ++dir) {
-            std::size_t from = v;
-            if (dir == 1) {
-              if (p[a] == 0) continue;
-              from = v - g.stride(a);
-              const std::uint32_t fe = b.deformation.owner(from);
-              if (fe != kNoElement && marked[fe]) continue;
-            }
-            if (!b.activity.linkActive(from, a) || !g.connected(from, a)) continue;
-            ++tested[c];
-            if (const auto h = testLink(b, sweeps, from, a)) found[c].push_back({VoxelGrid::linkId(from, a), *h, std::nullopt});
-          }
+          const std::uint32_t j = b.activity.activeNext[i][static_cast<std::size_t>(a)];
+          if (j == kNoActive || !(here || inMarked(j)) || !g.connected(v, a)) continue;
+          ++tested[c];
+          if (const auto h = testLink(b, sweeps, v, a, b.activePositions[i], b.activePositions[j]))
+            found[c].push_back({VoxelGrid::linkId(v, a), *h, std::nullopt});
         }
       }
   }, threaded);
@@ -176,7 +173,9 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
     timer.restart();
     SubdivisionHooks hooks;
     hooks.updatePositions = [&](const std::vector<std::uint32_t>& voxels) { positionVoxelList(b, voxels); };
-    hooks.testLink = [&](std::size_t v, int a) { return testLink(b, sweeps, v, a); };
+    hooks.testLink = [&](std::size_t v, int a) {
+      return testLink(b, sweeps, v, a, loadPosition(b, v), loadPosition(b, v + g.stride(a)));
+    };
     r.subdivision = subdivideCutCubes(b.activity, g, r.cuts, hooks, threaded);
     r.subdivisionMs = timer.ms();
     timer.restart();

@@ -33,7 +33,9 @@ struct CutBody {
   VoxelOctree activity;             ///< the pseudo voxel octree, or everything active
   bool useOctree = true;
   double obbMargin = 0.0;
-  std::vector<Vec3d> positions;     ///< per voxel, current; valid where positioned this frame
+  std::vector<Vec3d> activePositions;        ///< per entry of activity.activeVoxels, this frame
+  std::vector<std::uint32_t> activeOwners;   ///< per entry of activity.activeVoxels: its element
+  std::vector<Vec3d> positions;     ///< per grid voxel; valid where the subdivision positioned it this frame
   std::vector<Eigen::AlignedBox3d> elementBoxes;
   SpatialHash hash;
 };

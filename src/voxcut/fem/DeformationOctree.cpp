@@ -171,11 +171,15 @@ void DeformationOctree::updateVoxelPositions(const std::vector<std::uint32_t>& v
   forEachVoxelPosition(voxels, threaded, [&](std::size_t i, const Vec3d& p) { out[i] = p; });
 }
 
-void DeformationOctree::scatterVoxelPositions(const std::vector<std::uint32_t>& voxels,
-                                              std::vector<Vec3d>& byVoxel, bool threaded) const {
-  VOXCUT_ASSERT(byVoxel.size() >= embedding_.size(), "one position per grid voxel");
-  forEachVoxelPosition(voxels, threaded,
-                       [&](std::size_t i, const Vec3d& p) { byVoxel[voxels[i]] = p; });
+void DeformationOctree::updateVoxelPositions(const std::vector<std::uint32_t>& voxels,
+                                             std::vector<Vec3d>& out, std::vector<std::uint32_t>& owners,
+                                             bool threaded) const {
+  out.resize(voxels.size());
+  owners.resize(voxels.size());
+  forEachVoxelPosition(voxels, threaded, [&](std::size_t i, const Vec3d& p) {
+    out[i] = p;
+    owners[i] = embedding_[voxels[i]].element;
+  });
 }
 
 Eigen::AlignedBox3d DeformationOctree::elementBounds(std::uint32_t e) const {

@@ -138,10 +138,9 @@ class DeformationOctree {
   /// listed voxel must be occupied. Deterministic for any thread count.
   void updateVoxelPositions(const std::vector<std::uint32_t>& voxels, std::vector<Vec3d>& out,
                             bool threaded = true) const;
-  /// As updateVoxelPositions, but writes byVoxel[voxels[i]] (a grid-indexed array, at least
-  /// one entry per grid voxel; other entries untouched). The voxels must be distinct.
-  void scatterVoxelPositions(const std::vector<std::uint32_t>& voxels, std::vector<Vec3d>& byVoxel,
-                             bool threaded = true) const;
+  /// As updateVoxelPositions, and owners[i] = owner(voxels[i]) (resized too).
+  void updateVoxelPositions(const std::vector<std::uint32_t>& voxels, std::vector<Vec3d>& out,
+                            std::vector<std::uint32_t>& owners, bool threaded = true) const;
 
   /// Axis-aligned bounds of element e's current corners (metres); they hold all its voxels.
   [[nodiscard]] Eigen::AlignedBox3d elementBounds(std::uint32_t e) const;

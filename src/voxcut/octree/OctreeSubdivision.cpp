@@ -94,15 +94,9 @@ struct Worker {
     }
   }
 
-  // Positions the listed voxels, except those positioned for the main test (active at the
-  // start of the frame: voxels opened since carry kOpenedVoxel instead).
+  // Positions the listed voxels (every voxel a test reads, active ones included: the main
+  // test keeps its positions apart, in active order).
   void position() {
-    voxels.erase(std::remove_if(voxels.begin(), voxels.end(),
-                                [&](std::uint32_t v) {
-                                  return std::atomic_ref<std::uint8_t>(oct.state[v]).load(std::memory_order_relaxed) &
-                                         kActiveVoxel;
-                                }),
-                 voxels.end());
     if (voxels.empty()) return;
     hooks.updatePositions(voxels);
     positioned += voxels.size();

@@ -28,7 +28,8 @@ struct LinkCut {
 /// once; two calls may position the same voxel (on a face shared by two cubes), always to the
 /// same value, so positions must be stored and loaded with (relaxed) atomics.
 struct SubdivisionHooks {
-  /// Computes the current positions of these voxels (where testLink will read them).
+  /// Computes the current positions of these voxels (where testLink will read them). Every
+  /// voxel that testLink reads is listed first by the same task, active voxels included.
   std::function<void(const std::vector<std::uint32_t>& voxels)> updatePositions;
   /// Blade test of link (v, a): its Hermite data (rest frame) when the blade crosses it.
   std::function<std::optional<Hermite>(std::size_t v, int a)> testLink;

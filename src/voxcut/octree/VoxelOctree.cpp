@@ -293,16 +293,47 @@ void rebuildActiveVoxels(VoxelOctree& oct, bool threaded) {
   const std::size_t n = oct.state.size();
   constexpr std::size_t kChunk = 1 << 16;
   std::vector<std::vector<std::uint32_t>> parts((n + kChunk - 1) / kChunk);
+  oct.activeIndex.resize(n);
   parallelFor(0, parts.size(), 1, [&](std::size_t p0, std::size_t p1) {
     for (std::size_t p = p0; p < p1; ++p)
       for (std::size_t v = p * kChunk; v < std::min(n, (p + 1) * kChunk); ++v) {
         std::uint8_t& s = oct.state[v];
         if (s & kOpenedVoxel) s = static_cast<std::uint8_t>((s & ~kOpenedVoxel) | kActiveVoxel);
+        oct.activeIndex[v] = kNoActive;
         if (s & kActiveVoxel) parts[p].push_back(static_cast<std::uint32_t>(v));
       }
   }, threaded);
-  oct.activeVoxels.clear();
-  for (const auto& p : parts) oct.activeVoxels.insert(oct.activeVoxels.end(), p.begin(), p.end());
+  std::vector<std::size_t> offset(parts.size() + 1, 0);
+  for (std::size_t p = 0; p < parts.size(); ++p) offset[p + 1] = offset[p] + parts[p].size();
+  oct.activeVoxels.resize(offset.back());
+  parallelFor(0, parts.size(), 1, [&](std::size_t p0, std::size_t p1) {
+    for (std::size_t p = p0; p < p1; ++p)
+      for (std::size_t k = 0; k < parts[p].size(); ++k) {
+        oct.activeVoxels[offset[p] + k] = parts[p][k];
+        oct.activeIndex[parts[p][k]] = static_cast<std::uint32_t>(offset[p] + k);
+      }
+  }, threaded);
+
+  // Link table through the index map.
+  const std::vector<std::uint32_t>& act = oct.activeVoxels;
+  oct.activeNext.resize(act.size());
+  const std::size_t strides[3] = {1, static_cast<std::size_t>(oct.dims.x),
+                                  static_cast<std::size_t>(oct.dims.x) * static_cast<std::size_t>(oct.dims.y)};
+  std::atomic<bool> broken{false};
+  parallelFor(0, act.size(), 4096, [&](std::size_t b, std::size_t e) {
+    bool ok = true;
+    for (std::size_t i = b; i < e; ++i) {
+      const std::size_t v = act[i];
+      const unsigned bits = oct.state[v];
+      for (int a = 0; a < 3; ++a) {
+        const std::uint32_t next = (bits >> a) & 1u ? oct.activeIndex[v + strides[a]] : kNoActive;
+        ok = ok && (next != kNoActive || !((bits >> a) & 1u));
+        oct.activeNext[i][static_cast<std::size_t>(a)] = next;
+      }
+    }
+    if (!ok) broken.store(true, std::memory_order_relaxed);
+  }, threaded);
+  VOXCUT_ASSERT(!broken.load(), "an active link ends at an inactive voxel");
 }
 
 }  // namespace voxcut

@@ -10,6 +10,7 @@
 /// each axis and covers the 2^L unit cells (cubes of 8 voxels, indexed by their min voxel)
 /// starting at o. Level-0 cubes are not stored.
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -32,6 +33,9 @@ struct OctreeCube {
   bool deleted = false;
 };
 
+/// activeNext entry of a link that is not active.
+inline constexpr std::uint32_t kNoActive = 0xffffffffu;
+
 /// Per-voxel state bits.
 enum VoxelState : std::uint8_t {
   kActiveLinkX = 1u << 0,  ///< link (v, 0) is active
@@ -39,7 +43,7 @@ enum VoxelState : std::uint8_t {
   kActiveLinkZ = 1u << 2,
   kActiveVoxel = 1u << 3,
   kOpenedVoxel = 1u << 4,  ///< activated by this frame's subdivision; folded into kActiveVoxel
-                           ///< by rebuildActiveVoxels (until then kActiveVoxel says "positioned")
+                           ///< by rebuildActiveVoxels (so activeVoxels stays valid until then)
 };
 
 /// The octree and the activity marks it implies. Owns its arrays; not thread-safe for writes
@@ -50,6 +54,11 @@ struct VoxelOctree {
   std::vector<std::int32_t> cellCube;  ///< per unit cell (its min voxel): covering cube or -1
   std::vector<std::uint8_t> state;     ///< per voxel: VoxelState bits
   std::vector<std::uint32_t> activeVoxels;  ///< sorted indices of active voxels
+  /// Per entry i of activeVoxels and axis a: the entry of the voxel across link
+  /// (activeVoxels[i], a) when that link is active (its far voxel is then active too), else
+  /// kNoActive. Lets a pass over the active voxels keep per-voxel data in active order.
+  std::vector<std::array<std::uint32_t, 3>> activeNext;
+  std::vector<std::uint32_t> activeIndex;   ///< per voxel: its entry in activeVoxels, or kNoActive
   std::vector<std::uint32_t> newCubes;      ///< cubes created since the last frame activation
 
   [[nodiscard]] bool linkActive(std::size_t v, int a) const { return (state[v] >> a) & 1u; }
@@ -92,7 +101,7 @@ void compactCubes(VoxelOctree& octree, bool threaded = true);
 /// last call (the protective frame of new cubes).
 void activateNewCubeFrames(VoxelOctree& octree, const VoxelGrid& grid, bool threaded = true);
 /// Deferred update (c): folds kOpenedVoxel into kActiveVoxel and rebuilds the sorted active
-/// voxel index array.
+/// voxel index array, its link table (activeNext) and the index map (activeIndex).
 void rebuildActiveVoxels(VoxelOctree& octree, bool threaded = true);
 
 /// Activates the links on the 12 edges of a cube and their voxels (atomic: callable from
