@@ -1,7 +1,6 @@
 #include "voxcut/cutting/CutStep.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 
 #include "voxcut/core/Parallel.h"
@@ -29,19 +28,6 @@ Vec3d pullBackNormal(const DeformationOctree& d, std::uint32_t e, const Vec3d& x
   return out;
 }
 
-// Subdivision positions are read and written through relaxed atomics: two tasks may position
-// the same voxel on a shared face (to the same value) while a third reads it.
-Vec3d loadPosition(const CutBody& b, std::size_t v) {
-  auto& p = const_cast<Vec3d&>(b.positions[v]);
-  return {std::atomic_ref<double>(p[0]).load(std::memory_order_relaxed),
-          std::atomic_ref<double>(p[1]).load(std::memory_order_relaxed),
-          std::atomic_ref<double>(p[2]).load(std::memory_order_relaxed)};
-}
-
-void storePosition(CutBody& b, std::size_t v, const Vec3d& x) {
-  for (int i = 0; i < 3; ++i) std::atomic_ref<double>(b.positions[v][i]).store(x[i], std::memory_order_relaxed);
-}
-
 // Blade test of link (v, a) whose ends are now at pv and pw; Hermite data in the rest frame.
 std::optional<Hermite> testLink(const CutBody& b, const std::vector<BladeSweep>& sweeps,
                                 std::size_t v, int a, const Vec3d& pv, const Vec3d& pw) {
@@ -65,15 +51,30 @@ std::optional<Hermite> testLink(const CutBody& b, const std::vector<BladeSweep>&
   return h;
 }
 
-// Positions of a short list of voxels for the subdivision (a line or a face of a cube).
-void positionVoxelList(CutBody& b, const std::vector<std::uint32_t>& voxels) {
-  // The voxels of a line lie far apart in memory (unless it runs along x): fetch them all
-  // before the first is needed.
-  for (std::uint32_t v : voxels) {
-    __builtin_prefetch(&b.deformation.embedding(v));
-    __builtin_prefetch(&b.positions[v], 1);
+// The subdivision's line test (see SubdivisionHooks::testLine): positions computed on the
+// way, each voxel once per call, prefetched first (a line across x or y strides through
+// memory).
+std::size_t testLine(const CutBody& b, const std::vector<BladeSweep>& sweeps, std::size_t v0, int a,
+                     const std::vector<int>& links, std::vector<std::pair<int, Hermite>>& hits) {
+  const DeformationOctree& d = b.deformation;
+  const std::size_t step = b.grid.stride(a);
+  for (int k : links) {
+    __builtin_prefetch(&d.embedding(v0 + static_cast<std::size_t>(k) * step));
+    __builtin_prefetch(&d.embedding(v0 + static_cast<std::size_t>(k + 1) * step));
   }
-  for (std::uint32_t v : voxels) storePosition(b, v, b.deformation.voxelPosition(v));
+  std::size_t positioned = 0;
+  int known = -1;  // the voxel whose position `last` holds
+  Vec3d last = Vec3d::Zero();
+  for (int k : links) {
+    const std::size_t v = v0 + static_cast<std::size_t>(k) * step;
+    const Vec3d pv = k == known ? last : d.voxelPosition(v);
+    const Vec3d pw = d.voxelPosition(v + step);
+    positioned += k == known ? 1 : 2;
+    known = k + 1;
+    last = pw;
+    if (const auto h = testLink(b, sweeps, v, a, pv, pw)) hits.emplace_back(k, *h);
+  }
+  return positioned;
 }
 
 }  // namespace
@@ -96,7 +97,6 @@ CutBody makeCutBody(VoxelGrid grid, const CutBodyParams& params, bool threaded) 
   // Room for the Hermite data of future cuts, so that a frame does not pay for a rehash.
   b.grid.hermite().reserve(2 * b.grid.hermite().size() + 4096);
   b.obbMargin = params.obbMargin > 0 ? params.obbMargin : 0.5 * b.grid.voxelSize();
-  b.positions.assign(b.grid.voxelCount(), Vec3d::Zero());
   b.activePositions.assign(b.activity.activeVoxels.size(), Vec3d::Zero());
   b.activeOwners.assign(b.activity.activeVoxels.size(), kNoElement);
   return b;
@@ -172,9 +172,9 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   if (b.useOctree && !r.cuts.empty()) {
     timer.restart();
     SubdivisionHooks hooks;
-    hooks.updatePositions = [&](const std::vector<std::uint32_t>& voxels) { positionVoxelList(b, voxels); };
-    hooks.testLink = [&](std::size_t v, int a) {
-      return testLink(b, sweeps, v, a, loadPosition(b, v), loadPosition(b, v + g.stride(a)));
+    hooks.testLine = [&](std::size_t v0, int a, const std::vector<int>& links,
+                         std::vector<std::pair<int, Hermite>>& hits) {
+      return testLine(b, sweeps, v0, a, links, hits);
     };
     r.subdivision = subdivideCutCubes(b.activity, g, r.cuts, hooks, threaded);
     r.subdivisionMs = timer.ms();

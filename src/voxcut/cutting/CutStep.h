@@ -35,7 +35,6 @@ struct CutBody {
   double obbMargin = 0.0;
   std::vector<Vec3d> activePositions;        ///< per entry of activity.activeVoxels, this frame
   std::vector<std::uint32_t> activeOwners;   ///< per entry of activity.activeVoxels: its element
-  std::vector<Vec3d> positions;     ///< per grid voxel; valid where the subdivision positioned it this frame
   std::vector<Eigen::AlignedBox3d> elementBoxes;
   SpatialHash hash;
 };

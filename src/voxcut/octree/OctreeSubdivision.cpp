@@ -55,7 +55,8 @@ struct Worker {
   const SubdivisionHooks& hooks;
   std::vector<LinkCut> cuts;          // links this task cut
   std::vector<CutLink> found;         // the same, as positions, for the sub-cube test
-  std::vector<std::uint32_t> voxels;  // scratch
+  std::vector<int> line;              // scratch: the connected links of a line
+  std::vector<std::pair<int, Hermite>> hits;  // scratch: what the blade crossed on it
   std::size_t tested = 0, positioned = 0;
   std::vector<Index3> opened;         // level-1 cubes split: opened after the parallel phase
   // Per level: the cut links on each of the 8 sub-cubes' boundaries (reused between calls).
@@ -94,32 +95,33 @@ struct Worker {
     }
   }
 
-  // Positions the listed voxels (every voxel a test reads, active ones included: the main
-  // test keeps its positions apart, in active order).
-  void position() {
-    if (voxels.empty()) return;
-    hooks.updatePositions(voxels);
-    positioned += voxels.size();
-    voxels.clear();
-  }
-
-  // Tests link (p, a); a crossed link is disconnected at once and recorded.
-  void test(const Index3& p, int a) {
-    const std::size_t v = grid.index(p);
-    ++tested;  // counted before the state check, so the count does not depend on scheduling
-    if (!linkConnected(grid, v, a)) return;
-    if (const auto hit = hooks.testLink(v, a)) {
+  // Tests the m links of the grid line from p along a (those still connected; each counts
+  // as tested either way, so the count does not depend on scheduling); crossed links are
+  // disconnected at once and recorded.
+  void testLine(const Index3& p, int a, int m) {
+    const std::size_t v0 = grid.index(p), step = grid.stride(a);
+    tested += static_cast<std::size_t>(m);
+    line.clear();
+    for (int k = 0; k < m; ++k)
+      if (linkConnected(grid, v0 + static_cast<std::size_t>(k) * step, a)) line.push_back(k);
+    if (line.empty()) return;
+    hits.clear();
+    positioned += hooks.testLine(v0, a, line, hits);
+    for (const auto& [k, hermite] : hits) {
+      const std::size_t v = v0 + static_cast<std::size_t>(k) * step;
       disconnect(grid, v, a);
-      cuts.push_back({VoxelGrid::linkId(v, a), *hit, std::nullopt});
-      found.push_back({p, a});
+      cuts.push_back({VoxelGrid::linkId(v, a), hermite, std::nullopt});
+      Index3 q = p;
+      q[a] += k;
+      found.push_back({q, a});
     }
   }
 
   // The links inside the square of side m (a power of two) at `o` in the plane normal to f,
   // spanned by axes u = (f+1)%3 and w = (f+2)%3, whose border links are decided already.
   // A blade that crosses the square crosses its border, so a square with no cut on its
-  // border holds none inside. Otherwise: its two centre lines are positioned and tested, and
-  // each quarter follows. The work grows with the length of the blade's trace, not the area.
+  // border holds none inside. Otherwise: its two centre lines are tested, and each quarter
+  // follows. The work grows with the length of the blade's trace, not the area.
   void resolveSquare(const Index3& o, int f, int m) {
     if (m < 2) return;
     const int u = (f + 1) % 3, w = (f + 2) % 3;
@@ -129,25 +131,16 @@ struct Worker {
       p[w] += j;
       return p;
     };
+    const std::size_t base = grid.index(o), su = grid.stride(u), sw = grid.stride(w);
+    const std::size_t far = static_cast<std::size_t>(m);
     bool crossed = false;
-    for (int i = 0; i < m && !crossed; ++i)
-      crossed = !linkConnected(grid, grid.index(point(i, 0)), u) ||
-                !linkConnected(grid, grid.index(point(i, m)), u) ||
-                !linkConnected(grid, grid.index(point(0, i)), w) ||
-                !linkConnected(grid, grid.index(point(m, i)), w);
+    for (std::size_t i = 0; i < far && !crossed; ++i)
+      crossed = !linkConnected(grid, base + i * su, u) || !linkConnected(grid, base + i * su + far * sw, u) ||
+                !linkConnected(grid, base + i * sw, w) || !linkConnected(grid, base + i * sw + far * su, w);
     if (!crossed) return;
     const int h = m / 2;
-    // Positions of the cross (its ends on the border too: a border without cuts on that side
-    // may not have been positioned; positioning twice gives the same value).
-    for (int k = 0; k <= m; ++k) {
-      voxels.push_back(static_cast<std::uint32_t>(grid.index(point(h, k))));
-      if (k != h) voxels.push_back(static_cast<std::uint32_t>(grid.index(point(k, h))));
-    }
-    position();
-    for (int k = 0; k < m; ++k) {
-      test(point(h, k), w);
-      test(point(k, h), u);
-    }
+    testLine(point(h, 0), w, m);
+    testLine(point(0, h), u, m);
     for (int q = 0; q < 4; ++q) resolveSquare(point((q & 1) * h, (q >> 1) * h), f, h);
   }
 
@@ -157,20 +150,11 @@ struct Worker {
     const std::size_t before = found.size();
     // (5-1), (5-2) between the sub-cubes: the three centre lines where the mid-planes meet,
     // then the 12 quarter faces they divide the mid-planes into.
-    for (int a = 0; a < 3; ++a)
-      for (int k = 0; k <= s; ++k) {
-        if (a > 0 && k == h) continue;  // the centre voxel once
-        Index3 p{cube.o.x + h, cube.o.y + h, cube.o.z + h};
-        p[a] = cube.o[a] + k;
-        voxels.push_back(static_cast<std::uint32_t>(grid.index(p)));
-      }
-    position();
-    for (int a = 0; a < 3; ++a)
-      for (int k = 0; k < s; ++k) {
-        Index3 p{cube.o.x + h, cube.o.y + h, cube.o.z + h};
-        p[a] = cube.o[a] + k;
-        test(p, a);
-      }
+    for (int a = 0; a < 3; ++a) {
+      Index3 p{cube.o.x + h, cube.o.y + h, cube.o.z + h};
+      p[a] = cube.o[a];
+      testLine(p, a, s);
+    }
     for (int f = 0; f < 3; ++f) {
       const int u = (f + 1) % 3, w = (f + 2) % 3;
       for (int q = 0; q < 4; ++q) {

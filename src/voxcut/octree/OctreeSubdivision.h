@@ -4,11 +4,12 @@
 /// (paper §3.2, sub-steps (1)-(6) and (5-1)-(5-6)). After the blade has been tested against
 /// the active links, every cube of level >= 1 with a newly disconnected link on an edge or a
 /// face is split until no cube has one or level 0 is reached; the voxels and links uncovered
-/// on the way are positioned and tested against the blade, so the cut is exactly as detailed
-/// as without the octree.
+/// on the way are positioned and tested against the blade, line by line, so the cut is
+/// exactly as detailed as without the octree.
 
 #include <functional>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "voxcut/octree/VoxelOctree.h"
@@ -24,15 +25,16 @@ struct LinkCut {
   std::optional<Hermite> previous;
 };
 
-/// What subdivision needs from the cutting step. Both may be called from several threads at
-/// once; two calls may position the same voxel (on a face shared by two cubes), always to the
-/// same value, so positions must be stored and loaded with (relaxed) atomics.
+/// What subdivision needs from the cutting step.
 struct SubdivisionHooks {
-  /// Computes the current positions of these voxels (where testLink will read them). Every
-  /// voxel that testLink reads is listed first by the same task, active voxels included.
-  std::function<void(const std::vector<std::uint32_t>& voxels)> updatePositions;
-  /// Blade test of link (v, a): its Hermite data (rest frame) when the blade crosses it.
-  std::function<std::optional<Hermite>(std::size_t v, int a)> testLink;
+  /// Blade test of links of one grid line: for each k in `links` (ascending), the link
+  /// (v0 + k stride(a), a). The hook computes the current positions of the voxels these
+  /// links join itself (bitwise as for the main test), appends (k, Hermite data in the rest
+  /// frame) for every crossed link to `hits`, and returns how many voxels it positioned. May
+  /// be called from several threads at once.
+  std::function<std::size_t(std::size_t v0, int a, const std::vector<int>& links,
+                            std::vector<std::pair<int, Hermite>>& hits)>
+      testLine;
 };
 
 /// Counts of one subdivision run.
