@@ -163,8 +163,7 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   }
   for (LinkCut& lc : r.cuts) {
     g.setConnected(static_cast<std::size_t>(lc.link / 3), static_cast<int>(lc.link % 3), false);
-    if (const Hermite* old = g.hermite().find(lc.link)) lc.previous = *old;
-    g.hermite().set(lc.link, lc.hermite);
+    lc.previous = g.hermite().exchange(lc.link, lc.hermite);
   }
   r.intersectionMs = timer.ms();
 

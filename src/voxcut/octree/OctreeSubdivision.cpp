@@ -294,6 +294,10 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
       }
     }));
     stats.facesMs += phase.ms();
+    // Only these can touch cubes outside this round's list: the split cuts links strictly
+    // inside the cubes it splits, and splits every sub-cube they border.
+    pending.clear();
+    for (const LinkCut& c : roundCuts) pending.push_back(c.link);
 
     // (5) split every affected cube, in parallel: their insides are disjoint.
     phase.restart();
@@ -359,13 +363,9 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
           fill(leaf->o, leaf->level, static_cast<std::int32_t>(leaf == leafBegin[i] ? list[i] : next++));
       }
     }, threaded);
-    // Hermite data of this round's cuts; they are next round's newly cut links (6).
-    pending.clear();
-    for (LinkCut& lc : roundCuts) {
-      if (const Hermite* old = grid.hermite().find(lc.link)) lc.previous = *old;
-      grid.hermite().set(lc.link, lc.hermite);
-      pending.push_back(lc.link);
-    }
+    // Hermite data of this round's cuts; the face cuts among them are next round's newly cut
+    // links (6).
+    for (LinkCut& lc : roundCuts) lc.previous = grid.hermite().exchange(lc.link, lc.hermite);
     stats.cutLinks += roundCuts.size();
     cuts.insert(cuts.end(), roundCuts.begin(), roundCuts.end());
   }

@@ -20,20 +20,21 @@ void HermiteMap::reserve(std::size_t n) {
   if (cap != keys_.size()) rehash(cap);
 }
 
-void HermiteMap::set(std::uint64_t link, const Hermite& h) {
+std::optional<Hermite> HermiteMap::exchange(std::uint64_t link, const Hermite& h) {
   VOXCUT_ASSERT(link != kEmpty, "invalid link id");
   if (2 * (size_ + 1) > keys_.size()) rehash(keys_.size() * 2);
   const std::size_t mask = keys_.size() - 1;
   for (std::size_t i = hash(link) & mask;; i = (i + 1) & mask) {
     if (keys_[i] == link) {
+      const Hermite old = values_[i];
       values_[i] = h;
-      return;
+      return old;
     }
     if (keys_[i] == kEmpty) {
       keys_[i] = link;
       values_[i] = h;
       ++size_;
-      return;
+      return std::nullopt;
     }
   }
 }

@@ -5,6 +5,7 @@
 /// fraction of all links, so a dense array would waste most of its memory.
 
 #include <cstdint>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -34,7 +35,9 @@ class HermiteMap {
   }
 
   /// Inserts or replaces the entry of `link`.
-  void set(std::uint64_t link, const Hermite& h);
+  void set(std::uint64_t link, const Hermite& h) { (void)exchange(link, h); }
+  /// As set, returning the entry it replaced, if any (one probe instead of find + set).
+  std::optional<Hermite> exchange(std::uint64_t link, const Hermite& h);
   /// Pointer to the entry of `link`, or nullptr.
   [[nodiscard]] const Hermite* find(std::uint64_t link) const;
   /// Removes `link` if present; returns whether it was.
