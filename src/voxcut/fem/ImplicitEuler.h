@@ -54,7 +54,8 @@ namespace voxcut {
 /// contrast between element sizes and on a cut-off piece that hangs on its mass alone. The
 /// two-level V-cycle (the default) adds a coarse correction by the rigid motions of node
 /// aggregates: an iteration costs about 2.5 products and the coarse matrix (6 unknowns per
-/// aggregate) is factorised densely every step, but its iterations stay low in every case.
+/// aggregate) is factorised (sparse Cholesky) every step, but its iterations stay low in every
+/// case.
 /// All are deterministic for any thread count.
 enum class Preconditioner {
   Jacobi,                ///< inverse of the diagonal entries

@@ -129,6 +129,32 @@ Eigen::Matrix3d skewOf(const Vec3d& d) {
 
 }  // namespace
 
+TwoLevelPreconditioner::TwoLevelPreconditioner(const TwoLevelPreconditioner& other)
+    : link_(other.link_),
+      offset_(other.offset_),
+      columnStart_(other.columnStart_),
+      coarse_(other.coarse_),
+      patternOuter_(other.patternOuter_),
+      patternInner_(other.patternInner_),
+      valid_(other.valid_),
+      u_(other.u_),
+      t_(other.t_),
+      coarseRhs_(other.coarseRhs_),
+      coarseSolution_(other.coarseSolution_) {
+  if (other.factor_) {
+    factor_ = std::make_unique<Factor>();
+    factor_->analyzePattern(coarse_);
+    factor_->factorize(coarse_);
+  }
+}
+
+TwoLevelPreconditioner& TwoLevelPreconditioner::operator=(const TwoLevelPreconditioner& other) {
+  if (this != &other) *this = TwoLevelPreconditioner(other);
+  return *this;
+}
+
+TwoLevelPreconditioner::~TwoLevelPreconditioner() = default;
+
 bool TwoLevelPreconditioner::setup(const BlockSparsity& sp, const NodeAggregation& agg,
                                    const std::vector<Eigen::Matrix3d>& blocks,
                                    const std::vector<Vec3d>* positions, bool threaded) {
@@ -181,31 +207,62 @@ bool TwoLevelPreconditioner::setup(const BlockSparsity& sp, const NodeAggregatio
         }
       },
       threaded);
-  // A_c(I, J) = sum over the members i of I, ascending, of T_i^T B_iJ; the rows of I are
-  // written by I's task alone.
-  coarse_.setZero(n, n);
+  // A_c(I, J) = sum over the members i of I, ascending, of T_i^T B_iJ, per aggregate I in its
+  // own task; the blocks of I's row are kept per neighbour J in the order first reached.
+  std::vector<std::vector<std::pair<std::uint32_t, Eigen::Matrix<double, 6, 6>>>> rowBlocks(agg.count());
   parallelFor(
       0, agg.count(), 4,
       [&](std::size_t b, std::size_t e) {
+        std::vector<std::int32_t> slot(agg.count(), -1);
         for (std::size_t a = b; a < e; ++a) {
-          const Eigen::Index row = columnStart_[a], rowsI = columnStart_[a + 1] - row;
+          auto& out = rowBlocks[a];
           for (std::uint32_t m = agg.start[a]; m < agg.start[a + 1]; ++m) {
             const std::uint32_t i = agg.member[m];
             const Eigen::Matrix3d st = skewOf(offset_[i]).transpose();
             for (std::uint32_t k = agg.linkStart[i]; k < agg.linkStart[i + 1]; ++k) {
               const std::uint32_t j = agg.linkAggregate[k];
-              const Eigen::Index col = columnStart_[j], colsJ = columnStart_[j + 1] - col;
-              Eigen::Matrix<double, 6, 6> block;
-              block.topRows<3>() = link_[k];
-              block.bottomRows<3>().noalias() = st * link_[k];
-              coarse_.block(row, col, rowsI, colsJ) += block.topLeftCorner(rowsI, colsJ);
+              if (j > a) continue;  // the lower triangle is enough
+              if (slot[j] < 0) {
+                slot[j] = static_cast<std::int32_t>(out.size());
+                out.emplace_back(j, Eigen::Matrix<double, 6, 6>::Zero());
+              }
+              Eigen::Matrix<double, 6, 6>& block = out[static_cast<std::size_t>(slot[j])].second;
+              block.topRows<3>() += link_[k];
+              block.bottomRows<3>().noalias() += st * link_[k];
             }
           }
+          for (const auto& entry : out) slot[entry.first] = -1;
         }
       },
       threaded);
-  if (!factor_) factor_.emplace();
-  factor_->compute(coarse_);
+  // The lower triangle as a sparse matrix; factorised by a sparse Cholesky (fill-reducing
+  // ordering): a cut multiplies the aggregates, and a dense factor grows with their cube.
+  coarseTriplets_.clear();
+  for (std::size_t a = 0; a < agg.count(); ++a) {
+    const Eigen::Index row = columnStart_[a], rowsI = columnStart_[a + 1] - row;
+    for (const auto& [j, block] : rowBlocks[a]) {
+      const Eigen::Index col = columnStart_[j], colsJ = columnStart_[j + 1] - col;
+      for (Eigen::Index p = 0; p < rowsI; ++p)
+        for (Eigen::Index q = 0; q < colsJ && col + q <= row + p; ++q)
+          coarseTriplets_.emplace_back(row + p, col + q, block(p, q));
+    }
+  }
+  coarse_.resize(n, n);
+  coarse_.setFromTriplets(coarseTriplets_.begin(), coarseTriplets_.end());
+  // The ordering and symbolic factor only change with the pattern (topology, or an
+  // aggregate gaining or losing its rotations).
+  const bool samePattern =
+      factor_ && patternOuter_.size() == static_cast<std::size_t>(n) + 1 &&
+      std::equal(patternOuter_.begin(), patternOuter_.end(), coarse_.outerIndexPtr()) &&
+      patternInner_.size() == static_cast<std::size_t>(coarse_.nonZeros()) &&
+      std::equal(patternInner_.begin(), patternInner_.end(), coarse_.innerIndexPtr());
+  if (!samePattern) {
+    factor_ = std::make_unique<Factor>();
+    factor_->analyzePattern(coarse_);
+    patternOuter_.assign(coarse_.outerIndexPtr(), coarse_.outerIndexPtr() + n + 1);
+    patternInner_.assign(coarse_.innerIndexPtr(), coarse_.innerIndexPtr() + coarse_.nonZeros());
+  }
+  factor_->factorize(coarse_);
   valid_ = n > 0 && factor_->info() == Eigen::Success;
   return valid_;
 }
