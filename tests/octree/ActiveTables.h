@@ -12,7 +12,9 @@ inline void expectActiveTablesConsistent(const VoxelGrid& g, const VoxelOctree& 
   ASSERT_EQ(oct.activeIndex.size(), g.voxelCount());
   ASSERT_EQ(oct.activeNext.size(), oct.activeVoxels.size());
   std::size_t k = 0;
+  ASSERT_TRUE(oct.changed.empty());
   for (std::size_t v = 0; v < g.voxelCount(); ++v) {
+    ASSERT_FALSE(oct.state[v] & kOpenedVoxel) << v;  // folded into kActiveVoxel
     if (!oct.voxelActive(v)) {
       ASSERT_EQ(oct.activeIndex[v], kNoActive) << v;
       continue;

@@ -179,6 +179,27 @@ TEST(OctreeSubdivision, SameResultForAnyThreadCount) {
   ASSERT_EQ(o1.activeNext, o2.activeNext);
 }
 
+TEST(OctreeSubdivision, IncrementalActiveTablesEqualAFullRebuild) {
+  // Two cuts in a row: each rebuild after the first starts from the tables of the one before.
+  VoxelGrid g = model("liver", 64);
+  VoxelOctree oct = buildVoxelOctree(g, OctreeParams::uniform(g.materialNames().size(), 4, 0));
+  const Vec3d centre = g.origin() + 0.5 * g.voxelSize() * Vec3d(g.dims().x - 1, g.dims().y - 1, g.dims().z - 1);
+  std::vector<std::uint64_t> asked;
+  for (const Vec3d& n : {Vec3d(1.0, 0.2, 0.1).normalized(), Vec3d(0.1, 0.3, 1.0).normalized()}) {
+    const std::size_t before = oct.activeVoxels.size();
+    cutWithOctree(g, oct, n, n.dot(centre), asked);
+    EXPECT_GT(oct.activeVoxels.size(), before);
+    expectActiveTablesConsistent(g, oct);
+    VoxelOctree full = oct;
+    full.activeIndex.clear();  // forces the rebuild from a scan of the grid
+    rebuildActiveVoxels(full);
+    EXPECT_EQ(full.activeVoxels, oct.activeVoxels);
+    EXPECT_EQ(full.activeNext, oct.activeNext);
+    EXPECT_EQ(full.activeIndex, oct.activeIndex);
+    EXPECT_EQ(full.state, oct.state);
+  }
+}
+
 TEST(OctreeSubdivision, NothingHappensWithoutCuts) {
   VoxelGrid g = model("bunny", 48);
   VoxelOctree oct = buildVoxelOctree(g, OctreeParams::uniform(1, 3, 0));

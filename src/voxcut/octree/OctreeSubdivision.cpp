@@ -32,7 +32,9 @@ void openLevelOneCube(VoxelOctree& oct, const VoxelGrid& grid, const Index3& o) 
         auto bits = static_cast<std::uint8_t>(kOpenedVoxel);
         for (int a = 0; a < 3; ++a)
           if (d[a] < 2) bits = static_cast<std::uint8_t>(bits | (1u << a));
-        oct.state[grid.index(o.x + x, o.y + y, o.z + z)] |= bits;
+        const std::size_t v = grid.index(o.x + x, o.y + y, o.z + z);
+        oct.state[v] |= bits;
+        oct.markChanged(v);
       }
 }
 

@@ -260,18 +260,41 @@ VoxelOctree allActive(const VoxelGrid& grid, bool threaded) {
 }
 
 void compactCubes(VoxelOctree& oct, bool threaded) {
-  std::vector<std::int32_t> remap(oct.cubes.size(), -1);
-  std::vector<OctreeCube> kept;
-  for (std::size_t c = 0; c < oct.cubes.size(); ++c)
-    if (!oct.cubes[c].deleted) {
-      remap[c] = static_cast<std::int32_t>(kept.size());
-      kept.push_back(oct.cubes[c]);
+  // Each deleted slot, in ascending order, takes the last live cube; only the moved cubes'
+  // cells are rewritten (a deleted cube covers no cell any more).
+  const std::size_t before = oct.cubes.size();
+  std::vector<std::int32_t> remap(before);
+  for (std::size_t c = 0; c < before; ++c) remap[c] = oct.cubes[c].deleted ? -1 : static_cast<std::int32_t>(c);
+  std::vector<std::uint32_t> moved;  // new slots of moved cubes
+  std::size_t last = before;
+  auto dropDeletedTail = [&] {
+    while (last > 0 && oct.cubes[last - 1].deleted) --last;
+  };
+  dropDeletedTail();
+  for (std::size_t c = 0; c < last; ++c) {
+    if (!oct.cubes[c].deleted) continue;
+    oct.cubes[c] = oct.cubes[last - 1];
+    remap[last - 1] = static_cast<std::int32_t>(c);
+    moved.push_back(static_cast<std::uint32_t>(c));
+    --last;
+    dropDeletedTail();
+  }
+  if (last == before) return;
+  oct.cubes.resize(last);
+  const Index3 d = oct.dims;
+  parallelFor(0, moved.size(), 4, [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) {
+      const OctreeCube& cube = oct.cubes[moved[i]];
+      const int n = 1 << cube.level;
+      for (int z = 0; z < n; ++z)
+        for (int y = 0; y < n; ++y) {
+          const std::size_t row = static_cast<std::size_t>(cube.origin.x) +
+                                  static_cast<std::size_t>(d.x) *
+                                      (static_cast<std::size_t>(cube.origin.y + y) +
+                                       static_cast<std::size_t>(d.y) * static_cast<std::size_t>(cube.origin.z + z));
+          std::fill_n(oct.cellCube.begin() + static_cast<std::ptrdiff_t>(row), n, static_cast<std::int32_t>(moved[i]));
+        }
     }
-  if (kept.size() == oct.cubes.size()) return;
-  oct.cubes = std::move(kept);
-  parallelFor(0, oct.cellCube.size(), 1 << 16, [&](std::size_t b, std::size_t e) {
-    for (std::size_t i = b; i < e; ++i)
-      if (oct.cellCube[i] >= 0) oct.cellCube[i] = remap[static_cast<std::size_t>(oct.cellCube[i])];
   }, threaded);
   std::vector<std::uint32_t> fresh;
   for (std::uint32_t c : oct.newCubes)
@@ -286,10 +309,28 @@ void activateNewCubeFrames(VoxelOctree& oct, const VoxelGrid& grid, bool threade
       if (!cube.deleted) activateCubeFrame(oct, grid, cube);
     }
   }, threaded);
+  // The frames' voxels, for the incremental rebuild of the active tables.
+  for (std::uint32_t id : oct.newCubes) {
+    const OctreeCube& cube = oct.cubes[id];
+    if (cube.deleted) continue;
+    const int size = 1 << cube.level;
+    for (int a = 0; a < 3; ++a) {
+      const int u = (a + 1) % 3, w = (a + 2) % 3;
+      for (int cu = 0; cu <= size; cu += size)
+        for (int cw = 0; cw <= size; cw += size) {
+          Index3 p = cube.origin;
+          p[u] += cu;
+          p[w] += cw;
+          for (int i = 0; i <= size; ++i, ++p[a]) oct.markChanged(grid.index(p));
+        }
+    }
+  }
   oct.newCubes.clear();
 }
 
-void rebuildActiveVoxels(VoxelOctree& oct, bool threaded) {
+namespace {
+
+void rebuildAllActive(VoxelOctree& oct, bool threaded) {
   const std::size_t n = oct.state.size();
   constexpr std::size_t kChunk = 1 << 16;
   std::vector<std::vector<std::uint32_t>> parts((n + kChunk - 1) / kChunk);
@@ -298,6 +339,7 @@ void rebuildActiveVoxels(VoxelOctree& oct, bool threaded) {
     for (std::size_t p = p0; p < p1; ++p)
       for (std::size_t v = p * kChunk; v < std::min(n, (p + 1) * kChunk); ++v) {
         std::uint8_t& s = oct.state[v];
+        s = static_cast<std::uint8_t>(s & ~kListedVoxel);
         if (s & kOpenedVoxel) s = static_cast<std::uint8_t>((s & ~kOpenedVoxel) | kActiveVoxel);
         oct.activeIndex[v] = kNoActive;
         if (s & kActiveVoxel) parts[p].push_back(static_cast<std::uint32_t>(v));
@@ -334,6 +376,79 @@ void rebuildActiveVoxels(VoxelOctree& oct, bool threaded) {
     if (!ok) broken.store(true, std::memory_order_relaxed);
   }, threaded);
   VOXCUT_ASSERT(!broken.load(), "an active link ends at an inactive voxel");
+}
+
+// The same tables from the previous ones and the voxels listed in oct.changed: voxels only
+// ever become active, and a link only becomes active on a listed voxel.
+void updateActive(VoxelOctree& oct, bool threaded) {
+  const std::vector<std::uint32_t>& changed = oct.changed;  // each voxel once
+  std::vector<std::uint32_t> added;
+  for (std::uint32_t v : changed) {
+    std::uint8_t& s = oct.state[v];
+    s = static_cast<std::uint8_t>(s & ~kListedVoxel);
+    if (s & kOpenedVoxel) s = static_cast<std::uint8_t>((s & ~kOpenedVoxel) | kActiveVoxel);
+    if ((s & kActiveVoxel) && oct.activeIndex[v] == kNoActive) added.push_back(v);
+  }
+  std::sort(added.begin(), added.end());
+  // The previous tables move to the spare buffers, whose memory the new ones reuse.
+  oct.spareVoxels.swap(oct.activeVoxels);
+  oct.spareNext.swap(oct.activeNext);
+  const std::vector<std::uint32_t>& old = oct.spareVoxels;
+  const std::vector<std::array<std::uint32_t, 3>>& oldNext = oct.spareNext;
+  // Merge: the added voxels go in before their successors; newPos maps old entries.
+  std::vector<std::size_t> insertAt(added.size());
+  for (std::size_t k = 0; k < added.size(); ++k)
+    insertAt[k] = static_cast<std::size_t>(std::lower_bound(old.begin(), old.end(), added[k]) - old.begin());
+  const std::size_t total = old.size() + added.size();
+  oct.activeVoxels.resize(total);
+  std::vector<std::uint32_t>& newPos = oct.spareMap;
+  newPos.resize(old.size());
+  std::size_t from = 0;
+  for (std::size_t k = 0; k <= added.size(); ++k) {
+    const std::size_t to = k < added.size() ? insertAt[k] : old.size();
+    for (std::size_t i = from; i < to; ++i) {
+      newPos[i] = static_cast<std::uint32_t>(i + k);
+      oct.activeVoxels[i + k] = old[i];
+    }
+    if (k < added.size()) oct.activeVoxels[to + k] = added[k];
+    from = to;
+  }
+  const std::size_t firstMoved = added.empty() ? total : insertAt[0];
+  for (std::size_t p = firstMoved; p < total; ++p) oct.activeIndex[oct.activeVoxels[p]] = static_cast<std::uint32_t>(p);
+  // Link table: old entries remapped, then the listed voxels' rows recomputed.
+  oct.activeNext.resize(total);
+  for (std::size_t k = 0; k < added.size(); ++k) oct.activeNext[insertAt[k] + k] = {kNoActive, kNoActive, kNoActive};
+  parallelFor(0, old.size(), 4096, [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i)
+      for (std::size_t a = 0; a < 3; ++a) {
+        const std::uint32_t j = oldNext[i][a];
+        oct.activeNext[newPos[i]][a] = j == kNoActive ? kNoActive : newPos[j];
+      }
+  }, threaded);
+  const std::size_t strides[3] = {1, static_cast<std::size_t>(oct.dims.x),
+                                  static_cast<std::size_t>(oct.dims.x) * static_cast<std::size_t>(oct.dims.y)};
+  for (std::uint32_t v : changed) {
+    const std::uint32_t i = oct.activeIndex[v];
+    if (i == kNoActive) continue;
+    for (int a = 0; a < 3; ++a) {
+      std::uint32_t next = kNoActive;
+      if (oct.linkActive(v, a)) {
+        next = oct.activeIndex[v + strides[a]];
+        VOXCUT_ASSERT(next != kNoActive, "an active link ends at an inactive voxel");
+      }
+      oct.activeNext[i][static_cast<std::size_t>(a)] = next;
+    }
+  }
+}
+
+}  // namespace
+
+void rebuildActiveVoxels(VoxelOctree& oct, bool threaded) {
+  if (oct.activeIndex.size() == oct.state.size() && oct.activeNext.size() == oct.activeVoxels.size())
+    updateActive(oct, threaded);
+  else
+    rebuildAllActive(oct, threaded);
+  oct.changed.clear();
 }
 
 }  // namespace voxcut

@@ -44,6 +44,7 @@ enum VoxelState : std::uint8_t {
   kActiveVoxel = 1u << 3,
   kOpenedVoxel = 1u << 4,  ///< activated by this frame's subdivision; folded into kActiveVoxel
                            ///< by rebuildActiveVoxels (so activeVoxels stays valid until then)
+  kListedVoxel = 1u << 5,  ///< listed in VoxelOctree::changed (cleared by rebuildActiveVoxels)
 };
 
 /// The octree and the activity marks it implies. Owns its arrays; not thread-safe for writes
@@ -59,6 +60,22 @@ struct VoxelOctree {
   /// kNoActive. Lets a pass over the active voxels keep per-voxel data in active order.
   std::vector<std::array<std::uint32_t, 3>> activeNext;
   std::vector<std::uint32_t> activeIndex;   ///< per voxel: its entry in activeVoxels, or kNoActive
+  /// Voxels whose state bits were raised since the last rebuildActiveVoxels, each once (in
+  /// any order; see markChanged): the subdivision's opened cubes and activateNewCubeFrames
+  /// list theirs. Code that changes `state` otherwise must clear activeIndex, which makes the
+  /// next rebuild a full one.
+  std::vector<std::uint32_t> changed;
+
+  /// Scratch of rebuildActiveVoxels (kept to reuse their memory).
+  std::vector<std::uint32_t> spareVoxels, spareMap;
+  std::vector<std::array<std::uint32_t, 3>> spareNext;
+
+  /// Lists voxel v in `changed` unless it is already (not thread-safe).
+  void markChanged(std::size_t v) {
+    if (state[v] & kListedVoxel) return;
+    state[v] = static_cast<std::uint8_t>(state[v] | kListedVoxel);
+    changed.push_back(static_cast<std::uint32_t>(v));
+  }
   std::vector<std::uint32_t> newCubes;      ///< cubes created since the last frame activation
 
   [[nodiscard]] bool linkActive(std::size_t v, int a) const { return (state[v] >> a) & 1u; }
@@ -95,13 +112,16 @@ int forEachCellAroundLink(const Index3& dims, const Index3& voxel, int a, Fn&& f
 /// All links active and all occupied voxels active: the baseline without an octree.
 [[nodiscard]] VoxelOctree allActive(const VoxelGrid& grid, bool threaded = true);
 
-/// Deferred update (a): removes deleted cubes and renumbers the cube map.
+/// Deferred update (a): removes deleted cubes, each deleted slot (ascending) taking the last
+/// live cube, and rewrites the cube map where cubes moved.
 void compactCubes(VoxelOctree& octree, bool threaded = true);
 /// Deferred update (b): activates the voxels and links on the edges of cubes created since the
 /// last call (the protective frame of new cubes).
 void activateNewCubeFrames(VoxelOctree& octree, const VoxelGrid& grid, bool threaded = true);
 /// Deferred update (c): folds kOpenedVoxel into kActiveVoxel and rebuilds the sorted active
-/// voxel index array, its link table (activeNext) and the index map (activeIndex).
+/// voxel index array, its link table (activeNext) and the index map (activeIndex): from the
+/// previous tables and the `changed` voxels when those tables exist (work in proportion to
+/// the active voxels, not the grid), else from a scan of the grid. Clears `changed`.
 void rebuildActiveVoxels(VoxelOctree& octree, bool threaded = true);
 
 /// Activates the links on the 12 edges of a cube and their voxels (atomic: callable from
