@@ -98,7 +98,11 @@ std::size_t VoxelOctree::activeLinkCount() const {
   return n;
 }
 
-void activateCubeFrame(VoxelOctree& octree, const VoxelGrid& grid, const OctreeCube& cube) {
+namespace {
+
+// Calls fn(p, a) for the first voxel p of each of the cube's 12 edges, running along axis a.
+template <class Fn>
+void forEachCubeEdge(const OctreeCube& cube, Fn&& fn) {
   const int size = 1 << cube.level;
   for (int a = 0; a < 3; ++a) {
     const int u = (a + 1) % 3, w = (a + 2) % 3;
@@ -107,13 +111,22 @@ void activateCubeFrame(VoxelOctree& octree, const VoxelGrid& grid, const OctreeC
         Index3 p = cube.origin;
         p[u] += cu;
         p[w] += cw;
-        for (int i = 0; i < size; ++i, ++p[a]) {
-          const std::size_t v = grid.index(p);
-          orInto(octree.state[v], static_cast<std::uint8_t>((1u << a) | kActiveVoxel));
-          orInto(octree.state[v + grid.stride(a)], kActiveVoxel);
-        }
+        fn(p, a);
       }
   }
+}
+
+}  // namespace
+
+void activateCubeFrame(VoxelOctree& octree, const VoxelGrid& grid, const OctreeCube& cube) {
+  const int size = 1 << cube.level;
+  forEachCubeEdge(cube, [&](const Index3& start, int a) {
+    std::size_t v = grid.index(start);
+    for (int i = 0; i < size; ++i, v += grid.stride(a)) {
+      orInto(octree.state[v], static_cast<std::uint8_t>((1u << a) | kActiveVoxel));
+      orInto(octree.state[v + grid.stride(a)], kActiveVoxel);
+    }
+  });
 }
 
 VoxelOctree buildVoxelOctree(const VoxelGrid& grid, const OctreeParams& params, bool threaded) {
@@ -314,16 +327,10 @@ void activateNewCubeFrames(VoxelOctree& oct, const VoxelGrid& grid, bool threade
     const OctreeCube& cube = oct.cubes[id];
     if (cube.deleted) continue;
     const int size = 1 << cube.level;
-    for (int a = 0; a < 3; ++a) {
-      const int u = (a + 1) % 3, w = (a + 2) % 3;
-      for (int cu = 0; cu <= size; cu += size)
-        for (int cw = 0; cw <= size; cw += size) {
-          Index3 p = cube.origin;
-          p[u] += cu;
-          p[w] += cw;
-          for (int i = 0; i <= size; ++i, ++p[a]) oct.markChanged(grid.index(p));
-        }
-    }
+    forEachCubeEdge(cube, [&](const Index3& start, int a) {
+      std::size_t v = grid.index(start);
+      for (int i = 0; i <= size; ++i, v += grid.stride(a)) oct.markChanged(v);
+    });
   }
   oct.newCubes.clear();
 }
