@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <memory>
+#include <mutex>
 #include <string>
 #include <tuple>
 #include <utility>
@@ -238,16 +240,25 @@ void ElasticModel::buildSparsity() {
   // n's mass, coupled through P to free node j.
   // Per row: its columns ascending, and per column the sources in the order they are met
   // (restriction, incidence, corner, prolongation order: fixed, so assembly sums are too).
-  struct Row {
-    std::vector<std::uint32_t> column, sourceStart, source;
+  // Each task fills one part (a contiguous range of rows) in flat arrays; the parts are
+  // joined in row order afterwards, so the result does not depend on the partition.
+  struct Part {
+    std::size_t firstRow = 0;
+    std::vector<std::uint32_t> rowEnd;     // per row: end of its columns in `column`
+    std::vector<std::uint32_t> column;     // per row, ascending
+    std::vector<std::uint32_t> sourceEnd;  // per column: end of its sources in `source`
+    std::vector<std::uint32_t> source;
     std::vector<double> weight;
   };
-  std::vector<Row> perRow(rows);
+  std::vector<std::unique_ptr<Part>> parts;
+  std::mutex partsLock;
   parallelFor(
       0, rows, 16,
       [&](std::size_t b, std::size_t end) {
+        auto part = std::make_unique<Part>();
+        part->firstRow = b;
         std::vector<std::uint32_t> position(rows, kNotFree);  // column -> index in the row
-        std::vector<std::uint32_t> entryColumn, entrySource;
+        std::vector<std::uint32_t> entryColumn, entrySource, columns, fill;
         std::vector<double> entryWeight;
         for (std::size_t i = b; i < end; ++i) {
           entryColumn.clear();
@@ -274,48 +285,65 @@ void ElasticModel::buildSparsity() {
               add(prolongation_.index[p], massBase + n, wn * prolongation_.weight[p]);
           }
           // Distinct columns, ascending; then the entries bucketed by column, in order.
-          Row& out = perRow[i];
+          columns.clear();
           for (std::uint32_t j : entryColumn)
             if (position[j] == kNotFree) {
               position[j] = 0;
-              out.column.push_back(j);
+              columns.push_back(j);
             }
-          std::sort(out.column.begin(), out.column.end());
-          out.sourceStart.assign(out.column.size() + 1, 0);
-          for (std::size_t k = 0; k < out.column.size(); ++k)
-            position[out.column[k]] = static_cast<std::uint32_t>(k);
-          for (std::uint32_t j : entryColumn) ++out.sourceStart[position[j] + 1];
-          for (std::size_t k = 0; k < out.column.size(); ++k)
-            out.sourceStart[k + 1] += out.sourceStart[k];
-          out.source.resize(entryColumn.size());
-          out.weight.resize(entryColumn.size());
-          std::vector<std::uint32_t> fill(out.sourceStart.begin(), out.sourceStart.end() - 1);
-          for (std::size_t k = 0; k < entryColumn.size(); ++k) {
-            const std::uint32_t at = fill[position[entryColumn[k]]]++;
-            out.source[at] = entrySource[k];
-            out.weight[at] = entryWeight[k];
+          std::sort(columns.begin(), columns.end());
+          fill.assign(columns.size() + 1, 0);
+          for (std::size_t k = 0; k < columns.size(); ++k) position[columns[k]] = static_cast<std::uint32_t>(k);
+          for (std::uint32_t j : entryColumn) ++fill[position[j] + 1];
+          const auto base = static_cast<std::uint32_t>(part->source.size());
+          for (std::size_t k = 0; k < columns.size(); ++k) {
+            fill[k + 1] += fill[k];
+            part->column.push_back(columns[k]);
+            part->sourceEnd.push_back(base + fill[k + 1]);
           }
-          for (std::uint32_t j : out.column) position[j] = kNotFree;
+          part->rowEnd.push_back(static_cast<std::uint32_t>(part->column.size()));
+          part->source.resize(base + entryColumn.size());
+          part->weight.resize(base + entryColumn.size());
+          for (std::size_t k = 0; k < entryColumn.size(); ++k) {
+            const std::uint32_t at = base + fill[position[entryColumn[k]]]++;
+            part->source[at] = entrySource[k];
+            part->weight[at] = entryWeight[k];
+          }
+          for (std::uint32_t j : columns) position[j] = kNotFree;
         }
+        const std::lock_guard<std::mutex> lock(partsLock);
+        parts.push_back(std::move(part));
       },
       threaded_);
+  std::sort(parts.begin(), parts.end(), [](const auto& x, const auto& y) { return x->firstRow < y->firstRow; });
 
   sparsity_ = BlockSparsity{};
   sparsity_.diagonal.assign(rows, kNotFree);
-  for (std::size_t i = 0; i < rows; ++i) {
-    const Row& row = perRow[i];
-    const auto base = static_cast<std::uint32_t>(sparsity_.source.size());
-    for (std::size_t k = 0; k < row.column.size(); ++k) {
-      if (row.column[k] == i)
-        sparsity_.diagonal[i] = static_cast<std::uint32_t>(sparsity_.column.size());
-      sparsity_.column.push_back(row.column[k]);
-      sparsity_.sourceStart.push_back(base + row.sourceStart[k + 1]);
+  std::size_t blocks = 0, sources = 0;
+  for (const auto& part : parts) {
+    blocks += part->column.size();
+    sources += part->source.size();
+  }
+  sparsity_.rowStart.reserve(rows + 1);
+  sparsity_.column.reserve(blocks);
+  sparsity_.sourceStart.reserve(blocks + 1);
+  sparsity_.source.reserve(sources);
+  sparsity_.sourceWeight.reserve(sources);
+  for (const auto& part : parts) {
+    const auto blockBase = static_cast<std::uint32_t>(sparsity_.column.size());
+    const auto sourceBase = static_cast<std::uint32_t>(sparsity_.source.size());
+    std::uint32_t k = 0;
+    for (std::size_t r = 0; r < part->rowEnd.size(); ++r) {
+      const std::size_t i = part->firstRow + r;
+      for (; k < part->rowEnd[r]; ++k)
+        if (part->column[k] == i) sparsity_.diagonal[i] = blockBase + k;
+      sparsity_.rowStart.push_back(blockBase + part->rowEnd[r]);
+      VOXCUT_ASSERT(sparsity_.diagonal[i] != kNotFree, "a free node without its diagonal block");
     }
-    sparsity_.source.insert(sparsity_.source.end(), row.source.begin(), row.source.end());
-    sparsity_.sourceWeight.insert(sparsity_.sourceWeight.end(), row.weight.begin(),
-                                  row.weight.end());
-    sparsity_.rowStart.push_back(static_cast<std::uint32_t>(sparsity_.column.size()));
-    VOXCUT_ASSERT(sparsity_.diagonal[i] != kNotFree, "a free node without its diagonal block");
+    sparsity_.column.insert(sparsity_.column.end(), part->column.begin(), part->column.end());
+    for (std::uint32_t e : part->sourceEnd) sparsity_.sourceStart.push_back(sourceBase + e);
+    sparsity_.source.insert(sparsity_.source.end(), part->source.begin(), part->source.end());
+    sparsity_.sourceWeight.insert(sparsity_.sourceWeight.end(), part->weight.begin(), part->weight.end());
   }
   sparsity_.mirror = blockMirrors(sparsity_);
   static std::atomic<std::uint64_t> revisions{0};
