@@ -54,7 +54,7 @@ std::optional<Hermite> testLink(const CutBody& b, const std::vector<BladeSweep>&
 // The subdivision's line test (see SubdivisionHooks::testLine): positions computed on the
 // way, each voxel once per call, prefetched first (a line across x or y strides through
 // memory).
-std::size_t testLine(const CutBody& b, const std::vector<BladeSweep>& sweeps, std::size_t v0, int a,
+void testLine(const CutBody& b, const std::vector<BladeSweep>& sweeps, std::size_t v0, int a,
                      const std::vector<int>& links, std::vector<std::pair<int, Hermite>>& hits) {
   const DeformationOctree& d = b.deformation;
   const std::size_t step = b.grid.stride(a);
@@ -62,19 +62,16 @@ std::size_t testLine(const CutBody& b, const std::vector<BladeSweep>& sweeps, st
     __builtin_prefetch(&d.embedding(v0 + static_cast<std::size_t>(k) * step));
     __builtin_prefetch(&d.embedding(v0 + static_cast<std::size_t>(k + 1) * step));
   }
-  std::size_t positioned = 0;
   int known = -1;  // the voxel whose position `last` holds
   Vec3d last = Vec3d::Zero();
   for (int k : links) {
     const std::size_t v = v0 + static_cast<std::size_t>(k) * step;
     const Vec3d pv = k == known ? last : d.voxelPosition(v);
     const Vec3d pw = d.voxelPosition(v + step);
-    positioned += k == known ? 1 : 2;
     known = k + 1;
     last = pw;
     if (const auto h = testLink(b, sweeps, v, a, pv, pw)) hits.emplace_back(k, *h);
   }
-  return positioned;
 }
 
 }  // namespace
@@ -173,7 +170,7 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
     SubdivisionHooks hooks;
     hooks.testLine = [&](std::size_t v0, int a, const std::vector<int>& links,
                          std::vector<std::pair<int, Hermite>>& hits) {
-      return testLine(b, sweeps, v0, a, links, hits);
+      testLine(b, sweeps, v0, a, links, hits);
     };
     r.subdivision = subdivideCutCubes(b.activity, g, r.cuts, hooks, threaded);
     r.subdivisionMs = timer.ms();

@@ -59,7 +59,7 @@ struct Worker {
   std::vector<CutLink> found;         // the same, as positions, for the sub-cube test
   std::vector<int> line;              // scratch: the connected links of a line
   std::vector<std::pair<int, Hermite>> hits;  // scratch: what the blade crossed on it
-  std::size_t tested = 0, positioned = 0;
+  std::size_t tested = 0, lineVoxels = 0;
   std::vector<Index3> opened;         // level-1 cubes split: opened after the parallel phase
   // Per level: the cut links on each of the 8 sub-cubes' boundaries (reused between calls).
   std::vector<std::array<std::vector<CutLink>, 8>> childCuts;
@@ -103,12 +103,13 @@ struct Worker {
   void testLine(const Index3& p, int a, int m) {
     const std::size_t v0 = grid.index(p), step = grid.stride(a);
     tested += static_cast<std::size_t>(m);
+    lineVoxels += static_cast<std::size_t>(m) + 1;
     line.clear();
     for (int k = 0; k < m; ++k)
       if (linkConnected(grid, v0 + static_cast<std::size_t>(k) * step, a)) line.push_back(k);
     if (line.empty()) return;
     hits.clear();
-    positioned += hooks.testLine(v0, a, line, hits);
+    hooks.testLine(v0, a, line, hits);
     for (const auto& [k, hermite] : hits) {
       const std::size_t v = v0 + static_cast<std::size_t>(k) * step;
       disconnect(grid, v, a);
@@ -265,7 +266,7 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     auto mergeCounts = [&](const std::vector<std::unique_ptr<Worker>>& workers) {
       for (const auto& w : workers) {
         stats.testedLinks += w->tested;
-        stats.positionedVoxels += w->positioned;
+        stats.lineVoxels += w->lineVoxels;
         roundCuts.insert(roundCuts.end(), w->cuts.begin(), w->cuts.end());
       }
     };

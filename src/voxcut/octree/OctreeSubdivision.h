@@ -29,11 +29,10 @@ struct LinkCut {
 struct SubdivisionHooks {
   /// Blade test of links of one grid line: for each k in `links` (ascending), the link
   /// (v0 + k stride(a), a). The hook computes the current positions of the voxels these
-  /// links join itself (bitwise as for the main test), appends (k, Hermite data in the rest
-  /// frame) for every crossed link to `hits`, and returns how many voxels it positioned. May
-  /// be called from several threads at once.
-  std::function<std::size_t(std::size_t v0, int a, const std::vector<int>& links,
-                            std::vector<std::pair<int, Hermite>>& hits)>
+  /// links join itself (bitwise as for the main test) and appends (k, Hermite data in the
+  /// rest frame) for every crossed link to `hits`. May be called from several threads at once.
+  std::function<void(std::size_t v0, int a, const std::vector<int>& links,
+                     std::vector<std::pair<int, Hermite>>& hits)>
       testLine;
 };
 
@@ -43,7 +42,10 @@ struct SubdivisionStats {
   std::size_t affectedCubes = 0;  ///< cubes marked in sub-step (1), summed over rounds
   std::size_t testedLinks = 0;    ///< links the subdivision examined (tested unless already cut)
   std::size_t cutLinks = 0;       ///< of which crossed
-  std::size_t positionedVoxels = 0;  ///< voxels positioned (a voxel on a shared face may count twice)
+  /// Voxels on the lines tested (m + 1 for a line of m links; a voxel on a face two cubes
+  /// share counts twice). The line test positions those next to links still connected, which
+  /// another task may have cut a moment before: this count does not depend on that.
+  std::size_t lineVoxels = 0;
   double facesMs = 0;             ///< wall time in sub-steps (2)-(4), the affected cubes' faces
   double splitMs = 0;             ///< in sub-step (5), the splits
   double bookkeepingMs = 0;       ///< the rest: marking, gathering, storing the sub-cubes
