@@ -55,7 +55,7 @@ std::optional<Hermite> testLink(const CutBody& b, const std::vector<BladeSweep>&
 // way, each voxel once per call, prefetched first (a line across x or y strides through
 // memory).
 void testLine(const CutBody& b, const std::vector<BladeSweep>& sweeps, std::size_t v0, int a,
-                     const std::vector<int>& links, std::vector<std::pair<int, Hermite>>& hits) {
+              const std::vector<int>& links, std::vector<std::pair<int, Hermite>>& hits) {
   const DeformationOctree& d = b.deformation;
   const std::size_t step = b.grid.stride(a);
   for (int k : links) {
