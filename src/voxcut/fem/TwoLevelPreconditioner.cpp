@@ -249,6 +249,11 @@ bool TwoLevelPreconditioner::setup(const BlockSparsity& sp, const NodeAggregatio
   }
   coarse_.resize(n, n);
   coarse_.setFromTriplets(coarseTriplets_.begin(), coarseTriplets_.end());
+  if (n == 0) {  // nothing free: no coarse system
+    factor_.reset();
+    valid_ = false;
+    return valid_;
+  }
   // The ordering and symbolic factor only change with the pattern (topology, or an
   // aggregate gaining or losing its rotations).
   const bool samePattern =
@@ -263,7 +268,7 @@ bool TwoLevelPreconditioner::setup(const BlockSparsity& sp, const NodeAggregatio
     patternInner_.assign(coarse_.innerIndexPtr(), coarse_.innerIndexPtr() + coarse_.nonZeros());
   }
   factor_->factorize(coarse_);
-  valid_ = n > 0 && factor_->info() == Eigen::Success;
+  valid_ = factor_->info() == Eigen::Success;
   return valid_;
 }
 
