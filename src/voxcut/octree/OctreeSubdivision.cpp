@@ -351,19 +351,11 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
       }
     }
     parallelFor(0, list.size(), 1, [&](std::size_t b, std::size_t e) {
-      auto fill = [&](const Index3& o, int level, std::int32_t value) {
-        const int n = 1 << level;
-        for (int z = 0; z < n; ++z)
-          for (int y = 0; y < n; ++y) {
-            std::int32_t* row = oct.cellCube.data() + grid.index(o.x, o.y + y, o.z + z);
-            std::fill(row, row + n, value);
-          }
-      };
       for (std::size_t i = b; i < e; ++i) {
-        fill(oldCubes[i].origin, oldCubes[i].level, -1);
+        oct.setCubeCells(oldCubes[i].origin, oldCubes[i].level, -1);
         std::uint32_t next = firstAppended[i];
         for (const CubeBox* leaf = leafBegin[i]; leaf != leafEnd[i]; ++leaf)
-          fill(leaf->o, leaf->level, static_cast<std::int32_t>(leaf == leafBegin[i] ? list[i] : next++));
+          oct.setCubeCells(leaf->o, leaf->level, static_cast<std::int32_t>(leaf == leafBegin[i] ? list[i] : next++));
       }
     }, threaded);
     // Hermite data of this round's cuts; the face cuts among them are next round's newly cut

@@ -92,6 +92,17 @@ std::vector<std::size_t> VoxelOctree::cubesPerLevel() const {
   return n;
 }
 
+void VoxelOctree::setCubeCells(const Index3& origin, int level, std::int32_t value) {
+  const int n = 1 << level;
+  const auto dx = static_cast<std::size_t>(dims.x), dy = static_cast<std::size_t>(dims.y);
+  for (int z = 0; z < n; ++z)
+    for (int y = 0; y < n; ++y) {
+      const std::size_t row = static_cast<std::size_t>(origin.x) +
+                              dx * (static_cast<std::size_t>(origin.y + y) + dy * static_cast<std::size_t>(origin.z + z));
+      std::fill_n(cellCube.begin() + static_cast<std::ptrdiff_t>(row), n, value);
+    }
+}
+
 std::size_t VoxelOctree::activeLinkCount() const {
   std::size_t n = 0;
   for (std::uint8_t s : state) n += (s & 1u) + ((s >> 1) & 1u) + ((s >> 2) & 1u);
@@ -197,15 +208,8 @@ VoxelOctree buildVoxelOctree(const VoxelGrid& grid, const OctreeParams& params, 
   // Cube map over unit cells.
   oct.cellCube.assign(grid.voxelCount(), -1);
   parallelFor(0, oct.cubes.size(), 16, [&](std::size_t c0, std::size_t c1) {
-    for (std::size_t c = c0; c < c1; ++c) {
-      const OctreeCube& cube = oct.cubes[c];
-      const int s = 1 << cube.level;
-      for (int z = 0; z < s; ++z)
-        for (int y = 0; y < s; ++y)
-          for (int x = 0; x < s; ++x)
-            oct.cellCube[grid.index(cube.origin.x + x, cube.origin.y + y, cube.origin.z + z)] =
-                static_cast<std::int32_t>(c);
-    }
+    for (std::size_t c = c0; c < c1; ++c)
+      oct.setCubeCells(oct.cubes[c].origin, oct.cubes[c].level, static_cast<std::int32_t>(c));
   }, threaded);
 
   // Activation steps (2)-(4).
@@ -294,19 +298,10 @@ void compactCubes(VoxelOctree& oct, bool threaded) {
   }
   if (last == before) return;
   oct.cubes.resize(last);
-  const Index3 d = oct.dims;
   parallelFor(0, moved.size(), 4, [&](std::size_t b, std::size_t e) {
     for (std::size_t i = b; i < e; ++i) {
       const OctreeCube& cube = oct.cubes[moved[i]];
-      const int n = 1 << cube.level;
-      for (int z = 0; z < n; ++z)
-        for (int y = 0; y < n; ++y) {
-          const std::size_t row = static_cast<std::size_t>(cube.origin.x) +
-                                  static_cast<std::size_t>(d.x) *
-                                      (static_cast<std::size_t>(cube.origin.y + y) +
-                                       static_cast<std::size_t>(d.y) * static_cast<std::size_t>(cube.origin.z + z));
-          std::fill_n(oct.cellCube.begin() + static_cast<std::ptrdiff_t>(row), n, static_cast<std::int32_t>(moved[i]));
-        }
+      oct.setCubeCells(cube.origin, cube.level, static_cast<std::int32_t>(moved[i]));
     }
   }, threaded);
   std::vector<std::uint32_t> fresh;
@@ -337,6 +332,23 @@ void activateNewCubeFrames(VoxelOctree& oct, const VoxelGrid& grid, bool threade
 
 namespace {
 
+// Index steps of the grid's axes.
+std::array<std::size_t, 3> axisStrides(const Index3& d) {
+  return {1, static_cast<std::size_t>(d.x), static_cast<std::size_t>(d.x) * static_cast<std::size_t>(d.y)};
+}
+
+// The link-table row of voxel v (activeIndex must be current): per axis, the entry of the voxel
+// across v's active link, or kNoActive. False if an active link ends at an inactive voxel.
+bool linkRow(const VoxelOctree& oct, std::size_t v, const std::array<std::size_t, 3>& strides,
+             std::array<std::uint32_t, 3>& row) {
+  bool ok = true;
+  for (std::size_t a = 0; a < 3; ++a) {
+    row[a] = oct.linkActive(v, static_cast<int>(a)) ? oct.activeIndex[v + strides[a]] : kNoActive;
+    ok = ok && (row[a] != kNoActive || !oct.linkActive(v, static_cast<int>(a)));
+  }
+  return ok;
+}
+
 void rebuildAllActive(VoxelOctree& oct, bool threaded) {
   const std::size_t n = oct.state.size();
   constexpr std::size_t kChunk = 1 << 16;
@@ -366,20 +378,11 @@ void rebuildAllActive(VoxelOctree& oct, bool threaded) {
   // Link table through the index map.
   const std::vector<std::uint32_t>& act = oct.activeVoxels;
   oct.activeNext.resize(act.size());
-  const std::size_t strides[3] = {1, static_cast<std::size_t>(oct.dims.x),
-                                  static_cast<std::size_t>(oct.dims.x) * static_cast<std::size_t>(oct.dims.y)};
+  const auto strides = axisStrides(oct.dims);
   std::atomic<bool> broken{false};
   parallelFor(0, act.size(), 4096, [&](std::size_t b, std::size_t e) {
     bool ok = true;
-    for (std::size_t i = b; i < e; ++i) {
-      const std::size_t v = act[i];
-      const unsigned bits = oct.state[v];
-      for (int a = 0; a < 3; ++a) {
-        const std::uint32_t next = (bits >> a) & 1u ? oct.activeIndex[v + strides[a]] : kNoActive;
-        ok = ok && (next != kNoActive || !((bits >> a) & 1u));
-        oct.activeNext[i][static_cast<std::size_t>(a)] = next;
-      }
-    }
+    for (std::size_t i = b; i < e; ++i) ok = linkRow(oct, act[i], strides, oct.activeNext[i]) && ok;
     if (!ok) broken.store(true, std::memory_order_relaxed);
   }, threaded);
   VOXCUT_ASSERT(!broken.load(), "an active link ends at an inactive voxel");
@@ -432,19 +435,12 @@ void updateActive(VoxelOctree& oct, bool threaded) {
         oct.activeNext[newPos[i]][a] = j == kNoActive ? kNoActive : newPos[j];
       }
   }, threaded);
-  const std::size_t strides[3] = {1, static_cast<std::size_t>(oct.dims.x),
-                                  static_cast<std::size_t>(oct.dims.x) * static_cast<std::size_t>(oct.dims.y)};
+  const auto strides = axisStrides(oct.dims);
   for (std::uint32_t v : changed) {
     const std::uint32_t i = oct.activeIndex[v];
     if (i == kNoActive) continue;
-    for (int a = 0; a < 3; ++a) {
-      std::uint32_t next = kNoActive;
-      if (oct.linkActive(v, a)) {
-        next = oct.activeIndex[v + strides[a]];
-        VOXCUT_ASSERT(next != kNoActive, "an active link ends at an inactive voxel");
-      }
-      oct.activeNext[i][static_cast<std::size_t>(a)] = next;
-    }
+    const bool ok = linkRow(oct, v, strides, oct.activeNext[i]);
+    VOXCUT_ASSERT(ok, "an active link ends at an inactive voxel");
   }
 }
 

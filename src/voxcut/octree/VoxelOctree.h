@@ -70,6 +70,10 @@ struct VoxelOctree {
   std::vector<std::uint32_t> spareVoxels, spareMap;
   std::vector<std::array<std::uint32_t, 3>> spareNext;
 
+  /// Sets cellCube over the unit cells of the level-`level` cube at `origin` to `value` (a cube
+  /// id, or -1). Cubes of different calls running at once must not overlap.
+  void setCubeCells(const Index3& origin, int level, std::int32_t value);
+
   /// Lists voxel v in `changed` unless it is already (not thread-safe).
   void markChanged(std::size_t v) {
     if (state[v] & kListedVoxel) return;
