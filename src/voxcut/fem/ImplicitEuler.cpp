@@ -1,6 +1,7 @@
 #include "voxcut/fem/ImplicitEuler.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <utility>
 
@@ -13,6 +14,16 @@
 namespace voxcut {
 
 namespace {
+
+/// Corner pair (a, b), a <= b, of an element -> its block among the element's 36 upper ones,
+/// row by row: (0,0) .. (0,7), (1,1) .. (1,7), ..., (7,7).
+constexpr std::array<std::array<std::uint8_t, 8>, 8> kUpperBlock = [] {
+  std::array<std::array<std::uint8_t, 8>, 8> t{};
+  std::uint8_t next = 0;
+  for (int a = 0; a < 8; ++a)
+    for (int b = a; b < 8; ++b) t[a][b] = t[b][a] = next++;
+  return t;
+}();
 
 /// Rows per chunk of a dot product: partial sums land in fixed slots and are added in chunk
 /// order, so the result does not depend on how the scheduler splits the range.
@@ -155,7 +166,7 @@ void ImplicitEuler::resize(const ElasticModel& model) {
   if (lastDv_.empty()) lastDv_.assign(nodes, Vec3d::Zero());
   VOXCUT_ASSERT(velocity_.size() == nodes && lastDv_.size() == nodes,
                 "velocities do not match the model (missing updateTopology?)");
-  elementBlocks_.resize(64 * model.elementCount());
+  elementBlocks_.resize(36 * model.elementCount());
   elementForce_.resize(model.elementCount());
   nodeDiagonal_.resize(nodes);
   nodeRhs_.resize(nodes);
@@ -195,15 +206,15 @@ void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree&
             elementForce_[e][c] = -(r * ky.segment<3>(3 * static_cast<Eigen::Index>(c)));
           const Eigen::Matrix3d cr = (dt * em.stiffnessDamping + dt * dt) * r;
           const Eigen::Matrix3d rt = r.transpose();
-          Eigen::Matrix3d* out = &elementBlocks_[64 * e];
+          // The 36 blocks on and above the diagonal, in kUpperBlock order; the gather below
+          // reads a block below the diagonal as its mirror's transpose.
+          Eigen::Matrix3d* out = &elementBlocks_[36 * e];
           for (int a = 0; a < 8; ++a)
             for (int c = a; c < 8; ++c) {
               // Fixed-size products into named 3x3s: no temporaries of dynamic size.
               Eigen::Matrix3d krt;
               krt.noalias() = em.stiffness.block<3, 3>(3 * a, 3 * c) * rt;
-              Eigen::Matrix3d& block = out[8 * a + c];
-              block.noalias() = cr * krt;
-              if (c != a) out[8 * c + a] = block.transpose();
+              (out++)->noalias() = cr * krt;
             }
         }
       },
@@ -246,9 +257,14 @@ void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree&
             Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
             for (std::uint32_t k = sp.sourceStart[slot]; k < sp.sourceStart[slot + 1]; ++k) {
               const std::uint32_t src = sp.source[k];
-              if (src < massBase)
-                sum.noalias() += sp.sourceWeight[k] * elementBlocks_[src];
-              else
+              if (src < massBase) {  // element src / 64, corners (src / 8) % 8 and src % 8
+                const std::uint32_t a = (src >> 3) & 7u, c = src & 7u;
+                const Eigen::Matrix3d& blk = elementBlocks_[36 * (src >> 6) + kUpperBlock[a][c]];
+                if (a <= c)
+                  sum.noalias() += sp.sourceWeight[k] * blk;
+                else
+                  sum.noalias() += sp.sourceWeight[k] * blk.transpose();
+              } else
                 sum.diagonal().array() += sp.sourceWeight[k] * nodeDiagonal_[src - massBase];
             }
             blocks_[slot] = sum;

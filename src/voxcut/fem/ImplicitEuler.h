@@ -140,7 +140,9 @@ class ImplicitEuler {
   std::vector<Vec3d> lastDv_;    ///< per node, the warm start
 
   // Scratch, sized by resize(), reused across steps.
-  std::vector<Eigen::Matrix3d> elementBlocks_;  ///< 64 per element: c_e R K_ab R^T
+  /// 36 per element: c_e R K_ab R^T for corners a <= b (kUpperBlock order); the blocks
+  /// below the diagonal are these blocks' transposes (K is symmetric).
+  std::vector<Eigen::Matrix3d> elementBlocks_;
   std::vector<std::array<Vec3d, 8>> elementForce_;
   std::vector<double> nodeDiagonal_;  ///< m_n + dt alpha-mass_n
   std::vector<Vec3d> nodeRhs_;
