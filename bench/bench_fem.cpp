@@ -7,8 +7,11 @@
 //    base (elements there refined to level 0, so 1-voxel elements meet level-3 ones);
 //  - Cantilever: scenes/cantilever.json (6,427 nodes of level-1 elements, E 1e7 Pa,
 //    tolerance 1e-4, 400 iterations).
-// Each runs with 1 and 2 worker threads (first argument) and each preconditioner (second:
-// 0 Jacobi, 1 BlockJacobi, 2 SymmetricGaussSeidel, 3 IncompleteCholesky, 4 TwoLevel). A body is first
+//  - Constraints: BunnyCut's reduced-system structure rebuilt (ElasticModel::setFixed), as
+//    after every cut.
+// Each step benchmark runs with 1 and 2 worker threads (first argument) and each
+// preconditioner (second: 0 Jacobi, 1 BlockJacobi, 2 SymmetricGaussSeidel, 3
+// IncompleteCholesky, 4 TwoLevel). A body is first
 // stepped 20 times from rest (the warm start and rotations then look like a running
 // simulation), then each benchmark iteration is one step, timed alone (manual time).
 // Counters: iterations per step, assembly and solve milliseconds per step, steps that did not
@@ -162,9 +165,27 @@ void allSettings(benchmark::internal::Benchmark* b) {
   b->UseManualTime()->Unit(benchmark::kMillisecond)->MinTime(0.3);
 }
 
+/// The reduced system's structure rebuilt (hanging-node prolongation, restriction, block
+/// sparsity with its sources, aggregation), as after every cut, here on BunnyCut's model:
+/// what ElasticModel::setFixed redoes. Threads: the argument.
+void Constraints(benchmark::State& state) {
+  const ThreadLimit limit(static_cast<int>(state.range(0)));
+  static FemCase c = bunnyCase(true);
+  const std::vector<std::uint8_t> fixed = c.model.fixed();
+  for (auto _ : state) {
+    Timer timer;
+    c.model.setFixed(fixed);
+    state.SetIterationTime(timer.ms() * 1e-3);
+  }
+  state.counters["threads"] = static_cast<double>(state.range(0));
+  state.counters["blocks"] = static_cast<double>(c.model.sparsity().blockCount());
+  state.counters["sources"] = static_cast<double>(c.model.sparsity().source.size());
+}
+
 BENCHMARK(Bunny)->Apply(allSettings);
 BENCHMARK(BunnyCut)->Apply(allSettings);
 BENCHMARK(Cantilever)->Apply(allSettings);
+BENCHMARK(Constraints)->Arg(1)->Arg(2)->UseManualTime()->Unit(benchmark::kMillisecond)->MinTime(0.3);
 
 }  // namespace
 }  // namespace voxcut

@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <memory>
-#include <mutex>
 #include <string>
 #include <tuple>
 #include <utility>
@@ -30,21 +28,6 @@ void checkMaterials(const std::vector<ElasticMaterial>& materials) {
         !std::isfinite(mat.dampingMass) || !std::isfinite(mat.dampingStiffness))
       throw InputError(name + "damping factors must be finite numbers >= 0");
   }
-}
-
-/// Turns per-row lists into compressed rows (serial, in row order).
-template <class Row>
-WeightedRows compress(const std::vector<Row>& rows) {
-  WeightedRows out;
-  out.start.reserve(rows.size() + 1);
-  for (const Row& row : rows) {
-    for (const auto& [index, weight] : row) {
-      out.index.push_back(index);
-      out.weight.push_back(weight);
-    }
-    out.start.push_back(static_cast<std::uint32_t>(out.index.size()));
-  }
-  return out;
 }
 
 }  // namespace
@@ -199,34 +182,60 @@ void ElasticModel::buildConstraints() {
   for (std::size_t i = 0; i < freeNodes_.size(); ++i)
     freeIndex_[freeNodes_[i]] = static_cast<std::uint32_t>(i);
 
-  // Prolongation rows; hanging rows front to back (masters first), merged by free index.
-  using Row = std::vector<std::pair<std::uint32_t, double>>;
-  std::vector<Row> rows(nodes);
-  for (std::size_t n = 0; n < nodes; ++n)
-    if (freeIndex_[n] != kNotFree) rows[n].emplace_back(freeIndex_[n], 1.0);
+  // Prolongation rows: a free node's is itself; hanging rows front to back (masters first),
+  // each merged by free index; all kept in one arena (no list per node).
+  std::vector<std::uint32_t> rowBegin(nodes, 0), rowEnd(nodes, 0);
+  std::vector<std::pair<std::uint32_t, double>> arena, row;
+  arena.reserve(nodes + 4 * hanging_.size());
+  for (std::size_t n = 0; n < nodes; ++n) {
+    rowBegin[n] = static_cast<std::uint32_t>(arena.size());
+    if (freeIndex_[n] != kNotFree) arena.emplace_back(freeIndex_[n], 1.0);
+    rowEnd[n] = static_cast<std::uint32_t>(arena.size());
+  }
   for (const HangingNode& h : hanging_) {
-    Row row;
+    row.clear();
     const double w = 1.0 / h.masterCount;
     for (int m = 0; m < h.masterCount; ++m)
-      for (const auto& [i, wm] : rows[h.masters[m]]) row.emplace_back(i, w * wm);
+      for (std::uint32_t k = rowBegin[h.masters[m]]; k < rowEnd[h.masters[m]]; ++k)
+        row.emplace_back(arena[k].first, w * arena[k].second);
     std::sort(row.begin(), row.end(),
               [](const auto& a, const auto& b) { return a.first < b.first; });
-    Row merged;
+    rowBegin[h.node] = static_cast<std::uint32_t>(arena.size());
     for (const auto& entry : row) {
-      if (!merged.empty() && merged.back().first == entry.first)
-        merged.back().second += entry.second;
+      if (arena.size() > rowBegin[h.node] && arena.back().first == entry.first)
+        arena.back().second += entry.second;
       else
-        merged.push_back(entry);
+        arena.push_back(entry);
     }
-    rows[h.node] = std::move(merged);
+    rowEnd[h.node] = static_cast<std::uint32_t>(arena.size());
   }
-  prolongation_ = compress(rows);
+  prolongation_ = WeightedRows{};
+  prolongation_.start.resize(nodes + 1, 0);
+  for (std::size_t n = 0; n < nodes; ++n)
+    prolongation_.start[n + 1] = prolongation_.start[n] + (rowEnd[n] - rowBegin[n]);
+  prolongation_.index.resize(prolongation_.start[nodes]);
+  prolongation_.weight.resize(prolongation_.start[nodes]);
+  for (std::size_t n = 0; n < nodes; ++n)
+    for (std::uint32_t k = rowBegin[n], at = prolongation_.start[n]; k < rowEnd[n]; ++k, ++at) {
+      prolongation_.index[at] = arena[k].first;
+      prolongation_.weight[at] = arena[k].second;
+    }
 
   // Restriction = transpose, by counting sort over nodes in ascending order.
-  std::vector<Row> transposed(freeNodes_.size());
+  const std::size_t free = freeNodes_.size();
+  restriction_ = WeightedRows{};
+  restriction_.start.assign(free + 1, 0);
+  for (std::uint32_t i : prolongation_.index) ++restriction_.start[i + 1];
+  for (std::size_t i = 0; i < free; ++i) restriction_.start[i + 1] += restriction_.start[i];
+  restriction_.index.resize(prolongation_.index.size());
+  restriction_.weight.resize(prolongation_.index.size());
+  std::vector<std::uint32_t> next(restriction_.start.begin(), restriction_.start.end() - 1);
   for (std::size_t n = 0; n < nodes; ++n)
-    for (const auto& [i, w] : rows[n]) transposed[i].emplace_back(static_cast<std::uint32_t>(n), w);
-  restriction_ = compress(transposed);
+    for (std::uint32_t k = prolongation_.start[n]; k < prolongation_.start[n + 1]; ++k) {
+      const std::uint32_t at = next[prolongation_.index[k]]++;
+      restriction_.index[at] = static_cast<std::uint32_t>(n);
+      restriction_.weight[at] = prolongation_.weight[k];
+    }
   buildSparsity();
 }
 
@@ -240,111 +249,120 @@ void ElasticModel::buildSparsity() {
   // n's mass, coupled through P to free node j.
   // Per row: its columns ascending, and per column the sources in the order they are met
   // (restriction, incidence, corner, prolongation order: fixed, so assembly sums are too).
-  // Each task fills one part (a contiguous range of rows) in flat arrays; the parts are
+  // The rows are cut into fixed chunks; each fills its part (flat arrays) and the parts are
   // joined in row order afterwards, so the result does not depend on the partition.
   struct Part {
-    std::size_t firstRow = 0;
     std::vector<std::uint32_t> rowEnd;     // per row: end of its columns in `column`
     std::vector<std::uint32_t> column;     // per row, ascending
     std::vector<std::uint32_t> sourceEnd;  // per column: end of its sources in `source`
     std::vector<std::uint32_t> source;
     std::vector<double> weight;
   };
-  std::vector<std::unique_ptr<Part>> parts;
-  std::mutex partsLock;
+  struct Entry {
+    std::uint32_t column, source;
+    double weight;
+  };
+  constexpr std::size_t kRowsPerPart = 128;
+  std::vector<Part> parts((rows + kRowsPerPart - 1) / kRowsPerPart);
   parallelFor(
-      0, rows, 16,
-      [&](std::size_t b, std::size_t end) {
-        auto part = std::make_unique<Part>();
-        part->firstRow = b;
+      0, parts.size(), 1,
+      [&](std::size_t pb, std::size_t pe) {
         std::vector<std::uint32_t> position(rows, kNotFree);  // column -> index in the row
-        std::vector<std::uint32_t> entryColumn, entrySource, columns, fill;
-        std::vector<double> entryWeight;
-        for (std::size_t i = b; i < end; ++i) {
-          entryColumn.clear();
-          entrySource.clear();
-          entryWeight.clear();
-          auto add = [&](std::uint32_t column, std::uint32_t source, double weight) {
-            entryColumn.push_back(column);
-            entrySource.push_back(source);
-            entryWeight.push_back(weight);
-          };
-          for (std::uint32_t r = restriction_.start[i]; r < restriction_.start[i + 1]; ++r) {
-            const std::uint32_t n = restriction_.index[r];
-            const double wn = restriction_.weight[r];
-            for (std::uint32_t k = incidence_.start[n]; k < incidence_.start[n + 1]; ++k) {
-              const std::uint32_t e = incidence_.index[k] / 8, a = incidence_.index[k] % 8;
-              for (std::uint32_t c = 0; c < 8; ++c) {
-                const std::uint32_t nb = elementNodes_[e][c];
-                for (std::uint32_t p = prolongation_.start[nb]; p < prolongation_.start[nb + 1];
-                     ++p)
-                  add(prolongation_.index[p], 64 * e + 8 * a + c, wn * prolongation_.weight[p]);
+        std::vector<std::uint32_t> columns, fill;
+        std::vector<Entry> entries;
+        for (std::size_t pi = pb; pi < pe; ++pi) {
+          Part& part = parts[pi];
+          const std::size_t end = std::min(rows, (pi + 1) * kRowsPerPart);
+          for (std::size_t i = pi * kRowsPerPart; i < end; ++i) {
+            entries.clear();
+            for (std::uint32_t r = restriction_.start[i]; r < restriction_.start[i + 1]; ++r) {
+              const std::uint32_t n = restriction_.index[r];
+              const double wn = restriction_.weight[r];
+              for (std::uint32_t k = incidence_.start[n]; k < incidence_.start[n + 1]; ++k) {
+                const std::uint32_t e = incidence_.index[k] / 8, a = incidence_.index[k] % 8;
+                for (std::uint32_t c = 0; c < 8; ++c) {
+                  const std::uint32_t nb = elementNodes_[e][c];
+                  for (std::uint32_t p = prolongation_.start[nb]; p < prolongation_.start[nb + 1];
+                       ++p)
+                    entries.push_back({prolongation_.index[p], 64 * e + 8 * a + c,
+                                       wn * prolongation_.weight[p]});
+                }
               }
+              for (std::uint32_t p = prolongation_.start[n]; p < prolongation_.start[n + 1]; ++p)
+                entries.push_back({prolongation_.index[p], massBase + n, wn * prolongation_.weight[p]});
             }
-            for (std::uint32_t p = prolongation_.start[n]; p < prolongation_.start[n + 1]; ++p)
-              add(prolongation_.index[p], massBase + n, wn * prolongation_.weight[p]);
-          }
-          // Distinct columns, ascending; then the entries bucketed by column, in order.
-          columns.clear();
-          for (std::uint32_t j : entryColumn)
-            if (position[j] == kNotFree) {
-              position[j] = 0;
-              columns.push_back(j);
+            // Distinct columns, ascending; then the entries bucketed by column, in order.
+            columns.clear();
+            for (const Entry& en : entries)
+              if (position[en.column] == kNotFree) {
+                position[en.column] = 0;
+                columns.push_back(en.column);
+              }
+            std::sort(columns.begin(), columns.end());
+            fill.assign(columns.size() + 1, 0);
+            for (std::size_t k = 0; k < columns.size(); ++k)
+              position[columns[k]] = static_cast<std::uint32_t>(k);
+            for (const Entry& en : entries) ++fill[position[en.column] + 1];
+            const auto base = static_cast<std::uint32_t>(part.source.size());
+            for (std::size_t k = 0; k < columns.size(); ++k) {
+              fill[k + 1] += fill[k];
+              part.column.push_back(columns[k]);
+              part.sourceEnd.push_back(base + fill[k + 1]);
             }
-          std::sort(columns.begin(), columns.end());
-          fill.assign(columns.size() + 1, 0);
-          for (std::size_t k = 0; k < columns.size(); ++k) position[columns[k]] = static_cast<std::uint32_t>(k);
-          for (std::uint32_t j : entryColumn) ++fill[position[j] + 1];
-          const auto base = static_cast<std::uint32_t>(part->source.size());
-          for (std::size_t k = 0; k < columns.size(); ++k) {
-            fill[k + 1] += fill[k];
-            part->column.push_back(columns[k]);
-            part->sourceEnd.push_back(base + fill[k + 1]);
+            part.rowEnd.push_back(static_cast<std::uint32_t>(part.column.size()));
+            part.source.resize(base + entries.size());
+            part.weight.resize(base + entries.size());
+            for (const Entry& en : entries) {
+              const std::uint32_t at = base + fill[position[en.column]]++;
+              part.source[at] = en.source;
+              part.weight[at] = en.weight;
+            }
+            for (std::uint32_t j : columns) position[j] = kNotFree;
           }
-          part->rowEnd.push_back(static_cast<std::uint32_t>(part->column.size()));
-          part->source.resize(base + entryColumn.size());
-          part->weight.resize(base + entryColumn.size());
-          for (std::size_t k = 0; k < entryColumn.size(); ++k) {
-            const std::uint32_t at = base + fill[position[entryColumn[k]]]++;
-            part->source[at] = entrySource[k];
-            part->weight[at] = entryWeight[k];
-          }
-          for (std::uint32_t j : columns) position[j] = kNotFree;
         }
-        const std::lock_guard<std::mutex> lock(partsLock);
-        parts.push_back(std::move(part));
       },
       threaded_);
-  std::sort(parts.begin(), parts.end(), [](const auto& x, const auto& y) { return x->firstRow < y->firstRow; });
 
+  // Join: offsets of each part, then the parts copied in parallel.
+  std::vector<std::size_t> blockBase(parts.size() + 1, 0), sourceBase(parts.size() + 1, 0);
+  for (std::size_t pi = 0; pi < parts.size(); ++pi) {
+    blockBase[pi + 1] = blockBase[pi] + parts[pi].column.size();
+    sourceBase[pi + 1] = sourceBase[pi] + parts[pi].source.size();
+  }
+  VOXCUT_ASSERT(sourceBase.back() < 0xffffffffull, "too many block sources for 32-bit offsets");
   sparsity_ = BlockSparsity{};
   sparsity_.diagonal.assign(rows, kNotFree);
-  std::size_t blocks = 0, sources = 0;
-  for (const auto& part : parts) {
-    blocks += part->column.size();
-    sources += part->source.size();
-  }
-  sparsity_.rowStart.reserve(rows + 1);
-  sparsity_.column.reserve(blocks);
-  sparsity_.sourceStart.reserve(blocks + 1);
-  sparsity_.source.reserve(sources);
-  sparsity_.sourceWeight.reserve(sources);
-  for (const auto& part : parts) {
-    const auto blockBase = static_cast<std::uint32_t>(sparsity_.column.size());
-    const auto sourceBase = static_cast<std::uint32_t>(sparsity_.source.size());
-    std::uint32_t k = 0;
-    for (std::size_t r = 0; r < part->rowEnd.size(); ++r) {
-      const std::size_t i = part->firstRow + r;
-      for (; k < part->rowEnd[r]; ++k)
-        if (part->column[k] == i) sparsity_.diagonal[i] = blockBase + k;
-      sparsity_.rowStart.push_back(blockBase + part->rowEnd[r]);
-      VOXCUT_ASSERT(sparsity_.diagonal[i] != kNotFree, "a free node without its diagonal block");
-    }
-    sparsity_.column.insert(sparsity_.column.end(), part->column.begin(), part->column.end());
-    for (std::uint32_t e : part->sourceEnd) sparsity_.sourceStart.push_back(sourceBase + e);
-    sparsity_.source.insert(sparsity_.source.end(), part->source.begin(), part->source.end());
-    sparsity_.sourceWeight.insert(sparsity_.sourceWeight.end(), part->weight.begin(), part->weight.end());
-  }
+  sparsity_.rowStart.resize(rows + 1);
+  sparsity_.rowStart[0] = 0;
+  sparsity_.column.resize(blockBase.back());
+  sparsity_.sourceStart.resize(blockBase.back() + 1);
+  sparsity_.sourceStart[0] = 0;
+  sparsity_.source.resize(sourceBase.back());
+  sparsity_.sourceWeight.resize(sourceBase.back());
+  parallelFor(
+      0, parts.size(), 1,
+      [&](std::size_t pb, std::size_t pe) {
+        for (std::size_t pi = pb; pi < pe; ++pi) {
+          const Part& part = parts[pi];
+          const auto bb = static_cast<std::uint32_t>(blockBase[pi]);
+          const auto sb = static_cast<std::uint32_t>(sourceBase[pi]);
+          std::uint32_t k = 0;
+          for (std::size_t r = 0; r < part.rowEnd.size(); ++r) {
+            const std::size_t i = pi * kRowsPerPart + r;
+            for (; k < part.rowEnd[r]; ++k)
+              if (part.column[k] == i) sparsity_.diagonal[i] = bb + k;
+            sparsity_.rowStart[i + 1] = bb + part.rowEnd[r];
+          }
+          std::copy(part.column.begin(), part.column.end(), sparsity_.column.begin() + bb);
+          for (std::size_t c = 0; c < part.sourceEnd.size(); ++c)
+            sparsity_.sourceStart[bb + c + 1] = sb + part.sourceEnd[c];
+          std::copy(part.source.begin(), part.source.end(), sparsity_.source.begin() + sb);
+          std::copy(part.weight.begin(), part.weight.end(), sparsity_.sourceWeight.begin() + sb);
+        }
+      },
+      threaded_);
+  for (std::size_t i = 0; i < rows; ++i)
+    VOXCUT_ASSERT(sparsity_.diagonal[i] != kNotFree, "a free node without its diagonal block");
   sparsity_.mirror = blockMirrors(sparsity_);
   static std::atomic<std::uint64_t> revisions{0};
   sparsityRevision_ = ++revisions;
