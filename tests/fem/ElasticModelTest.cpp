@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "FemBodies.h"
+#include "voxcut/core/Parallel.h"
 #include "voxcut/fem/ElasticModel.h"
 #include "voxcut/fem/ImplicitEuler.h"
 
@@ -177,6 +178,51 @@ TEST(ElasticModelTopology, FixingAHangingNodeFixesItsMasters) {
   ImplicitEuler solver(p);
   for (int s = 0; s < 3; ++s) solver.step(a.model, a.octree);
   EXPECT_EQ(a.octree.positions()[h.node], a.octree.restPositions()[h.node]);
+}
+
+// The reduced system's structure is built in fixed row chunks joined in order: the same with
+// one thread as with two, on a body with hanging nodes and several chunks of rows.
+TEST(ElasticModelTopology, StructureIsTheSameWithOneAndTwoThreads) {
+  const VoxelGrid g = compositeBox();
+  const DeformationOctree oc = makeOctree(g, 0, 2);
+  ASSERT_GT(oc.hangingNodeCount(), 0u);
+  std::vector<std::uint8_t> fixed(oc.nodeCount(), 0);
+  for (std::size_t n = 0; n < fixed.size(); n += 97) fixed[n] = 1;
+  ElasticModel serial(oc, g, layeredMaterials(0.3), false);
+  serial.setFixed(fixed);
+  const ThreadLimit limit(2);
+  ElasticModel parallel(oc, g, layeredMaterials(0.3), true);
+  parallel.setFixed(fixed);
+  ASSERT_GT(serial.freeNodeCount(), 3u * 128u);  // several chunks of rows
+  EXPECT_EQ(serial.freeNodes(), parallel.freeNodes());
+  for (auto rows : {&ElasticModel::prolongation, &ElasticModel::restriction}) {
+    EXPECT_EQ((serial.*rows)().start, (parallel.*rows)().start);
+    EXPECT_EQ((serial.*rows)().index, (parallel.*rows)().index);
+    EXPECT_EQ((serial.*rows)().weight, (parallel.*rows)().weight);
+  }
+  const BlockSparsity &a = serial.sparsity(), &b = parallel.sparsity();
+  EXPECT_EQ(a.rowStart, b.rowStart);
+  EXPECT_EQ(a.column, b.column);
+  EXPECT_EQ(a.diagonal, b.diagonal);
+  EXPECT_EQ(a.mirror, b.mirror);
+  EXPECT_EQ(a.sourceStart, b.sourceStart);
+  EXPECT_EQ(a.source, b.source);
+  EXPECT_EQ(a.sourceWeight, b.sourceWeight);
+  // Every row holds its diagonal, columns ascend, and the prolongation's weights of a
+  // hanging node sum to 1 (an unconstrained node reproduces constant fields).
+  for (std::size_t i = 0; i < serial.freeNodeCount(); ++i) {
+    EXPECT_EQ(a.column[a.diagonal[i]], i);
+    EXPECT_TRUE(std::is_sorted(a.column.begin() + a.rowStart[i], a.column.begin() + a.rowStart[i + 1]));
+  }
+  const WeightedRows& p = serial.prolongation();
+  for (const HangingNode& h : oc.hangingNodes()) {
+    bool anyFixed = false;
+    for (int m = 0; m < h.masterCount; ++m) anyFixed = anyFixed || serial.fixed()[h.masters[m]];
+    if (anyFixed) continue;
+    double sum = 0.0;
+    for (std::uint32_t k = p.start[h.node]; k < p.start[h.node + 1]; ++k) sum += p.weight[k];
+    EXPECT_NEAR(sum, 1.0, 1e-12) << "hanging node " << h.node;
+  }
 }
 
 }  // namespace
