@@ -118,17 +118,6 @@ NodeAggregation aggregateNodes(const BlockSparsity& sp, int pairings) {
   return out;
 }
 
-namespace {
-
-/// S = -[d]x, so that T_i = [I, S_i] maps (t, w) to t + w x d_i.
-Eigen::Matrix3d skewOf(const Vec3d& d) {
-  Eigen::Matrix3d s;
-  s << 0.0, d.z(), -d.y(), -d.z(), 0.0, d.x(), d.y(), -d.x(), 0.0;
-  return s;
-}
-
-}  // namespace
-
 TwoLevelPreconditioner::TwoLevelPreconditioner(const TwoLevelPreconditioner& other)
     : link_(other.link_),
       offset_(other.offset_),
@@ -201,8 +190,14 @@ bool TwoLevelPreconditioner::setup(const BlockSparsity& sp, const NodeAggregatio
             link_[k].setZero();
           for (std::uint32_t s = sp.rowStart[i]; s < sp.rowStart[i + 1]; ++s) {
             LinkBlock& out = link_[agg.slotLink[s]];
-            out.leftCols<3>() += blocks[s];
-            out.rightCols<3>().noalias() += blocks[s] * skewOf(offset_[sp.column[s]]);
+            const Eigen::Matrix3d& a = blocks[s];
+            out.leftCols<3>() += a;
+            // A S_j with S = -[d]x = [[0, dz, -dy], [-dz, 0, dx], [dy, -dx, 0]] (T_j = [I, S_j]
+            // maps (t, w) to t + w x d_j), written out: S's zeros cost nothing.
+            const Vec3d& d = offset_[sp.column[s]];
+            out.col(3) += a.col(1) * (-d.z()) + a.col(2) * d.y();
+            out.col(4) += a.col(0) * d.z() + a.col(2) * (-d.x());
+            out.col(5) += a.col(0) * (-d.y()) + a.col(1) * d.x();
           }
         }
       },
@@ -218,7 +213,7 @@ bool TwoLevelPreconditioner::setup(const BlockSparsity& sp, const NodeAggregatio
           auto& out = rowBlocks[a];
           for (std::uint32_t m = agg.start[a]; m < agg.start[a + 1]; ++m) {
             const std::uint32_t i = agg.member[m];
-            const Eigen::Matrix3d st = skewOf(offset_[i]).transpose();
+            const Vec3d& d = offset_[i];
             for (std::uint32_t k = agg.linkStart[i]; k < agg.linkStart[i + 1]; ++k) {
               const std::uint32_t j = agg.linkAggregate[k];
               if (j > a) continue;  // the lower triangle is enough
@@ -227,8 +222,12 @@ bool TwoLevelPreconditioner::setup(const BlockSparsity& sp, const NodeAggregatio
                 out.emplace_back(j, Eigen::Matrix<double, 6, 6>::Zero());
               }
               Eigen::Matrix<double, 6, 6>& block = out[static_cast<std::size_t>(slot[j])].second;
-              block.topRows<3>() += link_[k];
-              block.bottomRows<3>().noalias() += st * link_[k];
+              const LinkBlock& l = link_[k];
+              block.topRows<3>() += l;
+              // S_i^T B_iJ, written out.
+              block.row(3) += (-d.z()) * l.row(1) + d.y() * l.row(2);
+              block.row(4) += d.z() * l.row(0) + (-d.x()) * l.row(2);
+              block.row(5) += (-d.y()) * l.row(0) + d.x() * l.row(1);
             }
           }
           for (const auto& entry : out) slot[entry.first] = -1;
