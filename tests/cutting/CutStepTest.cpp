@@ -74,6 +74,40 @@ TEST(CutStep, OctreeCutsEqualTheBaselineForEveryModelAndDeformation) {
   }
 }
 
+// A short blade reaches few elements: the step then positions only their voxels (and the
+// far ends of their links). It must cut exactly the connected links that a test of every
+// link of the grid finds crossed. (Without the octree: with it, a blade that starts and ends
+// inside one octree cube crosses no active link, by the method's design; scenes' blades
+// enter from outside, and the scene tests compare both paths.)
+TEST(CutStep, ShortSweepCutsExactlyTheCrossedLinks) {
+  const VoxelGrid g = model("bunny", 101);
+  CutBody b = body(g, false, Deformation::Twist);
+  Eigen::AlignedBox3d box;
+  for (std::size_t v = 0; v < g.voxelCount(); ++v)
+    if (g.occupied(v)) box.extend(b.deformation.voxelPosition(v));
+  const Vec3d c = box.center(), s = box.sizes();
+  const double h = g.voxelSize();
+  // A blade a tenth of the model wide, tilted, moving 2 voxels through its middle.
+  const Vec3d half(0.05 * s.x(), 0.01 * s.y(), 0.015 * s.z());
+  const Vec3d move(0.3 * h, 0.4 * h, 2.0 * h);
+  const BladeSweep sweep = makeSweep({c - half, c + half}, {c - half + move, c + half + move}, 7);
+  std::vector<std::uint64_t> expected;
+  for (std::size_t v = 0; v < g.voxelCount(); ++v)
+    for (int a = 0; a < 3; ++a) {
+      if (!g.occupied(v) || !g.hasLink(v, a) || !g.connected(v, a)) continue;
+      const std::size_t w = v + g.stride(a);
+      if (intersectSegment(sweep, b.deformation.voxelPosition(v), b.deformation.voxelPosition(w), v, w))
+        expected.push_back(VoxelGrid::linkId(v, a));
+    }
+  const CutStepResult r = cutStep(b, sweep);
+  ASSERT_GT(r.markedElements, 0u);
+  ASSERT_LT(4 * r.markedElements, b.deformation.elementCount()) << "the blade should reach few elements";
+  ASSERT_GT(expected.size(), 20u);
+  std::vector<std::uint64_t> cut;
+  for (const LinkCut& lc : r.cuts) cut.push_back(lc.link);
+  EXPECT_EQ(cut, expected);
+}
+
 TEST(CutStep, CutSetDoesNotDependOnThreadCount) {
   const VoxelGrid g = model("bunny", 64);
   const CutBody b = body(g, true, Deformation::Twist);

@@ -107,16 +107,9 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   CutStepResult r;
   VoxelGrid& g = b.grid;
 
-  // Voxel position update: the active voxels only, stored in active order (with their
-  // elements, for the culling below).
+  // Culling first: hash of element boxes (from the nodes), elements under the sweep's OBB.
+  // It is part of the intersection test's time.
   Timer timer;
-  const std::vector<std::uint32_t>& active = b.activity.activeVoxels;
-  b.deformation.updateVoxelPositions(active, b.activePositions, b.activeOwners, threaded);
-  r.positionUpdateMs = timer.ms();
-
-  // Intersection test: hash of element boxes, elements under the sweep's OBB, their active
-  // connected links.
-  timer.restart();
   b.deformation.updateElementBounds(b.elementBoxes, threaded);
   b.hash.build(b.elementBoxes, 0.0, threaded);
   std::vector<std::uint8_t> marked(b.elementBoxes.size(), 0);
@@ -131,9 +124,30 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
     b.hash.markElements(obbBounds, [&](const Eigen::AlignedBox3d& cell) { return overlaps(obb, cell); }, marked);
   }
   for (std::uint8_t m : marked) r.markedElements += m;
+  const double cullMs = timer.ms();
+
+  // Voxel position update, stored in active order with each active voxel's element. When
+  // the blade reaches few elements (a frame of a running scene), only the voxels in marked
+  // elements are positioned and a link to a voxel outside them positions that end on the
+  // way; else (a long sweep) every active voxel is positioned in one pass, which is cheaper
+  // than positioning the many ends outside one by one. The positions are bitwise the same.
+  timer.restart();
+  const std::vector<std::uint32_t>& active = b.activity.activeVoxels;
+  const bool fewMarked = 4 * r.markedElements < marked.size();
+  if (fewMarked)
+    b.deformation.updateVoxelPositions(active, b.activePositions, b.activeOwners, marked, threaded);
+  else
+    b.deformation.updateVoxelPositions(active, b.activePositions, b.activeOwners, threaded);
+  r.positionUpdateMs = timer.ms();
+
+  // Intersection test: the active connected links with an end in a marked element.
+  timer.restart();
   const auto inMarked = [&](std::size_t i) {
     const std::uint32_t e = b.activeOwners[i];
     return e != kNoElement && marked[e];
+  };
+  const auto positionOf = [&](std::size_t i, bool isMarked) {
+    return isMarked || !fewMarked ? b.activePositions[i] : b.deformation.voxelPosition(active[i]);
   };
   constexpr std::size_t kChunk = 4096;
   std::vector<std::vector<LinkCut>> found((active.size() + kChunk - 1) / kChunk);
@@ -147,9 +161,11 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
         const std::size_t v = active[i];
         for (int a = 0; a < 3; ++a) {
           const std::uint32_t j = b.activity.activeNext[i][static_cast<std::size_t>(a)];
-          if (j == kNoActive || !(here || inMarked(j)) || !g.connected(v, a)) continue;
+          if (j == kNoActive) continue;
+          const bool there = inMarked(j);
+          if (!(here || there) || !g.connected(v, a)) continue;
           ++tested[c];
-          if (const auto h = testLink(b, sweeps, v, a, b.activePositions[i], b.activePositions[j]))
+          if (const auto h = testLink(b, sweeps, v, a, positionOf(i, here), positionOf(j, there)))
             found[c].push_back({VoxelGrid::linkId(v, a), *h, std::nullopt});
         }
       }
@@ -162,7 +178,7 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
     g.setConnected(static_cast<std::size_t>(lc.link / 3), static_cast<int>(lc.link % 3), false);
     lc.previous = g.hermite().exchange(lc.link, lc.hermite);
   }
-  r.intersectionMs = timer.ms();
+  r.intersectionMs = cullMs + timer.ms();
 
   // Octree subdivision around the new cuts (nothing to subdivide or update without any).
   if (b.useOctree && !r.cuts.empty()) {

@@ -33,7 +33,9 @@ struct CutBody {
   VoxelOctree activity;             ///< the pseudo voxel octree, or everything active
   bool useOctree = true;
   double obbMargin = 0.0;
-  std::vector<Vec3d> activePositions;        ///< per entry of activity.activeVoxels, this frame
+  /// Per entry of activity.activeVoxels: its position this frame (where the step positioned
+  /// it: every entry, or those in elements under the blade when it reaches few; see cutStep).
+  std::vector<Vec3d> activePositions;
   std::vector<std::uint32_t> activeOwners;   ///< per entry of activity.activeVoxels: its element
   std::vector<Eigen::AlignedBox3d> elementBoxes;
   SpatialHash hash;

@@ -136,9 +136,10 @@ Vec3d DeformationOctree::voxelPosition(std::size_t v) const {
   return pointInElement(embedding_[v].element, localCoordinates(v));
 }
 
-template <class Write>
+template <class Want, class Write, class Skip>
 void DeformationOctree::forEachVoxelPosition(const std::vector<std::uint32_t>& voxels,
-                                             bool threaded, Write&& write) const {
+                                             bool threaded, Want&& want, Write&& write,
+                                             Skip&& skip) const {
   // Voxels listed in index order come in runs along x through one element: the row segment
   // is computed once per run (element, y offset, z offset) and each voxel costs one lerp.
   parallelFor(
@@ -150,8 +151,12 @@ void DeformationOctree::forEachVoxelPosition(const std::vector<std::uint32_t>& v
         RowSegment row{Vec3d::Zero(), Vec3d::Zero()};
         for (std::size_t i = b; i < e; ++i) {
           const VoxelEmbedding& em = embedding_[voxels[i]];
+          VOXCUT_ASSERT(em.element != kNoElement, "voxel is empty");
+          if (!want(em.element)) {
+            skip(i, em.element);
+            continue;
+          }
           if (em.element != element || em.offset[1] != oy || em.offset[2] != oz) {
-            VOXCUT_ASSERT(em.element != kNoElement, "voxel is empty");
             element = em.element;
             oy = em.offset[1];
             oz = em.offset[2];
@@ -159,7 +164,7 @@ void DeformationOctree::forEachVoxelPosition(const std::vector<std::uint32_t>& v
             row = rowSegment(positions_, elements_[element].nodes, (oy + 0.5) * inv,
                              (oz + 0.5) * inv);
           }
-          write(i, Vec3d(row.start + ((em.offset[0] + 0.5) * inv) * row.delta));
+          write(i, em.element, Vec3d(row.start + ((em.offset[0] + 0.5) * inv) * row.delta));
         }
       },
       threaded);
@@ -168,7 +173,10 @@ void DeformationOctree::forEachVoxelPosition(const std::vector<std::uint32_t>& v
 void DeformationOctree::updateVoxelPositions(const std::vector<std::uint32_t>& voxels,
                                              std::vector<Vec3d>& out, bool threaded) const {
   out.resize(voxels.size());
-  forEachVoxelPosition(voxels, threaded, [&](std::size_t i, const Vec3d& p) { out[i] = p; });
+  forEachVoxelPosition(
+      voxels, threaded, [](std::uint32_t) { return true; },
+      [&](std::size_t i, std::uint32_t, const Vec3d& p) { out[i] = p; },
+      [](std::size_t, std::uint32_t) {});
 }
 
 void DeformationOctree::updateVoxelPositions(const std::vector<std::uint32_t>& voxels,
@@ -176,10 +184,29 @@ void DeformationOctree::updateVoxelPositions(const std::vector<std::uint32_t>& v
                                              bool threaded) const {
   out.resize(voxels.size());
   owners.resize(voxels.size());
-  forEachVoxelPosition(voxels, threaded, [&](std::size_t i, const Vec3d& p) {
-    out[i] = p;
-    owners[i] = embedding_[voxels[i]].element;
-  });
+  forEachVoxelPosition(
+      voxels, threaded, [](std::uint32_t) { return true; },
+      [&](std::size_t i, std::uint32_t e, const Vec3d& p) {
+        out[i] = p;
+        owners[i] = e;
+      },
+      [](std::size_t, std::uint32_t) {});
+}
+
+void DeformationOctree::updateVoxelPositions(const std::vector<std::uint32_t>& voxels,
+                                             std::vector<Vec3d>& out, std::vector<std::uint32_t>& owners,
+                                             const std::vector<std::uint8_t>& elementMask,
+                                             bool threaded) const {
+  VOXCUT_ASSERT(elementMask.size() == elements_.size(), "one mask byte per element");
+  out.resize(voxels.size());
+  owners.resize(voxels.size());
+  forEachVoxelPosition(
+      voxels, threaded, [&](std::uint32_t e) { return elementMask[e] != 0; },
+      [&](std::size_t i, std::uint32_t e, const Vec3d& p) {
+        out[i] = p;
+        owners[i] = e;
+      },
+      [&](std::size_t i, std::uint32_t e) { owners[i] = e; });
 }
 
 Eigen::AlignedBox3d DeformationOctree::elementBounds(std::uint32_t e) const {

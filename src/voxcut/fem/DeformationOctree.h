@@ -141,6 +141,12 @@ class DeformationOctree {
   /// As updateVoxelPositions, and owners[i] = owner(voxels[i]) (resized too).
   void updateVoxelPositions(const std::vector<std::uint32_t>& voxels, std::vector<Vec3d>& out,
                             std::vector<std::uint32_t>& owners, bool threaded = true) const;
+  /// As the version with owners, but out[i] is written only where elementMask[owners[i]] is
+  /// non-zero (one byte per element); the other entries of `out` keep what they held (for a
+  /// blade that reaches a few elements only). `out` and `owners` are resized.
+  void updateVoxelPositions(const std::vector<std::uint32_t>& voxels, std::vector<Vec3d>& out,
+                            std::vector<std::uint32_t>& owners,
+                            const std::vector<std::uint8_t>& elementMask, bool threaded = true) const;
 
   /// Axis-aligned bounds of element e's current corners (metres); they hold all its voxels.
   [[nodiscard]] Eigen::AlignedBox3d elementBounds(std::uint32_t e) const;
@@ -187,9 +193,11 @@ class DeformationOctree {
   friend class TopologyEditor;
   void rebuildCubeIndex();
 
-  template <class Write>
-  void forEachVoxelPosition(const std::vector<std::uint32_t>& voxels, bool threaded,
-                            Write&& write) const;
+  /// Calls write(i, element, position) for each listed voxel whose element passes
+  /// want(element), and skip(i, element) for the others.
+  template <class Want, class Write, class Skip>
+  void forEachVoxelPosition(const std::vector<std::uint32_t>& voxels, bool threaded, Want&& want,
+                            Write&& write, Skip&& skip) const;
 
   Index3 dims_;
   Vec3d origin_ = Vec3d::Zero();
