@@ -213,6 +213,17 @@ TEST(DeformationOctree, VoxelPositionListMatchesSingleAndThreads) {
   EXPECT_EQ(three, one);
   ASSERT_EQ(owners.size(), voxels.size());
   for (std::size_t i = 0; i < voxels.size(); ++i) ASSERT_EQ(owners[i], oc.owner(voxels[i]));
+  // With an element mask: the masked elements' voxels positioned bitwise the same, the others
+  // left as they were, every owner written.
+  std::vector<std::uint8_t> mask(oc.elementCount(), 0);
+  for (std::size_t e = 0; e < mask.size(); e += 3) mask[e] = 1;
+  const Vec3d untouched(-7.0, 8.0, -9.0);
+  std::vector<Vec3d> four(voxels.size(), untouched);
+  std::vector<std::uint32_t> maskedOwners;
+  oc.updateVoxelPositions(voxels, four, maskedOwners, mask);
+  EXPECT_EQ(maskedOwners, owners);
+  for (std::size_t i = 0; i < voxels.size(); ++i)
+    ASSERT_EQ(four[i], mask[owners[i]] ? one[i] : untouched) << "voxel " << voxels[i];
   // Element bounds hold their voxels.
   std::vector<Eigen::AlignedBox3d> boxes;
   oc.updateElementBounds(boxes);
