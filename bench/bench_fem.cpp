@@ -11,7 +11,7 @@
 //    after every cut.
 // Each step benchmark runs with 1 and 2 worker threads (first argument) and each
 // preconditioner (second: 0 Jacobi, 1 BlockJacobi, 2 SymmetricGaussSeidel, 3
-// IncompleteCholesky, 4 TwoLevel). A body is first
+// IncompleteCholesky, 4 TwoLevel, 5 Cholesky). A body is first
 // stepped 20 times from rest (the warm start and rotations then look like a running
 // simulation), then each benchmark iteration is one step, timed alone (manual time).
 // Counters: iterations per step, assembly and solve milliseconds per step, steps that did not
@@ -160,7 +160,7 @@ void Cantilever(benchmark::State& state) {
 }
 
 void allSettings(benchmark::internal::Benchmark* b) {
-  for (int p = 0; p < 5; ++p)
+  for (int p = 0; p < 6; ++p)
     for (int t : {1, 2}) b->Args({t, p});
   b->UseManualTime()->Unit(benchmark::kMillisecond)->MinTime(0.3);
 }

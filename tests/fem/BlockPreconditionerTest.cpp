@@ -84,13 +84,9 @@ TEST(BlockPreconditioner, IncompleteCholeskyOnAMeshMatchesThePatternAndIsSymmetr
   fixed.at(0) = 1;
   b.model.setFixed(fixed);
   const BlockSparsity& sp = b.model.sparsity();
-  const Eigen::SparseMatrix<double> p = prolongationMatrix(b.model);
-  Eigen::MatrixXd a = Eigen::MatrixXd(p.transpose() * restStiffnessMatrix(b.model) * p) * 1e-5;
-  for (Eigen::Index i = 0; i < a.rows(); ++i) a(i, i) += 1e-3;
-  std::vector<Eigen::Matrix3d> blocks(sp.blockCount());
-  for (std::size_t i = 0; i + 1 < sp.rowStart.size(); ++i)
-    for (std::uint32_t s = sp.rowStart[i]; s < sp.rowStart[i + 1]; ++s)
-      blocks[s] = a.block<3, 3>(3 * static_cast<Eigen::Index>(i), 3 * sp.column[s]);
+  const test::BlockSystem system = test::restBlockSystem(b.model);
+  const Eigen::MatrixXd& a = system.dense;
+  const std::vector<Eigen::Matrix3d>& blocks = system.blocks;
   IncompleteCholeskyFactor factor;
   factorIncompleteCholesky(sp, incompleteCholeskyPattern(sp), blocks, factor);
   const std::size_t rows = sp.diagonal.size();

@@ -94,6 +94,26 @@ inline Body smallBody(double alpha, double beta) {
   return b;
 }
 
+/// A fixed SPD system on a body's reduced sparsity: P^T K P (rest stiffness) scaled by 1e-5
+/// plus 1e-3 on the diagonal, densely and as one 3x3 block per slot.
+struct BlockSystem {
+  Eigen::MatrixXd dense;
+  std::vector<Eigen::Matrix3d> blocks;
+};
+
+inline BlockSystem restBlockSystem(const ElasticModel& model) {
+  const BlockSparsity& sp = model.sparsity();
+  const Eigen::SparseMatrix<double> p = prolongationMatrix(model);
+  BlockSystem out;
+  out.dense = Eigen::MatrixXd(p.transpose() * restStiffnessMatrix(model) * p) * 1e-5;
+  for (Eigen::Index i = 0; i < out.dense.rows(); ++i) out.dense(i, i) += 1e-3;
+  out.blocks.resize(sp.blockCount());
+  for (std::size_t i = 0; i + 1 < sp.rowStart.size(); ++i)
+    for (std::uint32_t s = sp.rowStart[i]; s < sp.rowStart[i + 1]; ++s)
+      out.blocks[s] = out.dense.block<3, 3>(3 * static_cast<Eigen::Index>(i), 3 * sp.column[s]);
+  return out;
+}
+
 /// Smooth perturbation of the nodes (metres) except those flagged in `keep`; hanging nodes
 /// then follow their masters.
 inline void perturb(DeformationOctree& oc, double amplitude,

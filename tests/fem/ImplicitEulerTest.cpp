@@ -348,31 +348,96 @@ TEST(ImplicitEulerDynamics, EnergyNeverGrowsWithDamping) {
   EXPECT_LT(previous, 0.5 * initial);  // it did dissipate
 }
 
-std::vector<Vec3d> runSteps(int threads, int steps, std::vector<StepStatus>& statuses) {
+/// Flags the nodes whose grid coordinate on `axis` is 0.
+std::vector<std::uint8_t> nodesAtZero(const DeformationOctree& oc, int axis) {
+  std::vector<std::uint8_t> fixed(oc.nodeCount(), 0);
+  for (std::size_t n = 0; n < fixed.size(); ++n)
+    fixed[n] = oc.nodeCoord(static_cast<std::uint32_t>(n))[axis] == 0 ? 1 : 0;
+  return fixed;
+}
+
+std::vector<Vec3d> runSteps(int threads, int steps, std::vector<StepStatus>& statuses,
+                            Preconditioner kind) {
   ThreadLimit limit(threads);
   Body b = smallBody(0.2, 1e-4);
-  std::vector<std::uint8_t> fixed(b.octree.nodeCount(), 0);
-  for (std::size_t n = 0; n < fixed.size(); ++n)
-    fixed[n] = b.octree.nodeCoord(static_cast<std::uint32_t>(n)).x == 0 ? 1 : 0;
-  b.model.setFixed(fixed);
+  b.model.setFixed(nodesAtZero(b.octree, 0));
   perturb(b.octree, 5e-4);
   ImplicitEulerParams p;
   p.gravity = Vec3d(0.3, -2.0, -9.81);
+  p.preconditioner = kind;
   ImplicitEuler solver(p);
   for (int s = 0; s < steps; ++s) statuses.push_back(solver.step(b.model, b.octree));
   return b.octree.positions();
 }
 
 TEST(ImplicitEulerDynamics, BitIdenticalAtOneAndTwoThreads) {
-  std::vector<StepStatus> one, two;
-  const auto a = runSteps(1, 25, one);
-  const auto b = runSteps(2, 25, two);
-  ASSERT_EQ(a.size(), b.size());
-  for (std::size_t n = 0; n < a.size(); ++n) ASSERT_EQ(a[n], b[n]) << "node " << n;
-  for (std::size_t s = 0; s < one.size(); ++s) {
-    EXPECT_EQ(one[s].iterations, two[s].iterations);
-    EXPECT_EQ(one[s].residual, two[s].residual);
-    EXPECT_TRUE(one[s].converged);
+  for (Preconditioner kind : {Preconditioner::TwoLevel, Preconditioner::Cholesky}) {
+    std::vector<StepStatus> one, two;
+    const auto a = runSteps(1, 25, one, kind);
+    const auto b = runSteps(2, 25, two, kind);
+    ASSERT_EQ(a.size(), b.size());
+    for (std::size_t n = 0; n < a.size(); ++n)
+      ASSERT_EQ(a[n], b[n]) << preconditionerName(kind) << " node " << n;
+    for (std::size_t s = 0; s < one.size(); ++s) {
+      EXPECT_EQ(one[s].iterations, two[s].iterations);
+      EXPECT_EQ(one[s].residual, two[s].residual);
+      EXPECT_EQ(one[s].factorised, two[s].factorised);
+      EXPECT_TRUE(one[s].converged);
+    }
+  }
+}
+
+TEST(ImplicitEulerDynamics, CholeskyFactorIsReusedUntilStaleAndRedoneAfterAChange) {
+  Body b = smallBody(0.2, 1e-4);
+  b.model.setFixed(nodesAtZero(b.octree, 0));
+  perturb(b.octree, 2e-3);
+  ImplicitEulerParams p;
+  p.gravity = Vec3d(0.3, -2.0, -9.81);
+  p.preconditioner = Preconditioner::Cholesky;
+  p.refactorIterations = 2;
+  ImplicitEuler solver(p);
+  std::vector<StepStatus> st;
+  for (int s = 0; s < 30; ++s) {
+    st.push_back(solver.step(b.model, b.octree));
+    ASSERT_TRUE(st.back().converged) << "step " << s;
+  }
+  EXPECT_FALSE(st[0].factorised);  // the first step on a structure: two-level
+  EXPECT_EQ(st[0].preconditioner, Preconditioner::TwoLevel);
+  EXPECT_TRUE(st[1].factorised);
+  int reused = 0;
+  for (std::size_t s = 2; s < st.size(); ++s) {
+    if (st[s].iterations == 0) continue;  // converged on the warm start: no preconditioner
+    // Refactorised exactly when the step before needed more iterations than the setting.
+    EXPECT_EQ(st[s].factorised, st[s - 1].iterations > p.refactorIterations) << "step " << s;
+    reused += st[s].factorised ? 0 : 1;
+    // A fresh factor of this step's matrix solves it in one or two iterations.
+    if (st[s].factorised) {
+      EXPECT_LE(st[s].iterations, 2) << "step " << s;
+    }
+  }
+  EXPECT_GT(reused, 10);
+  const std::vector<std::uint8_t> fixed = nodesAtZero(b.octree, 1);
+  b.model.setFixed(fixed);
+  // A new sparsity (here: other fixed nodes): its first step runs on the two-level
+  // preconditioner, the next one factorises it.
+  const StepStatus change = solver.step(b.model, b.octree);
+  EXPECT_TRUE(change.converged);
+  EXPECT_FALSE(change.factorised);
+  EXPECT_EQ(change.preconditioner, Preconditioner::TwoLevel);
+  const StepStatus after = solver.step(b.model, b.octree);
+  EXPECT_TRUE(after.converged);
+  EXPECT_TRUE(after.factorised);
+  EXPECT_EQ(after.preconditioner, Preconditioner::Cholesky);
+  // A factor over the cost limit is never computed: the two-level preconditioner stands in.
+  p.maxFactorUpdates = 0.0;
+  solver.setParams(p);
+  b.model.setFixed(fixed);
+  for (int s = 0; s < 5; ++s) {
+    const StepStatus fallback = solver.step(b.model, b.octree);
+    EXPECT_TRUE(fallback.converged);
+    EXPECT_FALSE(fallback.factorised);
+    EXPECT_EQ(fallback.preconditioner, Preconditioner::TwoLevel);
+    EXPECT_GT(fallback.iterations, 2);
   }
 }
 
@@ -407,8 +472,8 @@ TEST(ImplicitEulerDynamics, CoupledPreconditionersAgreeWithBlockJacobi) {
   Body reference = base;
   ImplicitEuler sr(p);
   for (int s = 0; s < 5; ++s) ASSERT_TRUE(sr.step(reference.model, reference.octree).converged);
-  for (Preconditioner kind : {Preconditioner::SymmetricGaussSeidel,
-                              Preconditioner::IncompleteCholesky, Preconditioner::TwoLevel}) {
+  for (Preconditioner kind : {Preconditioner::SymmetricGaussSeidel, Preconditioner::IncompleteCholesky,
+                              Preconditioner::TwoLevel, Preconditioner::Cholesky}) {
     Body b = base;
     p.preconditioner = kind;
     ImplicitEuler solver(p);
@@ -428,8 +493,9 @@ TEST(ImplicitEulerDynamics, CoupledPreconditionersAgreeWithBlockJacobi) {
 TEST(ImplicitEulerDynamics, CoupledPreconditionersConvergeOnAMixedLevelMesh) {
   // A level-3 block cut halfway through: elements at the cut refined to level 0 (1-voxel
   // elements next to 8-voxel ones, 64 times stiffer relative to their mass), the system the
-  // bunny meets after a cut. Block Jacobi needs many times the iterations of IC(0), and the
-  // two-level preconditioner needs half those of symmetric Gauss-Seidel or fewer.
+  // bunny meets after a cut. Block Jacobi needs many times the iterations of IC(0), the
+  // two-level preconditioner needs half those of symmetric Gauss-Seidel or fewer, and the
+  // Cholesky factor (of the first step's matrix, refactorised when it goes stale) fewer still.
   VoxelGrid g = makeGrid({32, 32, 32}, 0.002, [](int, int, int) { return 1; });
   DeformationOctree oc = makeOctree(g, 3, 3);
   std::vector<std::uint64_t> cut;
@@ -454,10 +520,10 @@ TEST(ImplicitEulerDynamics, CoupledPreconditionersConvergeOnAMixedLevelMesh) {
   p.gravity = Vec3d(0, -9.81, 0);
   p.tolerance = 1e-6;
   p.maxIterations = 5000;
-  constexpr int kKinds = 4;
+  constexpr int kKinds = 5;
   const Preconditioner kinds[kKinds] = {
       Preconditioner::BlockJacobi, Preconditioner::IncompleteCholesky,
-      Preconditioner::SymmetricGaussSeidel, Preconditioner::TwoLevel};
+      Preconditioner::SymmetricGaussSeidel, Preconditioner::TwoLevel, Preconditioner::Cholesky};
   std::vector<Vec3d> result[kKinds];
   int iterations[kKinds] = {};
   for (int k = 0; k < kKinds; ++k) {
@@ -474,6 +540,7 @@ TEST(ImplicitEulerDynamics, CoupledPreconditionersConvergeOnAMixedLevelMesh) {
   }
   EXPECT_GE(iterations[0], 3 * iterations[1]);
   EXPECT_GE(iterations[2], 2 * iterations[3]);
+  EXPECT_LE(2 * iterations[4], iterations[3]);
   double moved = 0;
   for (std::size_t n = 0; n < oc.nodeCount(); ++n)
     moved = std::max(moved, (result[0][n] - oc.restPositions()[n]).norm());

@@ -319,7 +319,7 @@ TEST(SceneReaderErrors, OutOfRangeNamesTheKeyPathAndTheValue) {
   expectError(withTop(R"("solver": {"max_iterations": 0})"),
               "solver.max_iterations: must be an integer in 1..");
   expectError(withTop(R"("solver": {"preconditioner": "multigrid"})"),
-              R"(solver.preconditioner: unknown preconditioner "multigrid" (expected one of: "jacobi", "block_jacobi", "symmetric_gauss_seidel", "incomplete_cholesky", "two_level"))");
+              R"(solver.preconditioner: unknown preconditioner "multigrid" (expected one of: "jacobi", "block_jacobi", "symmetric_gauss_seidel", "incomplete_cholesky", "two_level", "cholesky"))");
   expectError(withTop(R"("solver": {"preconditioner": 3})"),
               "solver.preconditioner: unknown preconditioner 3");
 }
@@ -330,7 +330,7 @@ TEST(SceneReader, PreconditionerByName) {
                                       preconditionerName(kind) + "\"}"));
     EXPECT_EQ(scene.solver.preconditioner, kind) << preconditionerName(kind);
   }
-  EXPECT_EQ(parse(withTop(R"("frames": 3)")).solver.preconditioner, Preconditioner::TwoLevel);
+  EXPECT_EQ(parse(withTop(R"("frames": 3)")).solver.preconditioner, Preconditioner::Cholesky);
 }
 
 TEST(SceneReaderErrors, NotAnIntegerIsAnError) {

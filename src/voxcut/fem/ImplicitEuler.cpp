@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <utility>
 
 #include "voxcut/core/Error.h"
@@ -106,6 +107,7 @@ const char* preconditionerName(Preconditioner p) {
     case Preconditioner::SymmetricGaussSeidel: return "symmetric_gauss_seidel";
     case Preconditioner::IncompleteCholesky: return "incomplete_cholesky";
     case Preconditioner::TwoLevel: return "two_level";
+    case Preconditioner::Cholesky: return "cholesky";
   }
   return "unknown";
 }
@@ -313,10 +315,12 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
   };
   // Jacobi and block Jacobi act row by row, fused into the vector updates; the coupled
   // preconditioners run as one sequential sweep over all rows after them.
-  const Preconditioner kind = params_.preconditioner;
+  Preconditioner kind = params_.preconditioner;
   const bool pointwise = kind == Preconditioner::Jacobi || kind == Preconditioner::BlockJacobi;
   auto precondition = [&] {
-    if (kind == Preconditioner::IncompleteCholesky)
+    if (kind == Preconditioner::Cholesky)
+      cholesky_.solve(r_, z_);
+    else if (kind == Preconditioner::IncompleteCholesky)
       applyIncompleteCholesky(sp, factor_, r_, z_);
     else if (kind == Preconditioner::TwoLevel)
       twoLevel_.apply(sp, model.aggregation(), blocks_, preconditioner_, r_, z_, threaded);
@@ -326,6 +330,7 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
   };
 
   StepStatus status;
+  status.preconditioner = params_.preconditioner;
   const double bb = chunkedSum(rows, partial_, threaded, [&](std::size_t i) {
     x_[i] = params_.warmStart ? lastDv_[model.freeNodes()[i]] : Vec3d::Zero();
     return b_[i].squaredNorm();
@@ -357,9 +362,26 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
       }
       factorIncompleteCholesky(sp, icPattern_, blocks_, factor_);
     }
+    if (kind == Preconditioner::Cholesky) {
+      // A new structure is analysed and factorised once it has lasted factorAfterSteps steps;
+      // until then, when its factor would cost too much, or when the matrix is not SPD, the
+      // two-level V-cycle stands in.
+      const std::uint64_t revision = model.sparsityRevision();
+      if (choleskyRevision_ != revision && stepsOnStructure_ >= params_.factorAfterSteps) {
+        cholesky_.analyse(sp);
+        choleskyRevision_ = revision;
+      }
+      if (choleskyRevision_ != revision || cholesky_.updateCount() > params_.maxFactorUpdates) {
+        kind = Preconditioner::TwoLevel;
+      } else if (!cholesky_.factorised() || lastIterations_ > params_.refactorIterations) {
+        status.factorised = cholesky_.factorise(sp, blocks_, threaded);
+        if (!status.factorised) kind = Preconditioner::TwoLevel;
+      }
+    }
     if (kind == Preconditioner::TwoLevel)
       (void)twoLevel_.setup(sp, model.aggregation(), blocks_, &freePositions_, threaded);
     rz = precondition();
+    status.preconditioner = kind;
   }
   finite = finite && std::isfinite(rz);
   std::copy(z_.begin(), z_.end(), p_.begin());
@@ -408,6 +430,12 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
       "the model does not match the octree (missing updateTopology?)");
   VOXCUT_ASSERT(params_.timeStep > 0.0 && params_.maxIterations >= 0, "bad step settings");
   resize(model);
+  if (model.sparsityRevision() != stepRevision_) {
+    stepRevision_ = model.sparsityRevision();
+    stepsOnStructure_ = 0;
+  } else if (stepsOnStructure_ < std::numeric_limits<int>::max()) {
+    ++stepsOnStructure_;
+  }
   const bool threaded = model.threaded();
   const std::vector<std::uint32_t>& freeNodes = model.freeNodes();
   // Project the velocities through P: fixed and unused nodes at rest, hanging nodes at their
@@ -415,7 +443,8 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
   for (std::size_t i = 0; i < freeNodes.size(); ++i) vr_[i] = velocity_[freeNodes[i]];
   prolong(model.prolongation(), vr_, velocity_, threaded);
 
-  if (params_.preconditioner == Preconditioner::TwoLevel) {  // its coarse space's rotations
+  if (params_.preconditioner == Preconditioner::TwoLevel ||
+      params_.preconditioner == Preconditioner::Cholesky) {  // the two-level coarse rotations
     freePositions_.resize(freeNodes.size());
     for (std::size_t i = 0; i < freeNodes.size(); ++i)
       freePositions_[i] = octree.positions()[freeNodes[i]];
@@ -427,6 +456,7 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
   StepStatus status = solve(model);
   status.assemblyMs = assemblyMs;
   status.solveMs = timer.ms();
+  lastIterations_ = status.iterations;
   if (!status.finite) {
     std::fill(lastDv_.begin(), lastDv_.end(), Vec3d::Zero());
     return status;

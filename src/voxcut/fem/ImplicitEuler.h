@@ -15,8 +15,9 @@
 ///
 /// The system is solved by preconditioned conjugate gradients on a 3x3-block sparse matrix
 /// assembled each step (each block on or above the diagonal gathered from its sources in a
-/// fixed order, the ones below mirrored), preconditioned by default by the two-level V-cycle of
-/// TwoLevelPreconditioner.h (block Gauss-Seidel around a coarse correction), warm-started
+/// fixed order, the ones below mirrored), preconditioned by default by the sparse Cholesky
+/// factor of an earlier step's matrix (BlockCholesky.h; the two-level V-cycle of
+/// TwoLevelPreconditioner.h stands in where no factor is ready), warm-started
 /// from the previous step's dv. Parallel over elements and rows; dot products are summed over
 /// fixed chunks in a fixed order and triangular solves are sequential, so results are
 /// bit-identical for any thread count.
@@ -30,6 +31,7 @@
 #include <vector>
 
 #include "voxcut/core/Types.h"
+#include "voxcut/fem/BlockCholesky.h"
 #include "voxcut/fem/BlockPreconditioner.h"
 #include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/fem/ElasticModel.h"
@@ -41,10 +43,10 @@ namespace voxcut {
 /// Preconditioner of the conjugate gradients. Iterations per step measured with
 /// bench/bench_fem (after 20 steps from rest; the bunny cases with E 1e5 Pa):
 ///
-///   case                                   Jacobi  BlockJacobi  SymGaussSeidel  IC(0)  TwoLevel
-///   bunny, 766 free nodes, tol 1e-3            55           50              26     11        13
-///   bunny after the ear cut, 1,704 free      >100         >100              63     36        13
-///   cantilever, 4,869 free, tol 1e-4         >400         >400             190    123        11
+///   case                                Jacobi  BlockJacobi  SymGaussSeidel  IC(0)  TwoLevel  Cholesky
+///   bunny, 766 free nodes, tol 1e-3         55           50              26     11        13       3.1
+///   bunny after the ear cut, 1,704 free   >100         >100              63     36        13       2.8
+///   cantilever, 4,869 free, tol 1e-4      >400         >400             190    123        11   (TwoLevel)
 ///
 /// IC(0) costs a factorisation per step (about 4 matrix-vector products' worth of work) and a
 /// sequential solve per iteration (about one product). Where a pivot breaks down it falls back
@@ -52,10 +54,20 @@ namespace voxcut {
 /// IC(0) went unstable (a piece flew off). Symmetric Gauss-Seidel is positive definite for any
 /// SPD matrix and stable there, but its iterations grow with the body's size, with the
 /// contrast between element sizes and on a cut-off piece that hangs on its mass alone. The
-/// two-level V-cycle (the default) adds a coarse correction by the rigid motions of node
-/// aggregates: an iteration costs about 2.5 products and the coarse matrix (6 unknowns per
-/// aggregate) is factorised (sparse Cholesky) every step, but its iterations stay low in every
-/// case.
+/// two-level V-cycle adds a coarse correction by the rigid motions of node aggregates: an
+/// iteration costs about 2.5 products and the coarse matrix (6 unknowns per aggregate) is
+/// factorised (sparse Cholesky) every step, but its iterations stay low in every case.
+///
+/// Cholesky (the default) preconditions with the exact sparse Cholesky factor of an earlier
+/// step's matrix (BlockCholesky.h). The matrix changes little from one step to the next (the
+/// element rotations move slowly), so a factor stays good for many steps: it is recomputed
+/// only when the previous step needed more than `refactorIterations` iterations, and for a new
+/// sparsity once it has lasted `factorAfterSteps` steps (the steps of a cut, and a system whose
+/// factor would cost more than `maxFactorUpdates`, use the two-level V-cycle). On the bunny a
+/// factorisation costs about 5 ms on one core (770-1,000 free nodes) and an iteration about
+/// 1.5 products (a sequential forward and backward solve), so a step takes 2-3 iterations
+/// and about a third of the two-level's time. Being an exact factor of an SPD matrix, a stale
+/// one is still SPD: the conjugate gradients stay correct, only slower.
 /// All are deterministic for any thread count.
 enum class Preconditioner {
   Jacobi,                ///< inverse of the diagonal entries
@@ -63,15 +75,16 @@ enum class Preconditioner {
   SymmetricGaussSeidel,  ///< one forward and one backward block Gauss-Seidel sweep
   IncompleteCholesky,    ///< block IC(0), refactorised every step (BlockPreconditioner.h)
   TwoLevel,  ///< Gauss-Seidel around a coarse correction on aggregates (TwoLevelPreconditioner.h)
+  Cholesky,  ///< sparse Cholesky factor of an earlier step's matrix (BlockCholesky.h)
 };
 
 /// Every preconditioner, in declaration order.
 inline constexpr Preconditioner kPreconditioners[] = {
     Preconditioner::Jacobi, Preconditioner::BlockJacobi, Preconditioner::SymmetricGaussSeidel,
-    Preconditioner::IncompleteCholesky, Preconditioner::TwoLevel};
+    Preconditioner::IncompleteCholesky, Preconditioner::TwoLevel, Preconditioner::Cholesky};
 
 /// Name of a preconditioner ("jacobi", "block_jacobi", "symmetric_gauss_seidel",
-/// "incomplete_cholesky", "two_level"), for reports and scene files.
+/// "incomplete_cholesky", "two_level", "cholesky"), for reports and scene files.
 [[nodiscard]] const char* preconditionerName(Preconditioner p);
 
 /// Settings of a time step.
@@ -80,8 +93,19 @@ struct ImplicitEulerParams {
   Vec3d gravity = Vec3d::Zero();  ///< g (m/s^2), as external force M g
   double tolerance = 1e-3;        ///< stop when |r| <= tolerance |b| (reduced 2-norms)
   int maxIterations = 200;        ///< conjugate-gradient iteration cap (>= 0)
-  Preconditioner preconditioner = Preconditioner::TwoLevel;
+  Preconditioner preconditioner = Preconditioner::Cholesky;
   bool warmStart = true;  ///< start from the previous step's dv
+  /// Cholesky only: refactorise when the previous step's solve took more iterations than
+  /// this (the factor has gone stale).
+  int refactorIterations = 4;
+  /// Cholesky only: a new sparsity (a cut, other fixed nodes) is analysed and factorised once
+  /// it has lasted this many steps; the steps before use the two-level preconditioner. While
+  /// a blade cuts every frame, a factor would be thrown away as soon as it was made.
+  int factorAfterSteps = 1;
+  /// Cholesky only: when one factorisation would cost more 3x3 block updates than this
+  /// (BlockCholesky::updateCount, about 10 ns each here), the two-level preconditioner is used
+  /// instead (a factor whose fill outgrows the body is not worth its time and memory).
+  double maxFactorUpdates = 2e7;
 };
 
 /// What one step did.
@@ -92,6 +116,10 @@ struct StepStatus {
   bool finite = true;      ///< false: a non-finite value appeared; nothing was moved
   double assemblyMs = 0.0;  ///< wall time of the assembly (rotations, forces, blocks), ms
   double solveMs = 0.0;     ///< wall time of the preconditioner set-up and the solve, ms
+  bool factorised = false;  ///< Cholesky: this step computed a new factor
+  /// The preconditioner the solve used (Cholesky may hand a step to TwoLevel); the setting's
+  /// own when the warm start already converged.
+  Preconditioner preconditioner = Preconditioner::Cholesky;
 };
 
 /// Backward Euler integrator: the node velocities and the solver's state between steps.
@@ -152,6 +180,11 @@ class ImplicitEuler {
   std::uint64_t icRevision_ = 0;
   IncompleteCholeskyFactor factor_;
   TwoLevelPreconditioner twoLevel_;
+  BlockCholesky cholesky_;                ///< analysed for the sparsity with choleskyRevision_
+  std::uint64_t choleskyRevision_ = 0;
+  int lastIterations_ = 0;  ///< of the previous step (Cholesky: decides a refactorisation)
+  std::uint64_t stepRevision_ = 0;  ///< sparsity revision of the last step
+  int stepsOnStructure_ = 0;        ///< steps before this one on the same sparsity
   std::vector<Vec3d> freePositions_;  ///< current positions of the free nodes
   std::vector<Vec3d> b_, x_, r_, z_, p_, q_, vr_;
   std::vector<double> partial_, partial2_;  ///< per chunk of rows, for dot products

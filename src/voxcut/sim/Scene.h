@@ -22,7 +22,7 @@ namespace voxcut {
 struct SolverSettings {
   double tolerance = 1e-3;  ///< relative residual at which PCG stops, > 0
   int maxIterations = 100;  ///< PCG iteration cap, >= 1
-  Preconditioner preconditioner = Preconditioner::TwoLevel;  ///< ImplicitEuler.h
+  Preconditioner preconditioner = Preconditioner::Cholesky;  ///< ImplicitEuler.h
 };
 
 /// A material's physical and voxel-octree parameters. The defaults are a soft tissue (about
