@@ -376,17 +376,22 @@ void ElasticModel::updateTopology(const DeformationOctree& octree, const VoxelGr
   VOXCUT_ASSERT(change.elementSource.size() == octree.elementCount(),
                 "one element source per element");
   VOXCUT_ASSERT(change.nodeSource.size() == octree.nodeCount(), "one node source per node");
-  std::vector<ElementMatrices> next(octree.elementCount());
-  std::vector<std::uint32_t> fresh;
-  for (std::size_t e = 0; e < next.size(); ++e) {
+  // Most elements keep their index: they stay in place (an element's matrices are 4.7 kB).
+  // The ones that moved are gathered first, so no source is overwritten before it is read.
+  std::vector<std::uint32_t> fresh, moved;
+  std::vector<ElementMatrices> movedMatrices;
+  for (std::size_t e = 0; e < octree.elementCount(); ++e) {
     const std::uint32_t s = change.elementSource[e];
     if (s == kNewElement) {
       fresh.push_back(static_cast<std::uint32_t>(e));
-    } else {
+    } else if (s != e) {
       VOXCUT_ASSERT(s < elements_.size(), "element source out of range");
-      next[e] = elements_[s];
+      moved.push_back(static_cast<std::uint32_t>(e));
+      movedMatrices.push_back(elements_[s]);
     }
   }
+  elements_.resize(octree.elementCount());
+  for (std::size_t k = 0; k < moved.size(); ++k) elements_[moved[k]] = movedMatrices[k];
   std::vector<std::uint8_t> requested(octree.nodeCount(), 0);
   if (fixed != nullptr) {
     std::copy_n(fixed->begin(), std::min(fixed->size(), requested.size()), requested.begin());
@@ -401,7 +406,6 @@ void ElasticModel::updateTopology(const DeformationOctree& octree, const VoxelGr
       requested[n] = all ? 1 : 0;
     }
   }
-  elements_ = std::move(next);
   elementNodes_.clear();
   for (const OctreeElement& el : octree.elements()) elementNodes_.push_back(el.nodes);
   copyNodeCoords(octree);
