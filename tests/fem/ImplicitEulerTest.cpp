@@ -428,17 +428,25 @@ TEST(ImplicitEulerDynamics, CholeskyFactorIsReusedUntilStaleAndRedoneAfterAChang
   EXPECT_TRUE(after.converged);
   EXPECT_TRUE(after.factorised);
   EXPECT_EQ(after.preconditioner, Preconditioner::Cholesky);
-  // A factor over the cost limit is never computed: the two-level preconditioner stands in.
-  p.maxFactorUpdates = 0.0;
+  // A factor over either cost limit is never computed: the two-level preconditioner stands in.
+  for (int limit = 0; limit < 2; ++limit) {
+    ImplicitEulerParams q = p;
+    (limit == 0 ? q.maxFactorUpdates : q.maxFactorUpdatesPerBlock) = 0.0;
+    solver.setParams(q);
+    b.model.setFixed(fixed);
+    for (int s = 0; s < 5; ++s) {
+      const StepStatus fallback = solver.step(b.model, b.octree);
+      EXPECT_TRUE(fallback.converged);
+      EXPECT_FALSE(fallback.factorised);
+      EXPECT_EQ(fallback.preconditioner, Preconditioner::TwoLevel);
+      EXPECT_GT(fallback.iterations, 2);
+    }
+  }
+  // Back to the default limits: the next structure gets its factor again.
   solver.setParams(p);
   b.model.setFixed(fixed);
-  for (int s = 0; s < 5; ++s) {
-    const StepStatus fallback = solver.step(b.model, b.octree);
-    EXPECT_TRUE(fallback.converged);
-    EXPECT_FALSE(fallback.factorised);
-    EXPECT_EQ(fallback.preconditioner, Preconditioner::TwoLevel);
-    EXPECT_GT(fallback.iterations, 2);
-  }
+  EXPECT_FALSE(solver.step(b.model, b.octree).factorised);
+  EXPECT_TRUE(solver.step(b.model, b.octree).factorised);
 }
 
 TEST(ImplicitEulerDynamics, BlockJacobiAndJacobiAgree) {

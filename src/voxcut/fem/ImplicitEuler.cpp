@@ -365,13 +365,27 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
     if (kind == Preconditioner::Cholesky) {
       // A new structure is analysed and factorised once it has lasted factorAfterSteps steps;
       // until then, when its factor would cost too much, or when the matrix is not SPD, the
-      // two-level V-cycle stands in.
+      // two-level V-cycle stands in. A structure at least 90 % the size of one whose factor
+      // was too costly is not analysed again (the analysis alone takes tens of ms there).
       const std::uint64_t revision = model.sparsityRevision();
-      if (choleskyRevision_ != revision && stepsOnStructure_ >= params_.factorAfterSteps) {
-        cholesky_.analyse(sp);
-        choleskyRevision_ = revision;
+      if (choleskyRevision_ != revision && costlyRevision_ != revision &&
+          stepsOnStructure_ >= params_.factorAfterSteps) {
+        if (costlyRows_ != 0 && 10 * rows >= 9 * costlyRows_) {
+          costlyRevision_ = revision;
+        } else {
+          cholesky_.analyse(sp);
+          choleskyRevision_ = revision;
+          const double updates = cholesky_.updateCount();
+          costlyRows_ = 0;
+          if (updates > params_.maxFactorUpdates ||
+              updates > params_.maxFactorUpdatesPerBlock * static_cast<double>(sp.blockCount())) {
+            costlyRows_ = rows;
+            costlyRevision_ = revision;
+            cholesky_ = BlockCholesky{};  // its pattern's memory back
+          }
+        }
       }
-      if (choleskyRevision_ != revision || cholesky_.updateCount() > params_.maxFactorUpdates) {
+      if (choleskyRevision_ != revision || costlyRevision_ == revision) {
         kind = Preconditioner::TwoLevel;
       } else if (!cholesky_.factorised() || lastIterations_ > params_.refactorIterations) {
         status.factorised = cholesky_.factorise(sp, blocks_, threaded);

@@ -63,7 +63,7 @@ namespace voxcut {
 /// element rotations move slowly), so a factor stays good for many steps: it is recomputed
 /// only when the previous step needed more than `refactorIterations` iterations, and for a new
 /// sparsity once it has lasted `factorAfterSteps` steps (the steps of a cut, and a system whose
-/// factor would cost more than `maxFactorUpdates`, use the two-level V-cycle). On the bunny a
+/// factor would cost too much, `maxFactorUpdates`, use the two-level V-cycle). On the bunny a
 /// factorisation costs about 5 ms on one core (770-1,000 free nodes) and an iteration about
 /// 1.5 products (a sequential forward and backward solve), so a step takes 2-3 iterations
 /// and about a third of the two-level's time. Being an exact factor of an SPD matrix, a stale
@@ -103,9 +103,14 @@ struct ImplicitEulerParams {
   /// a blade cuts every frame, a factor would be thrown away as soon as it was made.
   int factorAfterSteps = 1;
   /// Cholesky only: when one factorisation would cost more 3x3 block updates than this
-  /// (BlockCholesky::updateCount, about 10 ns each here), the two-level preconditioner is used
-  /// instead (a factor whose fill outgrows the body is not worth its time and memory).
-  double maxFactorUpdates = 2e7;
+  /// (BlockCholesky::updateCount, about 10 ns each here) or more than maxFactorUpdatesPerBlock
+  /// per block of the matrix, the two-level preconditioner is used instead: a factor whose
+  /// fill outgrows the body costs more to make, and each of its sequential solves more, than
+  /// the iterations it saves. (The bunny, liver and starfish scenes need 20-32 per block; the
+  /// 20 cm cantilever, a thin beam of 4,869 free nodes, 275, and there a step with the factor
+  /// took longer than one with the two-level V-cycle.)
+  double maxFactorUpdates = 1e7;
+  double maxFactorUpdatesPerBlock = 50.0;
 };
 
 /// What one step did.
@@ -128,7 +133,10 @@ class ImplicitEuler {
   explicit ImplicitEuler(const ImplicitEulerParams& params = {}) : params_(params) {}
 
   [[nodiscard]] const ImplicitEulerParams& params() const { return params_; }
-  void setParams(const ImplicitEulerParams& params) { params_ = params; }
+  void setParams(const ImplicitEulerParams& params) {
+    params_ = params;
+    costlyRows_ = 0;  // the cost limits may have changed
+  }
 
   /// Advances `octree` by one time step with `model` (which must match it): writes the new
   /// current positions of the free nodes, then sets the hanging nodes from their masters;
@@ -182,6 +190,8 @@ class ImplicitEuler {
   TwoLevelPreconditioner twoLevel_;
   BlockCholesky cholesky_;                ///< analysed for the sparsity with choleskyRevision_
   std::uint64_t choleskyRevision_ = 0;
+  std::uint64_t costlyRevision_ = 0;  ///< a sparsity whose factor would cost too much
+  std::size_t costlyRows_ = 0;        ///< its rows (0: none so far)
   int lastIterations_ = 0;  ///< of the previous step (Cholesky: decides a refactorisation)
   std::uint64_t stepRevision_ = 0;  ///< sparsity revision of the last step
   int stepsOnStructure_ = 0;        ///< steps before this one on the same sparsity
