@@ -97,7 +97,7 @@ struct ImplicitEulerParams {
   bool warmStart = true;  ///< start from the previous step's dv
   /// Cholesky only: refactorise when the previous step's solve took more iterations than
   /// this (the factor has gone stale).
-  int refactorIterations = 4;
+  int refactorIterations = 3;
   /// Cholesky only: a new sparsity (a cut, other fixed nodes) is analysed and factorised once
   /// it has lasted this many steps; the steps before use the two-level preconditioner. While
   /// a blade cuts every frame, a factor would be thrown away as soon as it was made.
