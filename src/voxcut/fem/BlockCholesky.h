@@ -14,11 +14,13 @@
 ///  2. Symbolic: elimination tree (Liu's algorithm with path compression), then the pattern of
 ///     each block column of L from the row subtrees of the tree, rows ascending.
 ///  3. Numeric: left-looking; column j gathers A's column into a dense block workspace,
-///     subtracts L(j:n, k) L(j, k)^T for every earlier column k with a block in row j (linked
-///     lists of the columns waiting for each row), factorises the 3x3 pivot and scales.
+///     subtracts L(j:n, k) L(j, k)^T for every earlier column k with a block in row j (row j's
+///     blocks listed by the symbolic phase, k ascending), factorises the 3x3 pivot and scales.
 ///  4. Solve: forward L y = b, backward L^T x = y, block by block.
-/// Everything runs sequentially in a fixed order, so the factor does not depend on the thread
-/// count.
+/// Subtrees of the elimination tree (each at most an eighth of the work) are factorised in
+/// parallel, then the columns above them in order; every column is computed by the same
+/// operations in the same order whichever thread runs it, so the factor does not depend on the
+/// thread count. The solves are sequential (in parallel they were no faster here).
 ///
 /// Thread-safety: none; one call at a time per object (all three use its scratch).
 
