@@ -156,8 +156,8 @@ void BlockCholesky::analyse(const BlockSparsity& sp) {
     if (parent[j] != kNone) subtree[parent[j]] += subtree[j];
   }
   planTasks(parent, subtree);
-  lower_.resize(row_.size());
-  pivotInverse_.resize(n);
+  lower_.clear();  // the numeric arrays come with the first factorise
+  pivotInverse_.clear();
   y_.resize(n);
 }
 
@@ -184,7 +184,7 @@ void BlockCholesky::planTasks(const std::vector<std::uint32_t>& parent,
       roots.push_back(static_cast<std::uint32_t>(j));
       total += subtree[j];
     }
-  constexpr std::size_t kMaxTasks = 32;
+  constexpr std::size_t kMaxTasks = 16;  // each needs a workspace of one block per row
   constexpr double kMinParallelWork = 2e4;  // block updates; below this one task does it all
   auto costlier = [&](std::uint32_t a, std::uint32_t b) {
     return subtree[a] < subtree[b] || (subtree[a] == subtree[b] && a > b);
@@ -226,8 +226,7 @@ void BlockCholesky::planTasks(const std::vector<std::uint32_t>& parent,
   std::vector<std::uint32_t> at(taskStart_.begin(), taskStart_.end() - 1);
   for (std::size_t j = 0; j < n; ++j)
     if (!top[j]) taskColumns_[at[taskOf[j]]++] = static_cast<std::uint32_t>(j);
-  work_.assign(std::max<std::size_t>(heap.size(), 1),
-               std::vector<Eigen::Matrix3d>(n, Eigen::Matrix3d::Zero()));
+  work_.clear();  // allocated by the first factorise
 }
 
 bool BlockCholesky::factorColumn(const BlockSparsity& sp, const std::vector<Eigen::Matrix3d>& blocks,
@@ -265,6 +264,11 @@ bool BlockCholesky::factorise(const BlockSparsity& sp, const std::vector<Eigen::
   VOXCUT_ASSERT(sp.rowStart.size() == n + 1 && blocks.size() == sp.blockCount(),
                 "the factor was analysed for another sparsity");
   factorised_ = false;
+  lower_.resize(row_.size());
+  pivotInverse_.resize(n);
+  if (work_.empty())
+    work_.assign(std::max<std::size_t>(taskStart_.size() - 1, 1),
+                 std::vector<Eigen::Matrix3d>(n, Eigen::Matrix3d::Zero()));
   // A column reads only the finished columns of its own subtree, and writes only itself and
   // its task's workspace: the tasks run in parallel, each column computed the same way
   // whichever thread runs it.
