@@ -247,8 +247,9 @@ void ElasticModel::buildSparsity() {
   // Row i of P^T A P gathers, for every node n that restricts to i (weight wn): every element
   // corner a at n, coupled to every corner b and through P to free node j (weight wj); and
   // n's mass, coupled through P to free node j.
-  // Per row: its columns ascending, and per column the sources in the order they are met
-  // (restriction, incidence, corner, prolongation order: fixed, so assembly sums are too).
+  // Per row: its columns ascending, and per column on or above the diagonal the sources in
+  // the order they are met (restriction, incidence, corner, prolongation order: fixed, so
+  // assembly sums are too); the blocks below the diagonal get none.
   // The rows are cut into fixed chunks; each fills its part (flat arrays) and the parts are
   // joined in row order afterwards, so the result does not depend on the partition.
   struct Part {
@@ -275,6 +276,16 @@ void ElasticModel::buildSparsity() {
           const std::size_t end = std::min(rows, (pi + 1) * kRowsPerPart);
           for (std::size_t i = pi * kRowsPerPart; i < end; ++i) {
             entries.clear();
+            columns.clear();
+            // A column left of the diagonal only needs noting: the assembly sums the blocks on
+            // and above the diagonal and mirrors the others, so only those keep sources.
+            auto add = [&](std::uint32_t column, std::uint32_t source, double weight) {
+              if (position[column] == kNotFree) {
+                position[column] = 0;
+                columns.push_back(column);
+              }
+              if (column >= i) entries.push_back({column, source, weight});
+            };
             for (std::uint32_t r = restriction_.start[i]; r < restriction_.start[i + 1]; ++r) {
               const std::uint32_t n = restriction_.index[r];
               const double wn = restriction_.weight[r];
@@ -284,20 +295,13 @@ void ElasticModel::buildSparsity() {
                   const std::uint32_t nb = elementNodes_[e][c];
                   for (std::uint32_t p = prolongation_.start[nb]; p < prolongation_.start[nb + 1];
                        ++p)
-                    entries.push_back({prolongation_.index[p], 64 * e + 8 * a + c,
-                                       wn * prolongation_.weight[p]});
+                    add(prolongation_.index[p], 64 * e + 8 * a + c, wn * prolongation_.weight[p]);
                 }
               }
               for (std::uint32_t p = prolongation_.start[n]; p < prolongation_.start[n + 1]; ++p)
-                entries.push_back({prolongation_.index[p], massBase + n, wn * prolongation_.weight[p]});
+                add(prolongation_.index[p], massBase + n, wn * prolongation_.weight[p]);
             }
-            // Distinct columns, ascending; then the entries bucketed by column, in order.
-            columns.clear();
-            for (const Entry& en : entries)
-              if (position[en.column] == kNotFree) {
-                position[en.column] = 0;
-                columns.push_back(en.column);
-              }
+            // Distinct columns ascending; then the entries bucketed by column, in order.
             std::sort(columns.begin(), columns.end());
             fill.assign(columns.size() + 1, 0);
             for (std::size_t k = 0; k < columns.size(); ++k)

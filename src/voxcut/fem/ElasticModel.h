@@ -51,7 +51,8 @@ struct BlockSparsity {
   std::vector<std::uint32_t> rowStart{0};  ///< #free + 1 offsets into column
   std::vector<std::uint32_t> column;       ///< free index of each block, ascending per row
   std::vector<std::uint32_t> diagonal;     ///< slot of block (i, i), #free
-  /// Per block, sources [sourceStart[s], sourceStart[s + 1]): an id below 64 * #elements is
+  /// Per block on or above the diagonal (the assembly mirrors the others, which have none),
+  /// sources [sourceStart[s], sourceStart[s + 1]): an id below 64 * #elements is
   /// the element block 64 e + 8 a + b (corners a, b of element e); an id 64 * #elements + n is
   /// node n's lumped mass (times the identity); each with a weight (products of prolongation
   /// weights).
