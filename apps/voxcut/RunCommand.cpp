@@ -27,6 +27,7 @@ struct Summary {
   std::vector<double> frameMs;
   std::size_t cutLinks = 0;
   long long iterations = 0;
+  long long factorisations = 0;
   bool converged = true;
 };
 
@@ -109,7 +110,7 @@ int runRun(const RunOptions& opt) {
     if (!csv) throw InputError("--csv: cannot write '" + opt.csv + "'");
     csv << "frame,time_s";
     for (const std::string& s : stages) csv << "," << s << "_ms";
-    csv << ",frame_ms,cut_links,solver_iterations,converged\n";
+    csv << ",frame_ms,cut_links,solver_iterations,converged,solver_factorisations\n";
   }
 
   Summary sum;
@@ -124,12 +125,13 @@ int runRun(const RunOptions& opt) {
     sum.frameMs.push_back(r.totalMs);
     sum.cutLinks += r.cutLinks;
     sum.iterations += r.solverIterations;
+    sum.factorisations += r.solverFactorisations;
     sum.converged = sum.converged && r.converged;
     if (csv.is_open()) {
       csv << r.frame << "," << r.time;
       for (double ms : r.stageMs) csv << "," << ms;
       csv << "," << r.totalMs << "," << r.cutLinks << "," << r.solverIterations << ","
-          << (r.converged ? 1 : 0) << "\n";
+          << (r.converged ? 1 : 0) << "," << r.solverFactorisations << "\n";
     }
     if (!opt.exportDir.empty() && (f + 1) % opt.every == 0) exportSurfaces(sim, opt.exportDir);
     if (terminal) {
@@ -159,6 +161,7 @@ int runRun(const RunOptions& opt) {
     j["max_displacement"] = sim.maxDisplacement();
     j["solver_iterations_mean"] = iterMean;
     j["converged"] = sum.converged;
+    j["solver_factorisations"] = sum.factorisations;
     nlohmann::json t = nlohmann::json::object();
     for (std::size_t s = 0; s < stages.size(); ++s)
       t[stages[s]] = {{"mean", sum.stageSum[s] / frames}, {"max", sum.stageMax[s]}};
@@ -182,7 +185,8 @@ int runRun(const RunOptions& opt) {
     std::printf("cut links           %zu\n", sum.cutLinks);
     std::printf("pieces              %d (at the start %d)\n", pieces, piecesStart);
     std::printf("max displacement    %.6g m\n", sim.maxDisplacement());
-    std::printf("solver              %.1f iterations per frame, %s\n", iterMean,
+    std::printf("solver              %.1f iterations per frame, %lld factorisations, %s\n", iterMean,
+                sum.factorisations,
                 sum.converged ? "converged every step" : "did NOT converge in some steps");
     std::printf("frame (ms)          mean %.2f, p95 %.2f, max %.2f\n", mean(sum.frameMs),
                 percentile(sum.frameMs, 0.95), percentile(sum.frameMs, 1.0));

@@ -671,10 +671,11 @@ TEST(Cli, RunCutsASphereInTwoAndReportsEveryKey) {
   fs::remove_all(dir);
   const json j = commandJson("run", {scene, "--frames", "30", "--csv", csv, "--export", dir.string(), "--every", "10"});
   for (const char* key : {"frames", "cut_links", "pieces", "max_displacement", "solver_iterations_mean",
-                          "converged", "timings_ms", "frame_ms"})
+                          "converged", "solver_factorisations", "timings_ms", "frame_ms"})
     ASSERT_TRUE(j.contains(key)) << key;  // a const json's [] must not meet a missing key
   EXPECT_EQ(j["frames"], 30);
   EXPECT_GT(j["cut_links"].get<long>(), 0);
+  EXPECT_GE(j["solver_factorisations"].get<long>(), 1);  // the default Cholesky preconditioner
   EXPECT_EQ(j["pieces"], 2);
   for (const char* stage : {"voxel_position_update", "intersection_test", "octree_subdivision", "deformation"}) {
     ASSERT_TRUE(j["timings_ms"].contains(stage)) << stage;
@@ -685,6 +686,8 @@ TEST(Cli, RunCutsASphereInTwoAndReportsEveryKey) {
   // One CSV row per frame after the header; surfaces at frames 0, 10, 20 and 30, closed.
   const std::string rows = readFile(csv);
   EXPECT_EQ(std::count(rows.begin(), rows.end(), '\n'), 31);
+  EXPECT_NE(rows.substr(0, rows.find('\n')).find(",solver_iterations,converged,solver_factorisations"),
+            std::string::npos);
   for (const char* f : {"frame_00000.obj", "frame_00010.obj", "frame_00020.obj", "frame_00030.obj"}) {
     ASSERT_TRUE(fs::exists(dir / f)) << f;
     expectClosedOriented(readObj((dir / f).string()));

@@ -247,6 +247,7 @@ void Simulation::stepBody(SimBody& b, std::vector<double>& ms, FrameReport& repo
   const StepStatus status = b.solver.step(b.model, b.cut.deformation);
   ms[kDeformation] += timer.ms();
   report.solverIterations += status.iterations;
+  report.solverFactorisations += status.factorised ? 1 : 0;
   report.converged = report.converged && status.converged;
   if (!status.finite)
     throw InputError("frame " + std::to_string(frame_) +

@@ -67,6 +67,7 @@ struct FrameReport {
   double totalMs = 0.0;          ///< wall-clock ms of the whole frame
   std::size_t cutLinks = 0;      ///< links cut in this frame
   int solverIterations = 0;      ///< summed over bodies
+  int solverFactorisations = 0;  ///< bodies whose step computed a new Cholesky factor
   bool converged = true;         ///< every body's solve converged
 };
 
