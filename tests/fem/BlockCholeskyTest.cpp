@@ -17,18 +17,16 @@ namespace {
 using test::flat;
 using test::randomVector;
 
-/// A symmetric block matrix on the node graph of an nx x ny x nz lattice (27-point stencil),
-/// optionally as two lattices side by side with no block between them (two pieces), random
-/// blocks, made SPD by a dominant diagonal.
+/// A symmetric block matrix on the node graph of `pieces` nx x ny x nz lattices (27-point
+/// stencil) with no block between them, random blocks, made SPD by a dominant diagonal.
 struct LatticeCase {
   BlockSparsity sp;
   std::vector<Eigen::Matrix3d> blocks;
   Eigen::MatrixXd a;  ///< dense copy
 };
 
-LatticeCase latticeCase(int nx, int ny, int nz, bool twoPieces, unsigned seed) {
+LatticeCase latticeCase(int nx, int ny, int nz, int pieces, unsigned seed) {
   LatticeCase c;
-  const int pieces = twoPieces ? 2 : 1;
   const int perPiece = nx * ny * nz, rows = pieces * perPiece;
   auto id = [&](int p, int x, int y, int z) { return p * perPiece + x + nx * (y + ny * z); };
   std::mt19937 rng(seed);
@@ -73,7 +71,7 @@ double relativeResidual(const Eigen::MatrixXd& a, const std::vector<Vec3d>& z,
 }
 
 TEST(BlockCholesky, SolvesALatticeSystemExactly) {
-  const LatticeCase c = latticeCase(5, 4, 3, false, 3);
+  const LatticeCase c = latticeCase(5, 4, 3, 1, 3);
   BlockCholesky chol;
   chol.analyse(c.sp);
   ASSERT_TRUE(chol.factorise(c.sp, c.blocks));
@@ -97,7 +95,7 @@ TEST(BlockCholesky, SolvesALatticeSystemExactly) {
 TEST(BlockCholesky, ParallelFactorIsBitIdenticalAndExactOnTwoPieces) {
   // Big enough for the parallel plan (several subtrees, then the columns above them), two
   // disconnected pieces (two roots of the elimination tree).
-  const LatticeCase c = latticeCase(9, 8, 7, true, 5);
+  const LatticeCase c = latticeCase(9, 8, 7, 2, 5);
   BlockCholesky one, two;
   one.analyse(c.sp);
   two.analyse(c.sp);
@@ -123,8 +121,33 @@ TEST(BlockCholesky, ParallelFactorIsBitIdenticalAndExactOnTwoPieces) {
   EXPECT_EQ(z1, z2);
 }
 
+TEST(BlockCholesky, ManyPiecesShareAFewTasks) {
+  // 40 separate lattices (a body cut into many pieces): 40 roots, at most 16 tasks (one
+  // workspace each), still bit-identical at 1 and 2 threads and exact.
+  const LatticeCase c = latticeCase(3, 3, 3, 40, 12);
+  BlockCholesky chol;
+  chol.analyse(c.sp);
+  EXPECT_GT(chol.updateCount(), 2e4);
+  EXPECT_GT(chol.taskCount(), 1u);
+  EXPECT_LE(chol.taskCount(), 16u);
+  const std::vector<Vec3d> r = randomVector(c.sp.diagonal.size(), 13);
+  std::vector<Vec3d> z1, z2;
+  {
+    const ThreadLimit limit(1);
+    ASSERT_TRUE(chol.factorise(c.sp, c.blocks, false));
+    chol.solve(r, z1);
+  }
+  {
+    const ThreadLimit limit(2);
+    ASSERT_TRUE(chol.factorise(c.sp, c.blocks, true));
+    chol.solve(r, z2);
+  }
+  EXPECT_EQ(z1, z2);
+  EXPECT_LE(relativeResidual(c.a, z1, r), 1e-12);
+}
+
 TEST(BlockCholesky, ANonPositivePivotIsReportedAndTheNextFactorIsClean) {
-  LatticeCase c = latticeCase(9, 8, 7, false, 8);
+  LatticeCase c = latticeCase(9, 8, 7, 1, 8);
   std::vector<Eigen::Matrix3d> bad = c.blocks;
   bad[c.sp.diagonal[100]](1, 1) = -50.0;  // not SPD
   BlockCholesky chol;

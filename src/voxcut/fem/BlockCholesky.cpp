@@ -205,15 +205,32 @@ void BlockCholesky::planTasks(const std::vector<std::uint32_t>& parent,
         std::push_heap(heap.begin(), heap.end(), costlier);
       }
     }
-  // Tasks in descending cost (the scheduler starts the big ones first), each a list of its
-  // columns in ascending order; the top columns ascending.
+  // The subtrees, costliest first, go to at most kMaxTasks tasks (each to the least loaded
+  // one: many small pieces of a cut body share a few workspaces), and the tasks are ordered
+  // costliest first (the scheduler starts the big ones first). A task lists its columns in
+  // ascending order; the top columns are ascending too.
   std::sort(heap.begin(), heap.end(),
             [&](std::uint32_t a, std::uint32_t b) { return costlier(b, a); });
+  const std::size_t tasks =
+      heap.empty() ? 0 : (total < kMinParallelWork ? 1 : std::min(kMaxTasks, heap.size()));
+  std::vector<double> load(tasks, 0.0);
   std::vector<std::uint32_t> taskOf(n, kNone);
-  for (std::size_t t = 0; t < heap.size(); ++t) taskOf[heap[t]] = static_cast<std::uint32_t>(t);
+  for (std::uint32_t root : heap) {
+    const auto least = static_cast<std::uint32_t>(
+        std::min_element(load.begin(), load.end()) - load.begin());
+    taskOf[root] = least;
+    load[least] += subtree[root];
+  }
+  std::vector<std::uint32_t> rank(tasks);  // tasks by load, descending
+  for (std::size_t t = 0; t < tasks; ++t) rank[t] = static_cast<std::uint32_t>(t);
+  std::stable_sort(rank.begin(), rank.end(),
+                   [&](std::uint32_t a, std::uint32_t b) { return load[a] > load[b]; });
+  std::vector<std::uint32_t> slot(tasks);
+  for (std::size_t t = 0; t < tasks; ++t) slot[rank[t]] = static_cast<std::uint32_t>(t);
+  for (std::uint32_t root : heap) taskOf[root] = slot[taskOf[root]];
   for (std::size_t j = n; j-- > 0;)
     if (!top[j] && taskOf[j] == kNone) taskOf[j] = taskOf[parent[j]];
-  taskStart_.assign(heap.size() + 1, 0);
+  taskStart_.assign(tasks + 1, 0);
   topColumns_.clear();
   for (std::size_t j = 0; j < n; ++j) {
     if (top[j])
@@ -221,7 +238,7 @@ void BlockCholesky::planTasks(const std::vector<std::uint32_t>& parent,
     else
       ++taskStart_[taskOf[j] + 1];
   }
-  for (std::size_t t = 0; t < heap.size(); ++t) taskStart_[t + 1] += taskStart_[t];
+  for (std::size_t t = 0; t < tasks; ++t) taskStart_[t + 1] += taskStart_[t];
   taskColumns_.resize(taskStart_.back());
   std::vector<std::uint32_t> at(taskStart_.begin(), taskStart_.end() - 1);
   for (std::size_t j = 0; j < n; ++j)
