@@ -388,8 +388,10 @@ void ElasticModel::updateTopology(const DeformationOctree& octree, const VoxelGr
     const std::uint32_t s = change.elementSource[e];
     if (s == kNewElement) {
       fresh.push_back(static_cast<std::uint32_t>(e));
-    } else if (s != e) {
-      VOXCUT_ASSERT(s < elements_.size(), "element source out of range");
+      continue;
+    }
+    VOXCUT_ASSERT(s < elements_.size(), "element source out of range");
+    if (s != e) {
       moved.push_back(static_cast<std::uint32_t>(e));
       movedMatrices.push_back(elements_[s]);
     }
