@@ -44,8 +44,8 @@ namespace voxcut {
 /// bench/bench_fem (after 20 steps from rest; the bunny cases with E 1e5 Pa):
 ///
 ///   case                                Jacobi  BlockJacobi  SymGaussSeidel  IC(0)  TwoLevel  Cholesky
-///   bunny, 766 free nodes, tol 1e-3         55           50              26     11        13       3.1
-///   bunny after the ear cut, 1,704 free   >100         >100              63     36        13       2.8
+///   bunny, 766 free nodes, tol 1e-3         55           50              26     11        13       2.2
+///   bunny after the ear cut, 1,704 free   >100         >100              63     36        13       2.3
 ///   cantilever, 4,869 free, tol 1e-4      >400         >400             190    123        11   (TwoLevel)
 ///
 /// IC(0) costs a factorisation per step (about 4 matrix-vector products' worth of work) and a
@@ -64,9 +64,9 @@ namespace voxcut {
 /// only when the previous step needed more than `refactorIterations` iterations, and for a new
 /// sparsity once it has lasted `factorAfterSteps` steps (the steps of a cut, and a system whose
 /// factor would cost too much, `maxFactorUpdates`, use the two-level V-cycle). On the bunny a
-/// factorisation costs about 5 ms on one core (770-1,000 free nodes) and an iteration about
-/// 1.5 products (a sequential forward and backward solve), so a step takes 2-3 iterations
-/// and about a third of the two-level's time. Being an exact factor of an SPD matrix, a stale
+/// factorisation costs about 5 ms on one core (770-1,000 free nodes) and an iteration the time
+/// of 2-4 products (its forward and backward solves are sequential), so a step takes 2-3
+/// iterations and a quarter to a half of the two-level's time. Being an exact factor of an SPD matrix, a stale
 /// one is still SPD: the conjugate gradients stay correct, only slower.
 /// All are deterministic for any thread count.
 enum class Preconditioner {
