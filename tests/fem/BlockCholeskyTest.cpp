@@ -167,10 +167,7 @@ TEST(BlockCholesky, ANonPositivePivotIsReportedAndTheNextFactorIsClean) {
 
 TEST(BlockCholesky, SolvesTheReducedSystemOfACompositeBody) {
   // The sparsity of a real body (hanging nodes, a fixed node): rest stiffness plus mass.
-  test::Body b = test::smallBody(0.0, 0.0);
-  std::vector<std::uint8_t> fixed(b.octree.nodeCount(), 0);
-  fixed.at(0) = 1;
-  b.model.setFixed(fixed);
+  const test::Body b = test::smallBodyWithAFixedNode();
   const BlockSparsity& sp = b.model.sparsity();
   const test::BlockSystem a = test::restBlockSystem(b.model);
   BlockCholesky chol;

@@ -79,10 +79,7 @@ TEST(BlockPreconditioner, SymmetricGaussSeidelMatchesItsDefinition) {
 TEST(BlockPreconditioner, IncompleteCholeskyOnAMeshMatchesThePatternAndIsSymmetric) {
   // On a real sparsity (hanging nodes, fixed nodes) with a rest stiffness plus mass: M agrees
   // with A on the pattern's diagonal blocks (IC(0)'s defining property) and M^-1 is symmetric.
-  test::Body b = test::smallBody(0.0, 0.0);
-  std::vector<std::uint8_t> fixed(b.octree.nodeCount(), 0);
-  fixed.at(0) = 1;
-  b.model.setFixed(fixed);
+  const test::Body b = test::smallBodyWithAFixedNode();
   const BlockSparsity& sp = b.model.sparsity();
   const test::BlockSystem system = test::restBlockSystem(b.model);
   const Eigen::MatrixXd& a = system.dense;

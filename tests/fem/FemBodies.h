@@ -114,6 +114,15 @@ inline BlockSystem restBlockSystem(const ElasticModel& model) {
   return out;
 }
 
+/// smallBody(0, 0) with node 0 fixed: a reduced sparsity with hanging and fixed nodes.
+inline Body smallBodyWithAFixedNode() {
+  Body b = smallBody(0.0, 0.0);
+  std::vector<std::uint8_t> fixed(b.octree.nodeCount(), 0);
+  fixed.at(0) = 1;
+  b.model.setFixed(fixed);
+  return b;
+}
+
 /// Smooth perturbation of the nodes (metres) except those flagged in `keep`; hanging nodes
 /// then follow their masters.
 inline void perturb(DeformationOctree& oc, double amplitude,
