@@ -418,24 +418,32 @@ TEST(ImplicitEulerDynamics, CholeskyFactorIsReusedUntilStaleAndRedoneAfterAChang
   EXPECT_GT(reused, 10);
   const std::vector<std::uint8_t> fixed = nodesAtZero(b.octree, 1);
   b.model.setFixed(fixed);
-  // A new sparsity (here: other fixed nodes): its first step runs on the two-level
-  // preconditioner, the next one factorises it.
+  // A new sparsity (here: other fixed nodes): its first step runs on the earlier factor
+  // through the node map (FactorBridge.h), the next one factorises it.
   const StepStatus change = solver.step(b.model, b.octree);
   EXPECT_TRUE(change.converged);
   EXPECT_FALSE(change.factorised);
-  EXPECT_EQ(change.preconditioner, Preconditioner::TwoLevel);
+  EXPECT_TRUE(change.bridged);
+  EXPECT_EQ(change.preconditioner, Preconditioner::Cholesky);
   const StepStatus after = solver.step(b.model, b.octree);
   EXPECT_TRUE(after.converged);
   EXPECT_TRUE(after.factorised);
   EXPECT_EQ(after.preconditioner, Preconditioner::Cholesky);
-  // A factor over either cost limit is never computed: the two-level preconditioner stands in.
+  // A factor over either cost limit is never computed: the two-level preconditioner stands in
+  // (after one step on the factor there is, bridged, the first time).
   for (int limit = 0; limit < 2; ++limit) {
     ImplicitEulerParams q = p;
     (limit == 0 ? q.maxFactorUpdates : q.maxFactorUpdatesPerBlock) = 0.0;
     solver.setParams(q);
     b.model.setFixed(fixed);
+    if (limit == 0) {
+      const StepStatus bridged = solver.step(b.model, b.octree);
+      EXPECT_TRUE(bridged.converged);
+      EXPECT_TRUE(bridged.bridged);
+    }
     for (int s = 0; s < 5; ++s) {
       const StepStatus fallback = solver.step(b.model, b.octree);
+      EXPECT_FALSE(fallback.bridged);
       EXPECT_TRUE(fallback.converged);
       EXPECT_FALSE(fallback.factorised);
       EXPECT_EQ(fallback.preconditioner, Preconditioner::TwoLevel);
@@ -445,7 +453,9 @@ TEST(ImplicitEulerDynamics, CholeskyFactorIsReusedUntilStaleAndRedoneAfterAChang
   // Back to the default limits: the next structure gets its factor again.
   solver.setParams(p);
   b.model.setFixed(fixed);
-  EXPECT_FALSE(solver.step(b.model, b.octree).factorised);
+  const StepStatus first = solver.step(b.model, b.octree);
+  EXPECT_FALSE(first.factorised);
+  EXPECT_FALSE(first.bridged);  // no factor left to bridge from
   EXPECT_TRUE(solver.step(b.model, b.octree).factorised);
 }
 

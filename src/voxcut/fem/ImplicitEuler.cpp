@@ -133,6 +133,8 @@ void ImplicitEuler::updateTopology(const TopologyChange& change) {
   };
   remap(velocity_);
   remap(lastDv_);
+  bridge_.update(change);
+  bridgeRevision_ = 0;
 }
 
 double ImplicitEuler::kineticEnergy(const ElasticModel& model) const {
@@ -317,8 +319,11 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
   // preconditioners run as one sequential sweep over all rows after them.
   Preconditioner kind = params_.preconditioner;
   const bool pointwise = kind == Preconditioner::Jacobi || kind == Preconditioner::BlockJacobi;
+  bool bridged = false;
   auto precondition = [&] {
-    if (kind == Preconditioner::Cholesky)
+    if (bridged)
+      bridge_.apply(sp, blocks_, cholesky_, preconditioner_, r_, z_);
+    else if (kind == Preconditioner::Cholesky)
       cholesky_.solve(r_, z_);
     else if (kind == Preconditioner::IncompleteCholesky)
       applyIncompleteCholesky(sp, factor_, r_, z_);
@@ -374,6 +379,7 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
           costlyRevision_ = revision;
         } else {
           cholesky_.analyse(sp);
+          bridge_.invalidate();
           choleskyRevision_ = revision;
           const double updates = cholesky_.updateCount();
           costlyRows_ = 0;
@@ -386,16 +392,24 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
         }
       }
       if (choleskyRevision_ != revision || costlyRevision_ == revision) {
-        kind = Preconditioner::TwoLevel;
+        // The earlier factor through the node map when step() could prepare it.
+        bridged = bridgeRevision_ == revision && bridge_.valid() && cholesky_.factorised();
+        if (!bridged) kind = Preconditioner::TwoLevel;
       } else if (!cholesky_.factorised() || lastIterations_ > params_.refactorIterations) {
         status.factorised = cholesky_.factorise(sp, blocks_, threaded);
-        if (!status.factorised) kind = Preconditioner::TwoLevel;
+        if (status.factorised)
+          bridge_.reset(model);
+        else {
+          bridge_.invalidate();
+          kind = Preconditioner::TwoLevel;
+        }
       }
     }
     if (kind == Preconditioner::TwoLevel)
       (void)twoLevel_.setup(sp, model.aggregation(), blocks_, &freePositions_, threaded);
     rz = precondition();
     status.preconditioner = kind;
+    status.bridged = bridged;
   }
   finite = finite && std::isfinite(rz);
   std::copy(z_.begin(), z_.end(), p_.begin());
@@ -462,6 +476,13 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
     freePositions_.resize(freeNodes.size());
     for (std::size_t i = 0; i < freeNodes.size(); ++i)
       freePositions_[i] = octree.positions()[freeNodes[i]];
+  }
+  // A cut since the factor: map the factor onto the new rows (FactorBridge.h), once per
+  // sparsity.
+  if (params_.preconditioner == Preconditioner::Cholesky && bridge_.valid() &&
+      cholesky_.factorised() && model.sparsityRevision() != choleskyRevision_ &&
+      bridgeRevision_ != model.sparsityRevision()) {
+    if (bridge_.prepare(model, octree, cholesky_.rows())) bridgeRevision_ = model.sparsityRevision();
   }
   Timer timer;
   assemble(model, octree);

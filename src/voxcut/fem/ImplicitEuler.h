@@ -35,6 +35,7 @@
 #include "voxcut/fem/BlockPreconditioner.h"
 #include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/fem/ElasticModel.h"
+#include "voxcut/fem/FactorBridge.h"
 #include "voxcut/fem/TopologyChange.h"
 #include "voxcut/fem/TwoLevelPreconditioner.h"
 
@@ -62,8 +63,11 @@ namespace voxcut {
 /// step's matrix (BlockCholesky.h). The matrix changes little from one step to the next (the
 /// element rotations move slowly), so a factor stays good for many steps: it is recomputed
 /// only when the previous step needed more than `refactorIterations` iterations, and for a new
-/// sparsity once it has lasted `factorAfterSteps` steps (the steps of a cut, and a system whose
-/// factor would cost too much, `maxFactorUpdates`, use the two-level V-cycle). On the bunny a
+/// sparsity once it has lasted `factorAfterSteps` steps. The steps before, a cut's, run on the
+/// earlier factor mapped onto the new rows (FactorBridge.h: a V-cycle with that factor as its
+/// coarse solve and Gauss-Seidel on the rows the change touched); without an earlier factor,
+/// or for a system whose factor would cost too much (`maxFactorUpdates`), the two-level
+/// V-cycle stands in. On the bunny a
 /// factorisation costs about 5 ms on one core (770-1,000 free nodes) and an iteration the time
 /// of 2-4 products (its forward and backward solves are sequential), so a step takes 2-3
 /// iterations and a quarter to a half of the two-level's time. Being an exact factor of an SPD matrix, a stale
@@ -99,7 +103,8 @@ struct ImplicitEulerParams {
   /// this (the factor has gone stale).
   int refactorIterations = 3;
   /// Cholesky only: a new sparsity (a cut, other fixed nodes) is analysed and factorised once
-  /// it has lasted this many steps; the steps before use the two-level preconditioner. While
+  /// it has lasted this many steps; the steps before use the earlier factor through the node
+  /// map (FactorBridge.h), or the two-level preconditioner when there is none. While
   /// a blade cuts every frame, a factor would be thrown away as soon as it was made.
   int factorAfterSteps = 1;
   /// Cholesky only: when one factorisation would cost more 3x3 block updates than this
@@ -122,6 +127,9 @@ struct StepStatus {
   double assemblyMs = 0.0;  ///< wall time of the assembly (rotations, forces, blocks), ms
   double solveMs = 0.0;     ///< wall time of the preconditioner set-up and the solve, ms
   bool factorised = false;  ///< Cholesky: this step computed a new factor
+  /// Cholesky: the sparsity had changed since the factor (a cut) and the step was
+  /// preconditioned by the earlier factor through the node map (FactorBridge.h)
+  bool bridged = false;
   /// The preconditioner the solve used (Cholesky may hand a step to TwoLevel); the setting's
   /// own when the warm start already converged.
   Preconditioner preconditioner = Preconditioner::Cholesky;
@@ -189,6 +197,8 @@ class ImplicitEuler {
   IncompleteCholeskyFactor factor_;
   TwoLevelPreconditioner twoLevel_;
   BlockCholesky cholesky_;                ///< analysed for the sparsity with choleskyRevision_
+  FactorBridge bridge_;                   ///< from cholesky_'s model to the current one
+  std::uint64_t bridgeRevision_ = 0;      ///< sparsity the bridge was last prepared for
   std::uint64_t choleskyRevision_ = 0;
   std::uint64_t costlyRevision_ = 0;  ///< a sparsity whose factor would cost too much
   std::size_t costlyRows_ = 0;        ///< its rows (0: none so far)
