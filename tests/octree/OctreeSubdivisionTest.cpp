@@ -48,7 +48,7 @@ SubdivisionStats cutWithOctree(VoxelGrid& g, VoxelOctree& oct, const Vec3d& n, d
   SubdivisionHooks hooks;
   std::mutex m;
   hooks.testLine = [&](std::size_t v0, int a, const std::vector<int>& links,
-                       std::vector<std::pair<int, Hermite>>& hits) {
+                       std::vector<std::pair<int, Hermite>>& hits, VoxelPositionCache&) {
     EXPECT_FALSE(links.empty());
     EXPECT_TRUE(std::is_sorted(links.begin(), links.end()));
     std::vector<std::uint64_t> ids;
@@ -213,7 +213,8 @@ TEST(OctreeSubdivision, NothingHappensWithoutCuts) {
   const auto before = oct.cubesPerLevel();
   std::vector<LinkCut> cuts;
   SubdivisionHooks hooks;
-  hooks.testLine = [](std::size_t, int, const std::vector<int>&, std::vector<std::pair<int, Hermite>>&) {
+  hooks.testLine = [](std::size_t, int, const std::vector<int>&, std::vector<std::pair<int, Hermite>>&,
+                      VoxelPositionCache&) {
     ADD_FAILURE();
   };
   const SubdivisionStats s = subdivideCutCubes(oct, g, cuts, hooks);

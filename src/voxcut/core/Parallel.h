@@ -48,6 +48,12 @@ void parallelFor(std::size_t begin, std::size_t end, std::size_t grain, Body&& b
 #endif
 }
 
+/// Slots for per-thread scratch: threadSlot() of any thread running a parallelFor body (or its
+/// caller) is below threadSlots(). Two bodies running at once never share a slot; results must
+/// not depend on which slot a body gets.
+[[nodiscard]] int threadSlots();
+[[nodiscard]] int threadSlot();
+
 /// Limits the worker threads for its lifetime (0 = leave the default). Not copyable.
 class ThreadLimit {
  public:

@@ -52,22 +52,29 @@ std::optional<Hermite> testLink(const CutBody& b, const std::vector<BladeSweep>&
 }
 
 // The subdivision's line test (see SubdivisionHooks::testLine): positions computed on the
-// way, each voxel once per call, prefetched first (a line across x or y strides through
-// memory).
+// way, each voxel once per task (the cache), prefetched first (a line across x or y strides
+// through memory).
 void testLine(const CutBody& b, const std::vector<BladeSweep>& sweeps, std::size_t v0, int a,
-              const std::vector<int>& links, std::vector<std::pair<int, Hermite>>& hits) {
+              const std::vector<int>& links, std::vector<std::pair<int, Hermite>>& hits,
+              VoxelPositionCache& cache) {
   const DeformationOctree& d = b.deformation;
   const std::size_t step = b.grid.stride(a);
   for (int k : links) {
     __builtin_prefetch(&d.embedding(v0 + static_cast<std::size_t>(k) * step));
     __builtin_prefetch(&d.embedding(v0 + static_cast<std::size_t>(k + 1) * step));
   }
+  const auto position = [&](std::size_t v) {
+    if (const Vec3d* p = cache.find(v)) return *p;
+    const Vec3d p = d.voxelPosition(v);
+    cache.put(v, p);
+    return p;
+  };
   int known = -1;  // the voxel whose position `last` holds
   Vec3d last = Vec3d::Zero();
   for (int k : links) {
     const std::size_t v = v0 + static_cast<std::size_t>(k) * step;
-    const Vec3d pv = k == known ? last : d.voxelPosition(v);
-    const Vec3d pw = d.voxelPosition(v + step);
+    const Vec3d pv = k == known ? last : position(v);
+    const Vec3d pw = position(v + step);
     known = k + 1;
     last = pw;
     if (const auto h = testLink(b, sweeps, v, a, pv, pw)) hits.emplace_back(k, *h);
@@ -140,12 +147,17 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
     b.deformation.updateVoxelPositions(active, b.activePositions, b.activeOwners, threaded);
   r.positionUpdateMs = timer.ms();
 
-  // Intersection test: the active connected links with an end in a marked element.
+  // Intersection test: the active connected links with an end in a marked element. Per active
+  // entry first whether its element is marked: one byte to read per link end below.
   timer.restart();
-  const auto inMarked = [&](std::size_t i) {
-    const std::uint32_t e = b.activeOwners[i];
-    return e != kNoElement && marked[e];
-  };
+  b.activeMarked.resize(active.size());
+  parallelFor(0, active.size(), 8192, [&](std::size_t i0, std::size_t i1) {
+    for (std::size_t i = i0; i < i1; ++i) {
+      const std::uint32_t e = b.activeOwners[i];
+      b.activeMarked[i] = e != kNoElement && marked[e] ? 1 : 0;
+    }
+  }, threaded);
+  const auto inMarked = [&](std::size_t i) { return b.activeMarked[i] != 0; };
   const auto positionOf = [&](std::size_t i, bool isMarked) {
     return isMarked || !fewMarked ? b.activePositions[i] : b.deformation.voxelPosition(active[i]);
   };
@@ -174,7 +186,9 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
     r.testedLinks += tested[c];
     r.cuts.insert(r.cuts.end(), found[c].begin(), found[c].end());
   }
-  for (LinkCut& lc : r.cuts) {
+  for (std::size_t k = 0; k < r.cuts.size(); ++k) {
+    if (k + 8 < r.cuts.size()) g.hermite().prefetch(r.cuts[k + 8].link);
+    LinkCut& lc = r.cuts[k];
     g.setConnected(static_cast<std::size_t>(lc.link / 3), static_cast<int>(lc.link % 3), false);
     lc.previous = g.hermite().exchange(lc.link, lc.hermite);
   }
@@ -185,8 +199,8 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
     timer.restart();
     SubdivisionHooks hooks;
     hooks.testLine = [&](std::size_t v0, int a, const std::vector<int>& links,
-                         std::vector<std::pair<int, Hermite>>& hits) {
-      testLine(b, sweeps, v0, a, links, hits);
+                         std::vector<std::pair<int, Hermite>>& hits, VoxelPositionCache& cache) {
+      testLine(b, sweeps, v0, a, links, hits, cache);
     };
     r.subdivision = subdivideCutCubes(b.activity, g, r.cuts, hooks, threaded);
     r.subdivisionMs = timer.ms();

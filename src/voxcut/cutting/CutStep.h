@@ -37,6 +37,7 @@ struct CutBody {
   /// it: every entry, or those in elements under the blade when it reaches few; see cutStep).
   std::vector<Vec3d> activePositions;
   std::vector<std::uint32_t> activeOwners;   ///< per entry of activity.activeVoxels: its element
+  std::vector<std::uint8_t> activeMarked;    ///< per entry: its element is under the blade (scratch)
   std::vector<Eigen::AlignedBox3d> elementBoxes;
   SpatialHash hash;
 };

@@ -22,19 +22,24 @@ void disconnect(VoxelGrid& grid, std::size_t v, int a) {
   std::atomic_ref<std::uint8_t>(grid.linkData()[v])
       .fetch_and(static_cast<std::uint8_t>(~(1u << a)), std::memory_order_relaxed);
 }
-// (5-3) for a split level-1 cube: its 27 voxels and 54 links become active. Only when no task
-// runs: plain read-modify-writes.
-void openLevelOneCube(VoxelOctree& oct, const VoxelGrid& grid, const Index3& o) {
+// (5-3) for a split level-1 cube: its 27 voxels and 54 links become active. Its faces' state
+// bytes are shared with neighbouring cubes that other tasks may open at the same time, so the
+// bits are raised atomically; a voxel goes to `changed` (a task's own list, merged into
+// VoxelOctree::changed afterwards, whose order does not matter) by the task that listed it.
+void openLevelOneCube(VoxelOctree& oct, const VoxelGrid& grid, const Index3& o,
+                      std::vector<std::uint32_t>& changed) {
   for (int z = 0; z <= 2; ++z)
     for (int y = 0; y <= 2; ++y)
       for (int x = 0; x <= 2; ++x) {
         const int d[3] = {x, y, z};
-        auto bits = static_cast<std::uint8_t>(kOpenedVoxel);
+        auto bits = static_cast<std::uint8_t>(kOpenedVoxel | kListedVoxel);
         for (int a = 0; a < 3; ++a)
           if (d[a] < 2) bits = static_cast<std::uint8_t>(bits | (1u << a));
         const std::size_t v = grid.index(o.x + x, o.y + y, o.z + z);
-        oct.state[v] |= bits;
-        oct.markChanged(v);
+        std::atomic_ref<std::uint8_t> state(oct.state[v]);
+        if ((state.load(std::memory_order_relaxed) & bits) == bits) continue;  // a neighbour's
+        const std::uint8_t before = state.fetch_or(bits, std::memory_order_relaxed);
+        if (!(before & kListedVoxel)) changed.push_back(static_cast<std::uint32_t>(v));
       }
 }
 
@@ -49,6 +54,19 @@ struct CutLink {
   int a;
 };
 
+// A thread's scratch memory, reused by every task it runs in one subdivision run (the position
+// cache stays valid for the whole run: positions do not change during it).
+struct WorkerScratch {
+  std::vector<int> line;                      // the connected links of a line
+  std::vector<std::pair<int, Hermite>> hits;  // what the blade crossed on it
+  std::vector<std::pair<int, int>> cells;     // traceSquare: cells to visit
+  std::vector<std::uint8_t> visited, examined;  // traceSquare: per cell, per link
+  VoxelPositionCache positions;               // for the line test
+  // Per level: the cut links on each of the 8 sub-cubes' boundaries (reused between calls).
+  std::vector<std::array<std::vector<CutLink>, 8>> childCuts;
+  std::vector<CutLink> boundary;              // the cut links on a split cube's faces
+};
+
 // One task's work and findings (a task handles a range of cubes; whatever it finds is merged
 // in an order-independent way: cut lists are sorted, counts summed, leaves kept per cube).
 struct Worker {
@@ -57,17 +75,23 @@ struct Worker {
   const SubdivisionHooks& hooks;
   std::vector<LinkCut> cuts;          // links this task cut
   std::vector<CutLink> found;         // the same, as positions, for the sub-cube test
-  std::vector<int> line;              // scratch: the connected links of a line
-  std::vector<std::pair<int, Hermite>> hits;  // scratch: what the blade crossed on it
   std::size_t tested = 0, lineVoxels = 0;
-  std::vector<Index3> opened;         // level-1 cubes split: opened after the parallel phase
-  // Per level: the cut links on each of the 8 sub-cubes' boundaries (reused between calls).
-  std::vector<std::array<std::vector<CutLink>, 8>> childCuts;
-  std::vector<CutLink> boundary;      // scratch: the cut links on a split cube's faces
+  std::vector<std::uint32_t> changed;  // voxels this task listed for VoxelOctree::changed
   std::vector<CubeBox> leaves;        // sub-cubes kept, cube after cube
   std::vector<std::array<std::uint32_t, 3>> leafRanges;  // (cube slot, begin, end) in leaves
+  // Scratch, kept per thread for the whole run (WorkerScratch).
+  std::vector<int>& line;
+  std::vector<std::pair<int, Hermite>>& hits;
+  std::vector<std::pair<int, int>>& cells;
+  std::vector<std::uint8_t>& visited;
+  std::vector<std::uint8_t>& examined;
+  VoxelPositionCache& positions;
+  std::vector<std::array<std::vector<CutLink>, 8>>& childCuts;
+  std::vector<CutLink>& boundary;
 
-  Worker(VoxelOctree& o, VoxelGrid& g, const SubdivisionHooks& h) : oct(o), grid(g), hooks(h) {}
+  Worker(VoxelOctree& o, VoxelGrid& g, const SubdivisionHooks& h, WorkerScratch& s)
+      : oct(o), grid(g), hooks(h), line(s.line), hits(s.hits), cells(s.cells), visited(s.visited),
+        examined(s.examined), positions(s.positions), childCuts(s.childCuts), boundary(s.boundary) {}
 
   // The disconnected links on the faces of `cube`. A cube exists only where every link was
   // connected when it was made, and a cube with a cut on its boundary is split in the same
@@ -109,7 +133,7 @@ struct Worker {
       if (linkConnected(grid, v0 + static_cast<std::size_t>(k) * step, a)) line.push_back(k);
     if (line.empty()) return;
     hits.clear();
-    hooks.testLine(v0, a, line, hits);
+    hooks.testLine(v0, a, line, hits, positions);
     for (const auto& [k, hermite] : hits) {
       const std::size_t v = v0 + static_cast<std::size_t>(k) * step;
       disconnect(grid, v, a);
@@ -120,58 +144,72 @@ struct Worker {
     }
   }
 
-  // The links inside the square of side m (a power of two) at `o` in the plane normal to f,
-  // spanned by axes u = (f+1)%3 and w = (f+2)%3, whose border links are decided already.
-  // A blade that crosses the square crosses its border, so a square with no cut on its
-  // border holds none inside. Otherwise: its two centre lines are tested, and each quarter
-  // follows. The work grows with the length of the blade's trace, not the area.
-  void resolveSquare(const Index3& o, int f, int m) {
-    if (m < 2) return;
+  // The links inside the square of side m at `o` in the plane normal to f, spanned by axes
+  // u = (f+1)%3 and w = (f+2)%3, whose border links are decided already. The blade crosses
+  // the square along its trace, which enters through the border: the trace is followed from
+  // every cut border link, unit cell by unit cell; a cell's links not yet examined are tested,
+  // and the cells across its cut links come next. The work grows with the length of the trace
+  // (about two tests per link it crosses), not with the square's area. A square with no cut
+  // on its border holds none inside.
+  void traceSquare(const Index3& o, int f, int m) {
+    if (m < 2) return;  // no link inside
     const int u = (f + 1) % 3, w = (f + 2) % 3;
-    auto point = [&](int i, int j) {
-      Index3 p = o;
-      p[u] += i;
-      p[w] += j;
-      return p;
-    };
     const std::size_t base = grid.index(o), su = grid.stride(u), sw = grid.stride(w);
-    const std::size_t far = static_cast<std::size_t>(m);
-    bool crossed = false;
-    for (std::size_t i = 0; i < far && !crossed; ++i)
-      crossed = !linkConnected(grid, base + i * su, u) || !linkConnected(grid, base + i * su + far * sw, u) ||
-                !linkConnected(grid, base + i * sw, w) || !linkConnected(grid, base + i * sw + far * su, w);
-    if (!crossed) return;
-    const int h = m / 2;
-    testLine(point(h, 0), w, m);
-    testLine(point(0, h), u, m);
-    for (int q = 0; q < 4; ++q) resolveSquare(point((q & 1) * h, (q >> 1) * h), f, h);
+    const auto mz = static_cast<std::size_t>(m);
+    // u-link (i, j) from point (i, j) along u, i < m, j <= m; w-link (i, j) along w, i <= m, j < m.
+    const auto uVoxel = [&](int i, int j) { return base + static_cast<std::size_t>(i) * su + static_cast<std::size_t>(j) * sw; };
+    cells.clear();
+    for (int i = 0; i < m; ++i) {
+      if (!linkConnected(grid, uVoxel(i, 0), u)) cells.push_back({i, 0});
+      if (!linkConnected(grid, uVoxel(i, m), u)) cells.push_back({i, m - 1});
+      if (!linkConnected(grid, uVoxel(0, i), w)) cells.push_back({0, i});
+      if (!linkConnected(grid, uVoxel(m, i), w)) cells.push_back({m - 1, i});
+    }
+    if (cells.empty()) return;
+    visited.assign(mz * mz, 0);
+    examined.assign(2 * mz * (mz + 1), 0);  // u-links, then w-links
+    // Examines the interior link (a u-link when `alongU`) and says whether it is cut.
+    const auto cut = [&](bool alongU, int i, int j) {
+      const std::size_t slot = alongU ? static_cast<std::size_t>(j) * mz + static_cast<std::size_t>(i)
+                                      : mz * (mz + 1) + static_cast<std::size_t>(i) * mz + static_cast<std::size_t>(j);
+      const int axis = alongU ? u : w;
+      if (!examined[slot]) {
+        examined[slot] = 1;
+        Index3 p = o;
+        p[u] += i;
+        p[w] += j;
+        testLine(p, axis, 1);
+      }
+      return !linkConnected(grid, uVoxel(i, j), axis);
+    };
+    while (!cells.empty()) {
+      const auto [i, j] = cells.back();
+      cells.pop_back();
+      std::uint8_t& seen = visited[static_cast<std::size_t>(j) * mz + static_cast<std::size_t>(i)];
+      if (seen) continue;
+      seen = 1;
+      if (j > 0 && cut(true, i, j)) cells.push_back({i, j - 1});
+      if (j + 1 < m && cut(true, i, j + 1)) cells.push_back({i, j + 1});
+      if (i > 0 && cut(false, i, j)) cells.push_back({i - 1, j});
+      if (i + 1 < m && cut(false, i + 1, j)) cells.push_back({i + 1, j});
+    }
   }
 
   // Sub-steps (5-1)-(5-6) on one cube; `cutsOnBoundary` lists the cut links on its faces.
   void split(const CubeBox& cube, const std::vector<CutLink>& cutsOnBoundary) {
     const int s = cube.size(), h = s / 2;
     const std::size_t before = found.size();
-    // (5-1), (5-2) between the sub-cubes: the three centre lines where the mid-planes meet,
-    // then the 12 quarter faces they divide the mid-planes into.
-    for (int a = 0; a < 3; ++a) {
-      Index3 p{cube.o.x + h, cube.o.y + h, cube.o.z + h};
-      p[a] = cube.o[a];
-      testLine(p, a, s);
-    }
+    // (5-1), (5-2) between the sub-cubes: the links of the three mid-planes, the three centre
+    // lines where they meet among them, followed along the blade's trace from the cube's faces
+    // (a centre-line link is inside two mid-planes: the second sees it cut, or tests it again).
     for (int f = 0; f < 3; ++f) {
-      const int u = (f + 1) % 3, w = (f + 2) % 3;
-      for (int q = 0; q < 4; ++q) {
-        Index3 o = cube.o;
-        o[f] += h;
-        o[u] += (q & 1) * h;
-        o[w] += (q >> 1) * h;
-        resolveSquare(o, f, h);
-      }
+      Index3 o = cube.o;
+      o[f] += h;
+      traceSquare(o, f, s);
     }
-    // (5-3) a level-1 cube opens up completely: recorded here, applied by openLevelOneCubes
-    // once no task runs (the state bytes of its faces are shared with neighbouring cubes).
+    // (5-3) a level-1 cube opens up completely.
     if (cube.level == 1) {
-      opened.push_back(cube.o);
+      openLevelOneCube(oct, grid, cube.o, changed);
       return;
     }
     // (5-4) eight sub-cubes; (5-5) split those with a cut link on their boundary (the cube had
@@ -228,6 +266,7 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
       if (cube >= 0) fn(static_cast<std::size_t>(cube));
     });
   };
+  std::vector<std::unique_ptr<WorkerScratch>> scratch(static_cast<std::size_t>(threadSlots()));
   Timer total;
   while (!pending.empty()) {
     // (1) mark the cubes around the newly cut links (raising a raised flag is harmless).
@@ -255,7 +294,9 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     auto forEachCube = [&](auto&& fn) {
       std::vector<std::unique_ptr<Worker>> workers;
       parallelFor(0, list.size(), 1, [&](std::size_t b, std::size_t e) {
-        auto w = std::make_unique<Worker>(oct, grid, hooks);
+        std::unique_ptr<WorkerScratch>& own = scratch[static_cast<std::size_t>(threadSlot())];
+        if (!own) own = std::make_unique<WorkerScratch>();
+        auto w = std::make_unique<Worker>(oct, grid, hooks, *own);
         for (std::size_t i = b; i < e; ++i) fn(*w, i);
         const std::lock_guard<std::mutex> lock(mergeLock);
         workers.push_back(std::move(w));
@@ -272,7 +313,7 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     };
 
     // (2)-(4) the faces of the affected cubes: their voxels are positioned and their links
-    // tested, square by square where the blade's trace runs (a face shared by two affected
+    // tested along the blade's trace (a face shared by two affected
     // cubes is resolved by both, with the same results). A face's border is the cube's frame,
     // or lines of the mid-planes of the cube it was split from: decided already.
     Timer phase;
@@ -293,7 +334,7 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
               oct.cubes[static_cast<std::size_t>(other)].level == oc.level)
             continue;
         }
-        w.resolveSquare(o, f / 2, s);
+        w.traceSquare(o, f / 2, s);
       }
     }));
     stats.facesMs += phase.ms();
@@ -314,12 +355,19 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     });
     stats.splitMs += phase.ms();
     mergeCounts(splitWork);
-    std::sort(roundCuts.begin(), roundCuts.end(), [](const LinkCut& x, const LinkCut& y) { return x.link < y.link; });
-    roundCuts.erase(std::unique(roundCuts.begin(), roundCuts.end(),
-                                [](const LinkCut& x, const LinkCut& y) { return x.link == y.link; }),
-                    roundCuts.end());
-    for (const auto& w : splitWork)
-      for (const Index3& o : w->opened) openLevelOneCube(oct, grid, o);
+    // Sorted by link, each once (a face two cubes share in part was resolved by both, with the
+    // same results): sorting the keys moves a quarter of the bytes the cuts would.
+    {
+      std::vector<std::pair<std::uint64_t, std::uint32_t>> keys(roundCuts.size());
+      for (std::size_t k = 0; k < keys.size(); ++k) keys[k] = {roundCuts[k].link, static_cast<std::uint32_t>(k)};
+      std::sort(keys.begin(), keys.end());
+      std::vector<LinkCut> unique;
+      unique.reserve(keys.size());
+      for (std::size_t k = 0; k < keys.size(); ++k)
+        if (k == 0 || keys[k].first != keys[k - 1].first) unique.push_back(roundCuts[keys[k].second]);
+      roundCuts = std::move(unique);
+    }
+    for (const auto& w : splitWork) oct.changed.insert(oct.changed.end(), w->changed.begin(), w->changed.end());
 
     // Store the sub-cubes: the first takes the split cube's slot, the others are appended in
     // list order; then each split cube's cells are rewritten, in parallel (disjoint cells).
@@ -360,7 +408,11 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     }, threaded);
     // Hermite data of this round's cuts; the face cuts among them are next round's newly cut
     // links (6).
-    for (LinkCut& lc : roundCuts) lc.previous = grid.hermite().exchange(lc.link, lc.hermite);
+    HermiteMap& hermite = grid.hermite();
+    for (std::size_t k = 0; k < roundCuts.size(); ++k) {
+      if (k + 8 < roundCuts.size()) hermite.prefetch(roundCuts[k + 8].link);
+      roundCuts[k].previous = hermite.exchange(roundCuts[k].link, roundCuts[k].hermite);
+    }
     stats.cutLinks += roundCuts.size();
     cuts.insert(cuts.end(), roundCuts.begin(), roundCuts.end());
   }

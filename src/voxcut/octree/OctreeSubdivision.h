@@ -25,14 +25,41 @@ struct LinkCut {
   std::optional<Hermite> previous;
 };
 
+/// Voxel positions a line test computed, kept for the next calls of the same task (the
+/// trace following meets a voxel from up to four links of a face, and from two mid-planes):
+/// a direct-mapped table by voxel index, so a lookup is one probe and a clash overwrites.
+/// Valid for one subdivision run (the positions do not change during it).
+class VoxelPositionCache {
+ public:
+  /// The position stored for voxel v, or nullptr.
+  [[nodiscard]] const Vec3d* find(std::size_t v) const {
+    const std::size_t s = slot(v);
+    return voxel_[s] == v ? &position_[s] : nullptr;
+  }
+  void put(std::size_t v, const Vec3d& p) {
+    const std::size_t s = slot(v);
+    voxel_[s] = v;
+    position_[s] = p;
+  }
+
+ private:
+  static constexpr int kBits = 10;
+  static std::size_t slot(std::size_t v) {
+    return static_cast<std::size_t>((static_cast<std::uint64_t>(v) * 0x9E3779B97F4A7C15ULL) >> (64 - kBits));
+  }
+  std::vector<std::size_t> voxel_ = std::vector<std::size_t>(std::size_t{1} << kBits, ~std::size_t{0});
+  std::vector<Vec3d> position_ = std::vector<Vec3d>(std::size_t{1} << kBits);
+};
+
 /// What subdivision needs from the cutting step.
 struct SubdivisionHooks {
   /// Blade test of links of one grid line: for each k in `links` (ascending), the link
   /// (v0 + k stride(a), a). The hook computes the current positions of the voxels these
-  /// links join itself (bitwise as for the main test) and appends (k, Hermite data in the
-  /// rest frame) for every crossed link to `hits`. May be called from several threads at once.
+  /// links join itself (bitwise as for the main test; it may keep them in `cache`, the
+  /// calling task's own) and appends (k, Hermite data in the rest frame) for every crossed
+  /// link to `hits`. May be called from several threads at once.
   std::function<void(std::size_t v0, int a, const std::vector<int>& links,
-                     std::vector<std::pair<int, Hermite>>& hits)>
+                     std::vector<std::pair<int, Hermite>>& hits, VoxelPositionCache& cache)>
       testLine;
 };
 

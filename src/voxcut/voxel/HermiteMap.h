@@ -38,6 +38,13 @@ class HermiteMap {
   void set(std::uint64_t link, const Hermite& h) { (void)exchange(link, h); }
   /// As set, returning the entry it replaced, if any (one probe instead of find + set).
   std::optional<Hermite> exchange(std::uint64_t link, const Hermite& h);
+  /// Hints the processor to fetch the table slot where `link` would start its probe (for a
+  /// loop that sets many links: their slots are scattered over the table).
+  void prefetch(std::uint64_t link) const {
+    const std::size_t i = hash(link) & (keys_.size() - 1);
+    __builtin_prefetch(&keys_[i]);
+    __builtin_prefetch(&values_[i]);
+  }
   /// Pointer to the entry of `link`, or nullptr.
   [[nodiscard]] const Hermite* find(std::uint64_t link) const;
   /// Removes `link` if present; returns whether it was.
