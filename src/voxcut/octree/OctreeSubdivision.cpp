@@ -22,24 +22,20 @@ void disconnect(VoxelGrid& grid, std::size_t v, int a) {
   std::atomic_ref<std::uint8_t>(grid.linkData()[v])
       .fetch_and(static_cast<std::uint8_t>(~(1u << a)), std::memory_order_relaxed);
 }
-// (5-3) for a split level-1 cube: its 27 voxels and 54 links become active. Its faces' state
-// bytes are shared with neighbouring cubes that other tasks may open at the same time, so the
-// bits are raised atomically; a voxel goes to `changed` (a task's own list, merged into
-// VoxelOctree::changed afterwards, whose order does not matter) by the task that listed it.
-void openLevelOneCube(VoxelOctree& oct, const VoxelGrid& grid, const Index3& o,
-                      std::vector<std::uint32_t>& changed) {
+// (5-3) for a split level-1 cube: its 27 voxels and 54 links become active. Only when no task
+// runs: the state bytes of its faces are shared with neighbouring cubes (raising them inside
+// the tasks took atomic read-modify-writes, three times as long as this pass).
+void openLevelOneCube(VoxelOctree& oct, const VoxelGrid& grid, const Index3& o) {
   for (int z = 0; z <= 2; ++z)
     for (int y = 0; y <= 2; ++y)
       for (int x = 0; x <= 2; ++x) {
         const int d[3] = {x, y, z};
-        auto bits = static_cast<std::uint8_t>(kOpenedVoxel | kListedVoxel);
+        auto bits = static_cast<std::uint8_t>(kOpenedVoxel);
         for (int a = 0; a < 3; ++a)
           if (d[a] < 2) bits = static_cast<std::uint8_t>(bits | (1u << a));
         const std::size_t v = grid.index(o.x + x, o.y + y, o.z + z);
-        std::atomic_ref<std::uint8_t> state(oct.state[v]);
-        if ((state.load(std::memory_order_relaxed) & bits) == bits) continue;  // a neighbour's
-        const std::uint8_t before = state.fetch_or(bits, std::memory_order_relaxed);
-        if (!(before & kListedVoxel)) changed.push_back(static_cast<std::uint32_t>(v));
+        oct.state[v] |= bits;
+        oct.markChanged(v);
       }
 }
 
@@ -76,7 +72,7 @@ struct Worker {
   std::vector<LinkCut> cuts;          // links this task cut
   std::vector<CutLink> found;         // the same, as positions, for the sub-cube test
   std::size_t tested = 0, lineVoxels = 0;
-  std::vector<std::uint32_t> changed;  // voxels this task listed for VoxelOctree::changed
+  std::vector<Index3> opened;         // level-1 cubes split: opened after the parallel phase
   std::vector<CubeBox> leaves;        // sub-cubes kept, cube after cube
   std::vector<std::array<std::uint32_t, 3>> leafRanges;  // (cube slot, begin, end) in leaves
   // Scratch, kept per thread for the whole run (WorkerScratch).
@@ -207,9 +203,10 @@ struct Worker {
       o[f] += h;
       traceSquare(o, f, s);
     }
-    // (5-3) a level-1 cube opens up completely.
+    // (5-3) a level-1 cube opens up completely: recorded here, opened by openLevelOneCube
+    // once no task runs.
     if (cube.level == 1) {
-      openLevelOneCube(oct, grid, cube.o, changed);
+      opened.push_back(cube.o);
       return;
     }
     // (5-4) eight sub-cubes; (5-5) split those with a cut link on their boundary (the cube had
@@ -355,9 +352,14 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     });
     stats.splitMs += phase.ms();
     mergeCounts(splitWork);
-    // Sorted by link, each once (a face two cubes share in part was resolved by both, with the
-    // same results): sorting the keys moves a quarter of the bytes the cuts would.
-    {
+    // Three independent jobs, run side by side (each writes its own data):
+    //  - this round's cuts sorted by link, each once (a face two cubes share in part was
+    //    resolved by both, with the same results; sorting the keys moves a quarter of the
+    //    bytes the cuts would), then their Hermite data; the face cuts among them are next
+    //    round's newly cut links (6);
+    //  - the split level-1 cubes opened (oct.state, oct.changed);
+    //  - the sub-cubes stored (oct.cubes, oct.newCubes, oct.cellCube).
+    const auto storeCuts = [&] {
       std::vector<std::pair<std::uint64_t, std::uint32_t>> keys(roundCuts.size());
       for (std::size_t k = 0; k < keys.size(); ++k) keys[k] = {roundCuts[k].link, static_cast<std::uint32_t>(k)};
       std::sort(keys.begin(), keys.end());
@@ -366,53 +368,62 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
       for (std::size_t k = 0; k < keys.size(); ++k)
         if (k == 0 || keys[k].first != keys[k - 1].first) unique.push_back(roundCuts[keys[k].second]);
       roundCuts = std::move(unique);
-    }
-    for (const auto& w : splitWork) oct.changed.insert(oct.changed.end(), w->changed.begin(), w->changed.end());
-
-    // Store the sub-cubes: the first takes the split cube's slot, the others are appended in
-    // list order; then each split cube's cells are rewritten, in parallel (disjoint cells).
-    std::vector<const CubeBox*> leafBegin(list.size()), leafEnd(list.size());
-    for (const auto& w : splitWork)
-      for (const auto& [i, b, e] : w->leafRanges) {
-        leafBegin[i] = w->leaves.data() + b;
-        leafEnd[i] = w->leaves.data() + e;
+      HermiteMap& hermite = grid.hermite();
+      for (std::size_t k = 0; k < roundCuts.size(); ++k) {
+        if (k + 8 < roundCuts.size()) hermite.prefetch(roundCuts[k + 8].link);
+        roundCuts[k].previous = hermite.exchange(roundCuts[k].link, roundCuts[k].hermite);
       }
-    std::vector<std::uint32_t> firstAppended(list.size());
-    std::vector<OctreeCube> oldCubes(list.size());
-    for (std::size_t i = 0; i < list.size(); ++i) {
-      const std::uint32_t id = list[i];
-      oldCubes[i] = oct.cubes[id];
-      firstAppended[i] = static_cast<std::uint32_t>(oct.cubes.size());
-      if (leafBegin[i] == leafEnd[i]) {
-        oct.cubes[id].deleted = true;
-        continue;
-      }
-      for (const CubeBox* leaf = leafBegin[i]; leaf != leafEnd[i]; ++leaf) {
-        const OctreeCube sub{leaf->o, static_cast<std::uint8_t>(leaf->level), false};
-        if (leaf == leafBegin[i]) {
-          oct.cubes[id] = sub;
-          oct.newCubes.push_back(id);
-        } else {
-          oct.newCubes.push_back(static_cast<std::uint32_t>(oct.cubes.size()));
-          oct.cubes.push_back(sub);
+    };
+    const auto openCubes = [&] {
+      for (const auto& w : splitWork)
+        for (const Index3& o : w->opened) openLevelOneCube(oct, grid, o);
+    };
+    // The first sub-cube takes the split cube's slot, the others are appended in list order;
+    // then each split cube's cells are rewritten, in parallel (disjoint cells).
+    const auto storeSubCubes = [&] {
+      std::vector<const CubeBox*> leafBegin(list.size()), leafEnd(list.size());
+      for (const auto& w : splitWork)
+        for (const auto& [i, b, e] : w->leafRanges) {
+          leafBegin[i] = w->leaves.data() + b;
+          leafEnd[i] = w->leaves.data() + e;
+        }
+      std::vector<std::uint32_t> firstAppended(list.size());
+      std::vector<OctreeCube> oldCubes(list.size());
+      for (std::size_t i = 0; i < list.size(); ++i) {
+        const std::uint32_t id = list[i];
+        oldCubes[i] = oct.cubes[id];
+        firstAppended[i] = static_cast<std::uint32_t>(oct.cubes.size());
+        if (leafBegin[i] == leafEnd[i]) {
+          oct.cubes[id].deleted = true;
+          continue;
+        }
+        for (const CubeBox* leaf = leafBegin[i]; leaf != leafEnd[i]; ++leaf) {
+          const OctreeCube sub{leaf->o, static_cast<std::uint8_t>(leaf->level), false};
+          if (leaf == leafBegin[i]) {
+            oct.cubes[id] = sub;
+            oct.newCubes.push_back(id);
+          } else {
+            oct.newCubes.push_back(static_cast<std::uint32_t>(oct.cubes.size()));
+            oct.cubes.push_back(sub);
+          }
         }
       }
-    }
-    parallelFor(0, list.size(), 1, [&](std::size_t b, std::size_t e) {
-      for (std::size_t i = b; i < e; ++i) {
-        oct.setCubeCells(oldCubes[i].origin, oldCubes[i].level, -1);
-        std::uint32_t next = firstAppended[i];
-        for (const CubeBox* leaf = leafBegin[i]; leaf != leafEnd[i]; ++leaf)
-          oct.setCubeCells(leaf->o, leaf->level, static_cast<std::int32_t>(leaf == leafBegin[i] ? list[i] : next++));
+      parallelFor(0, list.size(), 1, [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) {
+          oct.setCubeCells(oldCubes[i].origin, oldCubes[i].level, -1);
+          std::uint32_t next = firstAppended[i];
+          for (const CubeBox* leaf = leafBegin[i]; leaf != leafEnd[i]; ++leaf)
+            oct.setCubeCells(leaf->o, leaf->level, static_cast<std::int32_t>(leaf == leafBegin[i] ? list[i] : next++));
+        }
+      }, threaded);
+    };
+    parallelFor(0, 3, 1, [&](std::size_t b, std::size_t e) {
+      for (std::size_t job = b; job < e; ++job) {
+        if (job == 0) storeCuts();
+        if (job == 1) openCubes();
+        if (job == 2) storeSubCubes();
       }
     }, threaded);
-    // Hermite data of this round's cuts; the face cuts among them are next round's newly cut
-    // links (6).
-    HermiteMap& hermite = grid.hermite();
-    for (std::size_t k = 0; k < roundCuts.size(); ++k) {
-      if (k + 8 < roundCuts.size()) hermite.prefetch(roundCuts[k + 8].link);
-      roundCuts[k].previous = hermite.exchange(roundCuts[k].link, roundCuts[k].hermite);
-    }
     stats.cutLinks += roundCuts.size();
     cuts.insert(cuts.end(), roundCuts.begin(), roundCuts.end());
   }
