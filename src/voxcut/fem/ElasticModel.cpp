@@ -370,7 +370,14 @@ void ElasticModel::buildSparsity() {
   sparsity_.mirror = blockMirrors(sparsity_);
   static std::atomic<std::uint64_t> revisions{0};
   sparsityRevision_ = ++revisions;
-  aggregation_ = aggregateNodes(sparsity_, kAggregatePairings);
+}
+
+const NodeAggregation& ElasticModel::aggregation() const {
+  if (aggregationRevision_ != sparsityRevision_) {
+    aggregation_ = aggregateNodes(sparsity_, kAggregatePairings);
+    aggregationRevision_ = sparsityRevision_;
+  }
+  return aggregation_;
 }
 
 void ElasticModel::updateTopology(const DeformationOctree& octree, const VoxelGrid& grid,
