@@ -161,7 +161,7 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   const auto positionOf = [&](std::size_t i, bool isMarked) {
     return isMarked || !fewMarked ? b.activePositions[i] : b.deformation.voxelPosition(active[i]);
   };
-  constexpr std::size_t kChunk = 4096;
+  constexpr std::size_t kChunk = 1024;
   std::vector<std::vector<LinkCut>> found((active.size() + kChunk - 1) / kChunk);
   std::vector<std::size_t> tested(found.size(), 0);
   parallelFor(0, found.size(), 1, [&](std::size_t c0, std::size_t c1) {
