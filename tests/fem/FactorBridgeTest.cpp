@@ -184,5 +184,32 @@ TEST(ImplicitEulerDynamics, CutStepIsBridgedAndAgreesWithTwoLevel) {
   EXPECT_FALSE(next.bridged);
 }
 
+TEST(ImplicitEulerDynamics, AWornBridgeHandsCutStepsToTwoLevel) {
+  // Two cuts with a step between and no factorisation: the second cut step is bridged again
+  // unless the first took more than bridgeIterations iterations.
+  for (const int limit : {1000, 0}) {
+    CutBlock c = cutBlock();
+    ImplicitEulerParams p;
+    p.gravity = Vec3d(0.5, -9.81, 1.0);
+    p.bridgeIterations = limit;
+    ImplicitEuler solver(p);
+    for (int s = 0; s < 3; ++s) ASSERT_TRUE(solver.step(c.model, c.octree).converged);
+    solver.updateTopology(applyCut(c));
+    const StepStatus first = solver.step(c.model, c.octree);
+    ASSERT_TRUE(first.converged);
+    ASSERT_TRUE(first.bridged);
+    ASSERT_GT(first.iterations, 0);
+    c.cut.clear();
+    for (int z = 0; z < 8; ++z)
+      for (int x = 5; x < 8; ++x) c.cut.push_back(VoxelGrid::linkId(c.grid.index(x, 14, z), 1));
+    solver.updateTopology(applyCut(c));
+    const StepStatus second = solver.step(c.model, c.octree);
+    EXPECT_TRUE(second.converged);
+    EXPECT_FALSE(second.factorised);
+    EXPECT_EQ(second.bridged, limit > 0) << limit;
+    EXPECT_EQ(second.preconditioner, limit > 0 ? Preconditioner::Cholesky : Preconditioner::TwoLevel);
+  }
+}
+
 }  // namespace
 }  // namespace voxcut

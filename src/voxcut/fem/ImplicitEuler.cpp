@@ -478,7 +478,8 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
       freePositions_[i] = octree.positions()[freeNodes[i]];
   }
   // A cut since the factor: map the factor onto the new rows (FactorBridge.h), once per
-  // sparsity.
+  // sparsity, unless the last step on the bridge showed it has worn out.
+  if (lastBridged_ && lastIterations_ > params_.bridgeIterations) bridge_.invalidate();
   if (params_.preconditioner == Preconditioner::Cholesky && bridge_.valid() &&
       cholesky_.factorised() && model.sparsityRevision() != choleskyRevision_ &&
       bridgeRevision_ != model.sparsityRevision()) {
@@ -492,6 +493,7 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
   status.assemblyMs = assemblyMs;
   status.solveMs = timer.ms();
   lastIterations_ = status.iterations;
+  lastBridged_ = status.bridged;
   if (!status.finite) {
     std::fill(lastDv_.begin(), lastDv_.end(), Vec3d::Zero());
     return status;

@@ -107,6 +107,13 @@ struct ImplicitEulerParams {
   /// map (FactorBridge.h), or the two-level preconditioner when there is none. While
   /// a blade cuts every frame, a factor would be thrown away as soon as it was made.
   int factorAfterSteps = 1;
+  /// Cholesky only: steps on a new sparsity run on the earlier factor through the node map
+  /// (FactorBridge.h) while the previous such step took at most this many iterations; after
+  /// one that took more (the changes since the factor have piled up: a blade cutting frame
+  /// after frame, with no step in between to factorise), the two-level V-cycle until the next
+  /// factorisation. starfish-arm's twelve cutting frames in a row went 4, 5, 10, 11, 11, 18,
+  /// 20 ... 50 iterations on the bridge, 9-12 on the two-level V-cycle.
+  int bridgeIterations = 12;
   /// Cholesky only: when one factorisation would cost more 3x3 block updates than this
   /// (BlockCholesky::updateCount, about 10 ns each here) or more than maxFactorUpdatesPerBlock
   /// per block of the matrix, the two-level preconditioner is used instead: a factor whose
@@ -203,6 +210,7 @@ class ImplicitEuler {
   std::uint64_t costlyRevision_ = 0;  ///< a sparsity whose factor would cost too much
   std::size_t costlyRows_ = 0;        ///< its rows (0: none so far)
   int lastIterations_ = 0;  ///< of the previous step (Cholesky: decides a refactorisation)
+  bool lastBridged_ = false;  ///< the previous step ran on the bridge
   std::uint64_t stepRevision_ = 0;  ///< sparsity revision of the last step
   int stepsOnStructure_ = 0;        ///< steps before this one on the same sparsity
   std::vector<Vec3d> freePositions_;  ///< current positions of the free nodes
