@@ -4,8 +4,12 @@
 /// (paper §3.2, sub-steps (1)-(6) and (5-1)-(5-6)). After the blade has been tested against
 /// the active links, every cube of level >= 1 with a newly disconnected link on an edge or a
 /// face is split until no cube has one or level 0 is reached; the voxels and links uncovered
-/// on the way are positioned and tested against the blade, line by line, so the cut is
-/// exactly as detailed as without the octree.
+/// on the way are positioned and tested against the blade, so the cut is exactly as detailed
+/// as without the octree. On each face and mid-plane the blade's trace is followed from the
+/// cut links on its border, unit cell by unit cell (a cell's untested links are tested, the
+/// cells across its cut links come next): the tests grow with the length of the trace, about
+/// four per link it crosses, not with the area (the bunny's single-frame cut: 8,703 tested,
+/// 2,199 cut; bisecting each face into squares tested 14,930).
 
 #include <functional>
 #include <optional>
@@ -69,9 +73,10 @@ struct SubdivisionStats {
   std::size_t affectedCubes = 0;  ///< cubes marked in sub-step (1), summed over rounds
   std::size_t testedLinks = 0;    ///< links the subdivision examined (tested unless already cut)
   std::size_t cutLinks = 0;       ///< of which crossed
-  /// Voxels on the lines tested (m + 1 for a line of m links; a voxel on a face two cubes
-  /// share counts twice). The line test positions those next to links still connected, which
-  /// another task may have cut a moment before: this count does not depend on that.
+  /// Voxels on the lines handed to the line test (m + 1 for a line of m links, 2 for a single
+  /// link; a voxel two tested links share counts twice). The line test positions those next
+  /// to links still connected, which another task may have cut a moment before: this count
+  /// does not depend on that.
   std::size_t lineVoxels = 0;
   double facesMs = 0;             ///< wall time in sub-steps (2)-(4), the affected cubes' faces
   double splitMs = 0;             ///< in sub-step (5), the splits
