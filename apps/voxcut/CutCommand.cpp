@@ -7,6 +7,7 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <unistd.h>
 
 #include "voxcut/core/Parallel.h"
 #include "voxcut/io/SurfaceWriter.h"
@@ -145,6 +146,7 @@ int runBench(const BenchOptions& opt) {
     SingleFrameResult r;
   };
   std::vector<Row> rows;
+  const bool terminal = isatty(STDERR_FILENO) != 0;  // a progress line only there
   for (const std::string& m : opt.models) {
     ModelOptions mo;
     mo.model = m;
@@ -160,14 +162,15 @@ int runBench(const BenchOptions& opt) {
       sp.repeat = opt.repeat;
       sp.contour = false;
       for (bool octree : {false, true}) {
-        std::fprintf(stderr, "\r%s, %d thread(s), %s ...\033[K", m.c_str(), t, octree ? "octree" : "baseline");
+        if (terminal)
+          std::fprintf(stderr, "\r%s, %d thread(s), %s ...\033[K", m.c_str(), t, octree ? "octree" : "baseline");
         rows.push_back({m, t, octree, runSingleFrameCut(octree ? withOctree : baseline, motion, sp)});
         if (rows.back().r.cutHash != (octree ? rows.end()[-2] : rows.back()).r.cutHash)
           throw std::runtime_error("octree and baseline cut sets differ for " + m);
       }
     }
   }
-  std::fprintf(stderr, "\r\033[K");
+  if (terminal) std::fprintf(stderr, "\r\033[K");
   auto find = [&](const std::string& m, int t, bool o) -> const CutStepResult& {
     for (const Row& r : rows)
       if (r.model == m && r.threads == t && r.octree == o) return r.r.step;
