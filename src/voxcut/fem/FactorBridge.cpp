@@ -113,21 +113,21 @@ bool FactorBridge::prepare(const ElasticModel& model, const DeformationOctree& o
   // (bunny-ear: 7.0 instead of 9.9 conjugate-gradient iterations per cut step; more rings
   // gained nothing).
   const BlockSparsity& sp = model.sparsity();
-  std::vector<std::uint8_t> grown = local_;
-  for (std::size_t i = 0; i < rows; ++i)
-    if (local_[i])
-      for (std::uint32_t s = sp.rowStart[i]; s < sp.rowStart[i + 1]; ++s) grown[sp.column[s]] = 1;
-  local_ = std::move(grown);
+  const auto withNeighbours = [&](const std::vector<std::uint8_t>& flags) {
+    std::vector<std::uint8_t> out = flags;
+    for (std::size_t i = 0; i < rows; ++i)
+      if (flags[i])
+        for (std::uint32_t s = sp.rowStart[i]; s < sp.rowStart[i + 1]; ++s) out[sp.column[s]] = 1;
+    return out;
+  };
+  local_ = withNeighbours(local_);
   // The rows a change of u on the local rows reaches (their neighbours).
-  std::vector<std::uint8_t> halo = local_;
-  for (std::size_t i = 0; i < rows; ++i)
-    if (local_[i]) {
-      localList_.push_back(static_cast<std::uint32_t>(i));
-      for (std::uint32_t s = sp.rowStart[i]; s < sp.rowStart[i + 1]; ++s) halo[sp.column[s]] = 1;
-    }
+  const std::vector<std::uint8_t> halo = withNeighbours(local_);
   haloList_.clear();
-  for (std::size_t i = 0; i < rows; ++i)
+  for (std::size_t i = 0; i < rows; ++i) {
+    if (local_[i]) localList_.push_back(static_cast<std::uint32_t>(i));
     if (halo[i]) haloList_.push_back(static_cast<std::uint32_t>(i));
+  }
   coarse_.assign(factorRows, Vec3d::Zero());
   return true;
 }

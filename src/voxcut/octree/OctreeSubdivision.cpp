@@ -75,26 +75,17 @@ struct Worker {
   std::vector<Index3> opened;         // level-1 cubes split: opened after the parallel phase
   std::vector<CubeBox> leaves;        // sub-cubes kept, cube after cube
   std::vector<std::array<std::uint32_t, 3>> leafRanges;  // (cube slot, begin, end) in leaves
-  // Scratch, kept per thread for the whole run (WorkerScratch).
-  std::vector<int>& line;
-  std::vector<std::pair<int, Hermite>>& hits;
-  std::vector<std::pair<int, int>>& cells;
-  std::vector<std::uint8_t>& visited;
-  std::vector<std::uint8_t>& examined;
-  VoxelPositionCache& positions;
-  std::vector<std::array<std::vector<CutLink>, 8>>& childCuts;
-  std::vector<CutLink>& boundary;
+  WorkerScratch& scratch;             // the running thread's
 
-  Worker(VoxelOctree& o, VoxelGrid& g, const SubdivisionHooks& h, WorkerScratch& s)
-      : oct(o), grid(g), hooks(h), line(s.line), hits(s.hits), cells(s.cells), visited(s.visited),
-        examined(s.examined), positions(s.positions), childCuts(s.childCuts), boundary(s.boundary) {}
+  Worker(VoxelOctree& o, VoxelGrid& g, const SubdivisionHooks& h, WorkerScratch& own)
+      : oct(o), grid(g), hooks(h), scratch(own) {}
 
   // The disconnected links on the faces of `cube`. A cube exists only where every link was
   // connected when it was made, and a cube with a cut on its boundary is split in the same
   // frame, so these are exactly this frame's cuts on its boundary. During the split phase
   // other tasks only cut links inside their own cubes, so these bits do not change.
   void gatherBoundaryCuts(const CubeBox& cube) {
-    boundary.clear();
+    scratch.boundary.clear();
     const int s = cube.size();
     for (int a = 0; a < 3; ++a) {
       const int u = (a + 1) % 3, w = (a + 2) % 3;
@@ -110,7 +101,7 @@ struct Worker {
             if (!linkConnected(grid, v, a)) {
               Index3 q = p;
               q[a] += k;
-              boundary.push_back({q, a});
+              scratch.boundary.push_back({q, a});
             }
         }
       }
@@ -124,13 +115,13 @@ struct Worker {
     const std::size_t v0 = grid.index(p), step = grid.stride(a);
     tested += static_cast<std::size_t>(m);
     lineVoxels += static_cast<std::size_t>(m) + 1;
-    line.clear();
+    scratch.line.clear();
     for (int k = 0; k < m; ++k)
-      if (linkConnected(grid, v0 + static_cast<std::size_t>(k) * step, a)) line.push_back(k);
-    if (line.empty()) return;
-    hits.clear();
-    hooks.testLine(v0, a, line, hits, positions);
-    for (const auto& [k, hermite] : hits) {
+      if (linkConnected(grid, v0 + static_cast<std::size_t>(k) * step, a)) scratch.line.push_back(k);
+    if (scratch.line.empty()) return;
+    scratch.hits.clear();
+    hooks.testLine(v0, a, scratch.line, scratch.hits, scratch.positions);
+    for (const auto& [k, hermite] : scratch.hits) {
       const std::size_t v = v0 + static_cast<std::size_t>(k) * step;
       disconnect(grid, v, a);
       cuts.push_back({VoxelGrid::linkId(v, a), hermite, std::nullopt});
@@ -153,42 +144,43 @@ struct Worker {
     const int u = (f + 1) % 3, w = (f + 2) % 3;
     const std::size_t base = grid.index(o), su = grid.stride(u), sw = grid.stride(w);
     const auto mz = static_cast<std::size_t>(m);
-    // u-link (i, j) from point (i, j) along u, i < m, j <= m; w-link (i, j) along w, i <= m, j < m.
-    const auto uVoxel = [&](int i, int j) { return base + static_cast<std::size_t>(i) * su + static_cast<std::size_t>(j) * sw; };
-    cells.clear();
+    // Point (i, j) of the square; u-link (i, j) runs from it along u (i < m, j <= m), w-link
+    // (i, j) along w (i <= m, j < m).
+    const auto voxelAt = [&](int i, int j) { return base + static_cast<std::size_t>(i) * su + static_cast<std::size_t>(j) * sw; };
+    scratch.cells.clear();
     for (int i = 0; i < m; ++i) {
-      if (!linkConnected(grid, uVoxel(i, 0), u)) cells.push_back({i, 0});
-      if (!linkConnected(grid, uVoxel(i, m), u)) cells.push_back({i, m - 1});
-      if (!linkConnected(grid, uVoxel(0, i), w)) cells.push_back({0, i});
-      if (!linkConnected(grid, uVoxel(m, i), w)) cells.push_back({m - 1, i});
+      if (!linkConnected(grid, voxelAt(i, 0), u)) scratch.cells.push_back({i, 0});
+      if (!linkConnected(grid, voxelAt(i, m), u)) scratch.cells.push_back({i, m - 1});
+      if (!linkConnected(grid, voxelAt(0, i), w)) scratch.cells.push_back({0, i});
+      if (!linkConnected(grid, voxelAt(m, i), w)) scratch.cells.push_back({m - 1, i});
     }
-    if (cells.empty()) return;
-    visited.assign(mz * mz, 0);
-    examined.assign(2 * mz * (mz + 1), 0);  // u-links, then w-links
+    if (scratch.cells.empty()) return;
+    scratch.visited.assign(mz * mz, 0);
+    scratch.examined.assign(2 * mz * (mz + 1), 0);  // u-links, then w-links
     // Examines the interior link (a u-link when `alongU`) and says whether it is cut.
     const auto cut = [&](bool alongU, int i, int j) {
       const std::size_t slot = alongU ? static_cast<std::size_t>(j) * mz + static_cast<std::size_t>(i)
                                       : mz * (mz + 1) + static_cast<std::size_t>(i) * mz + static_cast<std::size_t>(j);
       const int axis = alongU ? u : w;
-      if (!examined[slot]) {
-        examined[slot] = 1;
+      if (!scratch.examined[slot]) {
+        scratch.examined[slot] = 1;
         Index3 p = o;
         p[u] += i;
         p[w] += j;
         testLine(p, axis, 1);
       }
-      return !linkConnected(grid, uVoxel(i, j), axis);
+      return !linkConnected(grid, voxelAt(i, j), axis);
     };
-    while (!cells.empty()) {
-      const auto [i, j] = cells.back();
-      cells.pop_back();
-      std::uint8_t& seen = visited[static_cast<std::size_t>(j) * mz + static_cast<std::size_t>(i)];
+    while (!scratch.cells.empty()) {
+      const auto [i, j] = scratch.cells.back();
+      scratch.cells.pop_back();
+      std::uint8_t& seen = scratch.visited[static_cast<std::size_t>(j) * mz + static_cast<std::size_t>(i)];
       if (seen) continue;
       seen = 1;
-      if (j > 0 && cut(true, i, j)) cells.push_back({i, j - 1});
-      if (j + 1 < m && cut(true, i, j + 1)) cells.push_back({i, j + 1});
-      if (i > 0 && cut(false, i, j)) cells.push_back({i - 1, j});
-      if (i + 1 < m && cut(false, i + 1, j)) cells.push_back({i + 1, j});
+      if (j > 0 && cut(true, i, j)) scratch.cells.push_back({i, j - 1});
+      if (j + 1 < m && cut(true, i, j + 1)) scratch.cells.push_back({i, j + 1});
+      if (i > 0 && cut(false, i, j)) scratch.cells.push_back({i - 1, j});
+      if (i + 1 < m && cut(false, i + 1, j)) scratch.cells.push_back({i + 1, j});
     }
   }
 
@@ -213,8 +205,8 @@ struct Worker {
     // (5-4) eight sub-cubes; (5-5) split those with a cut link on their boundary (the cube had
     // none inside before this frame, so they are on its faces or found just now); (5-6).
     // Sized by the first (largest) cube; the recursion only goes down, so `sub` stays valid.
-    if (childCuts.size() < static_cast<std::size_t>(cube.level) + 1) childCuts.resize(static_cast<std::size_t>(cube.level) + 1);
-    auto& sub = childCuts[static_cast<std::size_t>(cube.level)];
+    if (scratch.childCuts.size() < static_cast<std::size_t>(cube.level) + 1) scratch.childCuts.resize(static_cast<std::size_t>(cube.level) + 1);
+    auto& sub = scratch.childCuts[static_cast<std::size_t>(cube.level)];
     for (auto& list : sub) list.clear();
     const auto distribute = [&](const CutLink& c) {
       // A link lies on the boundary of every sub-cube whose box holds it: it lies on one of
@@ -348,7 +340,7 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
       const CubeBox cube{oc.origin, oc.level};
       w.gatherBoundaryCuts(cube);
       const auto begin = static_cast<std::uint32_t>(w.leaves.size());
-      w.split(cube, w.boundary);
+      w.split(cube, w.scratch.boundary);
       w.leafRanges.push_back({static_cast<std::uint32_t>(i), begin, static_cast<std::uint32_t>(w.leaves.size())});
     });
     stats.splitMs += phase.ms();
