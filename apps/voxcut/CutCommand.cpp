@@ -99,7 +99,6 @@ int runCut(const CutOptions& opt) {
     j["tested_links"] = s.testedLinks + s.subdivision.testedLinks;
     j["subdivision"] = {{"rounds", s.subdivision.rounds}, {"affected_cubes", s.subdivision.affectedCubes},
                         {"tested_links", s.subdivision.testedLinks}, {"cut_links", s.subdivision.cutLinks},
-                        {"line_voxels", s.subdivision.lineVoxels},
                         {"faces_ms", s.subdivision.facesMs}, {"split_ms", s.subdivision.splitMs},
                         {"bookkeeping_ms", s.subdivision.bookkeepingMs}};
     j["timings_ms"] = {{"voxel_position_update", s.positionUpdateMs},

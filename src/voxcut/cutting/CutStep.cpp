@@ -51,34 +51,17 @@ std::optional<Hermite> testLink(const CutBody& b, const std::vector<BladeSweep>&
   return h;
 }
 
-// The subdivision's line test (see SubdivisionHooks::testLine): positions computed on the
-// way, each voxel once per task (the cache), prefetched first (a line across x or y strides
-// through memory).
-void testLine(const CutBody& b, const std::vector<BladeSweep>& sweeps, std::size_t v0, int a,
-              const std::vector<int>& links, std::vector<std::pair<int, Hermite>>& hits,
-              VoxelPositionCache& cache) {
-  const DeformationOctree& d = b.deformation;
-  const std::size_t step = b.grid.stride(a);
-  for (int k : links) {
-    __builtin_prefetch(&d.embedding(v0 + static_cast<std::size_t>(k) * step));
-    __builtin_prefetch(&d.embedding(v0 + static_cast<std::size_t>(k + 1) * step));
-  }
-  const auto position = [&](std::size_t v) {
-    if (const Vec3d* p = cache.find(v)) return *p;
-    const Vec3d p = d.voxelPosition(v);
-    cache.put(v, p);
+// The subdivision's link test (see SubdivisionHooks::testLink): the ends positioned on the
+// way, each voxel once per task (the cache).
+std::optional<Hermite> testCubeLink(const CutBody& b, const std::vector<BladeSweep>& sweeps, std::size_t v,
+                                    int a, VoxelPositionCache& cache) {
+  const auto position = [&](std::size_t u) {
+    if (const Vec3d* p = cache.find(u)) return *p;
+    const Vec3d p = b.deformation.voxelPosition(u);
+    cache.put(u, p);
     return p;
   };
-  int known = -1;  // the voxel whose position `last` holds
-  Vec3d last = Vec3d::Zero();
-  for (int k : links) {
-    const std::size_t v = v0 + static_cast<std::size_t>(k) * step;
-    const Vec3d pv = k == known ? last : position(v);
-    const Vec3d pw = position(v + step);
-    known = k + 1;
-    last = pw;
-    if (const auto h = testLink(b, sweeps, v, a, pv, pw)) hits.emplace_back(k, *h);
-  }
+  return testLink(b, sweeps, v, a, position(v), position(v + b.grid.stride(a)));
 }
 
 }  // namespace
@@ -201,10 +184,7 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   if (b.useOctree && !r.cuts.empty()) {
     timer.restart();
     SubdivisionHooks hooks;
-    hooks.testLine = [&](std::size_t v0, int a, const std::vector<int>& links,
-                         std::vector<std::pair<int, Hermite>>& hits, VoxelPositionCache& cache) {
-      testLine(b, sweeps, v0, a, links, hits, cache);
-    };
+    hooks.testLink = [&](std::size_t v, int a, VoxelPositionCache& cache) { return testCubeLink(b, sweeps, v, a, cache); };
     r.subdivision = subdivideCutCubes(b.activity, g, r.cuts, hooks, threaded);
     r.subdivisionMs = timer.ms();
     timer.restart();

@@ -18,9 +18,13 @@ bool linkConnected(const VoxelGrid& grid, std::size_t v, int a) {
   auto* bytes = const_cast<VoxelGrid&>(grid).linkData();
   return (std::atomic_ref<std::uint8_t>(bytes[v]).load(std::memory_order_relaxed) >> a) & 1u;
 }
-void disconnect(VoxelGrid& grid, std::size_t v, int a) {
-  std::atomic_ref<std::uint8_t>(grid.linkData()[v])
-      .fetch_and(static_cast<std::uint8_t>(~(1u << a)), std::memory_order_relaxed);
+// Disconnects link (v, a); says whether this call did (it was connected): two tasks that
+// resolve a face they share may both find one of its links crossed, and only the one that
+// disconnects it records the cut.
+bool disconnect(VoxelGrid& grid, std::size_t v, int a) {
+  const auto bit = static_cast<std::uint8_t>(1u << a);
+  return (std::atomic_ref<std::uint8_t>(grid.linkData()[v])
+              .fetch_and(static_cast<std::uint8_t>(~bit), std::memory_order_relaxed) & bit) != 0;
 }
 // (5-3) for a split level-1 cube: its 27 voxels and 54 links become active. Only when no task
 // runs: the state bytes of its faces are shared with neighbouring cubes (raising them inside
@@ -53,25 +57,24 @@ struct CutLink {
 // A thread's scratch memory, reused by every task it runs in one subdivision run (the position
 // cache stays valid for the whole run: positions do not change during it).
 struct WorkerScratch {
-  std::vector<int> line;                      // the connected links of a line
-  std::vector<std::pair<int, Hermite>> hits;  // what the blade crossed on it
   std::vector<std::pair<int, int>> cells;     // traceSquare: cells to visit
   std::vector<std::uint8_t> visited, examined;  // traceSquare: per cell, per link
-  VoxelPositionCache positions;               // for the line test
+  VoxelPositionCache positions;               // for the link test
   // Per level: the cut links on each of the 8 sub-cubes' boundaries (reused between calls).
   std::vector<std::array<std::vector<CutLink>, 8>> childCuts;
   std::vector<CutLink> boundary;              // the cut links on a split cube's faces
 };
 
 // One task's work and findings (a task handles a range of cubes; whatever it finds is merged
-// in an order-independent way: cut lists are sorted, counts summed, leaves kept per cube).
+// in an order-independent way: each cut is recorded by one task, counts are summed, leaves
+// kept per cube).
 struct Worker {
   VoxelOctree& oct;
   VoxelGrid& grid;
   const SubdivisionHooks& hooks;
   std::vector<LinkCut> cuts;          // links this task cut
   std::vector<CutLink> found;         // the same, as positions, for the sub-cube test
-  std::size_t tested = 0, lineVoxels = 0;
+  std::size_t tested = 0;
   std::vector<Index3> opened;         // level-1 cubes split: opened after the parallel phase
   std::vector<CubeBox> leaves;        // sub-cubes kept, cube after cube
   std::vector<std::array<std::uint32_t, 3>> leafRanges;  // (cube slot, begin, end) in leaves
@@ -108,27 +111,17 @@ struct Worker {
     }
   }
 
-  // Tests the m links of the grid line from p along a (those still connected; each counts
-  // as tested either way, so the count does not depend on scheduling); crossed links are
-  // disconnected at once and recorded.
-  void testLine(const Index3& p, int a, int m) {
-    const std::size_t v0 = grid.index(p), step = grid.stride(a);
-    tested += static_cast<std::size_t>(m);
-    lineVoxels += static_cast<std::size_t>(m) + 1;
-    scratch.line.clear();
-    for (int k = 0; k < m; ++k)
-      if (linkConnected(grid, v0 + static_cast<std::size_t>(k) * step, a)) scratch.line.push_back(k);
-    if (scratch.line.empty()) return;
-    scratch.hits.clear();
-    hooks.testLine(v0, a, scratch.line, scratch.hits, scratch.positions);
-    for (const auto& [k, hermite] : scratch.hits) {
-      const std::size_t v = v0 + static_cast<std::size_t>(k) * step;
-      disconnect(grid, v, a);
-      cuts.push_back({VoxelGrid::linkId(v, a), hermite, std::nullopt});
-      Index3 q = p;
-      q[a] += k;
-      found.push_back({q, a});
-    }
+  // Tests link (v, a) at grid point p (computed on a hit) if it is still connected; it counts
+  // as tested either way, so the count does not depend on scheduling. A crossed link is
+  // disconnected at once and recorded by the task that disconnects it.
+  template <class Point>
+  void testLink(std::size_t v, int a, Point&& p) {
+    ++tested;
+    if (!linkConnected(grid, v, a)) return;
+    const std::optional<Hermite> hit = hooks.testLink(v, a, scratch.positions);
+    if (!hit || !disconnect(grid, v, a)) return;
+    cuts.push_back({VoxelGrid::linkId(v, a), *hit, std::nullopt});
+    found.push_back({p(), a});
   }
 
   // The links inside the square of side m at `o` in the plane normal to f, spanned by axes
@@ -162,14 +155,17 @@ struct Worker {
       const std::size_t slot = alongU ? static_cast<std::size_t>(j) * mz + static_cast<std::size_t>(i)
                                       : mz * (mz + 1) + static_cast<std::size_t>(i) * mz + static_cast<std::size_t>(j);
       const int axis = alongU ? u : w;
+      const std::size_t v = voxelAt(i, j);
       if (!scratch.examined[slot]) {
         scratch.examined[slot] = 1;
-        Index3 p = o;
-        p[u] += i;
-        p[w] += j;
-        testLine(p, axis, 1);
+        testLink(v, axis, [&] {
+          Index3 p = o;
+          p[u] += i;
+          p[w] += j;
+          return p;
+        });
       }
-      return !linkConnected(grid, voxelAt(i, j), axis);
+      return !linkConnected(grid, v, axis);
     };
     while (!scratch.cells.empty()) {
       const auto [i, j] = scratch.cells.back();
@@ -297,7 +293,6 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     auto mergeCounts = [&](const std::vector<std::unique_ptr<Worker>>& workers) {
       for (const auto& w : workers) {
         stats.testedLinks += w->tested;
-        stats.lineVoxels += w->lineVoxels;
         roundCuts.insert(roundCuts.end(), w->cuts.begin(), w->cuts.end());
       }
     };
@@ -346,21 +341,12 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     stats.splitMs += phase.ms();
     mergeCounts(splitWork);
     // Three independent jobs, run side by side (each writes its own data):
-    //  - this round's cuts sorted by link, each once (a face two cubes share in part was
-    //    resolved by both, with the same results; sorting the keys moves a quarter of the
-    //    bytes the cuts would), then their Hermite data; the face cuts among them are next
-    //    round's newly cut links (6);
+    //  - this round's cuts get their Hermite data (each was recorded once, by the task that
+    //    disconnected it; the table's contents do not depend on the order); the face cuts
+    //    among them are next round's newly cut links (6);
     //  - the split level-1 cubes opened (oct.state, oct.changed);
     //  - the sub-cubes stored (oct.cubes, oct.newCubes, oct.cellCube).
     const auto storeCuts = [&] {
-      std::vector<std::pair<std::uint64_t, std::uint32_t>> keys(roundCuts.size());
-      for (std::size_t k = 0; k < keys.size(); ++k) keys[k] = {roundCuts[k].link, static_cast<std::uint32_t>(k)};
-      std::sort(keys.begin(), keys.end());
-      std::vector<LinkCut> unique;
-      unique.reserve(keys.size());
-      for (std::size_t k = 0; k < keys.size(); ++k)
-        if (k == 0 || keys[k].first != keys[k - 1].first) unique.push_back(roundCuts[keys[k].second]);
-      roundCuts = std::move(unique);
       HermiteMap& hermite = grid.hermite();
       for (std::size_t k = 0; k < roundCuts.size(); ++k) {
         if (k + 8 < roundCuts.size()) hermite.prefetch(roundCuts[k + 8].link);

@@ -29,7 +29,7 @@ struct LinkCut {
   std::optional<Hermite> previous;
 };
 
-/// Voxel positions a line test computed, kept for the next calls of the same task (the
+/// Voxel positions the link test computed, kept for the next calls of the same task (the
 /// trace following meets a voxel from up to four links of a face, and from two mid-planes):
 /// a direct-mapped table by voxel index, so a lookup is one probe and a clash overwrites.
 /// Valid for one subdivision run (the positions do not change during it).
@@ -57,14 +57,11 @@ class VoxelPositionCache {
 
 /// What subdivision needs from the cutting step.
 struct SubdivisionHooks {
-  /// Blade test of links of one grid line: for each k in `links` (ascending), the link
-  /// (v0 + k stride(a), a). The hook computes the current positions of the voxels these
-  /// links join itself (bitwise as for the main test; it may keep them in `cache`, the
-  /// calling task's own) and appends (k, Hermite data in the rest frame) for every crossed
-  /// link to `hits`. May be called from several threads at once.
-  std::function<void(std::size_t v0, int a, const std::vector<int>& links,
-                     std::vector<std::pair<int, Hermite>>& hits, VoxelPositionCache& cache)>
-      testLine;
+  /// Blade test of the connected link (v, a): its Hermite data in the rest frame if the blade
+  /// crosses it. The hook computes the current positions of v and v + stride(a) itself
+  /// (bitwise as for the main test; it may keep them in `cache`, the calling task's own).
+  /// May be called from several threads at once.
+  std::function<std::optional<Hermite>(std::size_t v, int a, VoxelPositionCache& cache)> testLink;
 };
 
 /// Counts of one subdivision run.
@@ -73,11 +70,6 @@ struct SubdivisionStats {
   std::size_t affectedCubes = 0;  ///< cubes marked in sub-step (1), summed over rounds
   std::size_t testedLinks = 0;    ///< links the subdivision examined (tested unless already cut)
   std::size_t cutLinks = 0;       ///< of which crossed
-  /// Voxels on the lines handed to the line test (m + 1 for a line of m links, 2 for a single
-  /// link; a voxel two tested links share counts twice). The line test positions those next
-  /// to links still connected, which another task may have cut a moment before: this count
-  /// does not depend on that.
-  std::size_t lineVoxels = 0;
   double facesMs = 0;             ///< wall time in sub-steps (2)-(4), the affected cubes' faces
   double splitMs = 0;             ///< in sub-step (5), the splits
   double bookkeepingMs = 0;       ///< the rest: marking, gathering, storing the sub-cubes
@@ -85,11 +77,13 @@ struct SubdivisionStats {
 
 /// Runs sub-steps (1)-(6). `cuts` holds the links cut so far this frame (already disconnected
 /// in `grid`, Hermite data set); the links this step cuts are disconnected, given Hermite data
-/// and appended. Cubes are split in place: a split cube keeps its slot for its first remaining
+/// and appended, each once, in an order that depends on the schedule (sort them for a
+/// deterministic order). Cubes are split in place: a split cube keeps its slot for its first remaining
 /// sub-cube, new sub-cubes are appended and listed in octree.newCubes, level-1 cubes that
 /// split are marked deleted after activating their 27 voxels and 54 links. The deferred
 /// updates (compactCubes, activateNewCubeFrames, rebuildActiveVoxels) are left to the caller.
-/// Deterministic for any thread count.
+/// Otherwise deterministic for any thread count: the cut set, the grid, the octree and the
+/// counts.
 SubdivisionStats subdivideCutCubes(VoxelOctree& octree, VoxelGrid& grid, std::vector<LinkCut>& cuts,
                                    const SubdivisionHooks& hooks, bool threaded = true);
 
