@@ -41,37 +41,47 @@ BladeMotion defaultBladeMotion(const CutBody& body) {
   return m;
 }
 
-SingleFrameResult runSingleFrameCut(const CutBody& prepared, const BladeMotion& blade,
-                                    const SingleFrameParams& params) {
-  SingleFrameResult out;
+std::vector<SingleFrameResult> runSingleFrameCuts(const std::vector<const CutBody*>& prepared,
+                                                  const BladeMotion& blade, const SingleFrameParams& params) {
   const BladeSweep sweep = makeSweep(blade.from, blade.to, 0);
-  std::vector<double> pos, inter, sub, def;
+  const std::size_t n = prepared.size();
+  std::vector<SingleFrameResult> out(n);
+  std::vector<std::vector<double>> pos(n), inter(n), sub(n), def(n);
   const int repeat = std::max(1, params.repeat);
-  for (int r = 0; r < repeat; ++r) {
-    CutBody body = prepared;
-    out.activeVoxelsBefore = body.activity.activeVoxels.size();
-    CutStepResult step = cutStep(body, sweep, params.threaded);
-    pos.push_back(step.positionUpdateMs);
-    inter.push_back(step.intersectionMs);
-    sub.push_back(step.subdivisionMs);
-    def.push_back(step.deferredMs);
-    if (r + 1 == repeat) {
-      out.step = std::move(step);
-      out.body = std::move(body);
+  for (int r = 0; r < repeat; ++r)
+    for (std::size_t k = 0; k < n; ++k) {
+      CutBody body = *prepared[k];
+      out[k].activeVoxelsBefore = body.activity.activeVoxels.size();
+      CutStepResult step = cutStep(body, sweep, params.threaded);
+      pos[k].push_back(step.positionUpdateMs);
+      inter[k].push_back(step.intersectionMs);
+      sub[k].push_back(step.subdivisionMs);
+      def[k].push_back(step.deferredMs);
+      if (r + 1 == repeat) {
+        out[k].step = std::move(step);
+        out[k].body = std::move(body);
+      }
+    }
+  for (std::size_t k = 0; k < n; ++k) {
+    SingleFrameResult& o = out[k];
+    o.step.positionUpdateMs = median(pos[k]);
+    o.step.intersectionMs = median(inter[k]);
+    o.step.subdivisionMs = median(sub[k]);
+    o.step.deferredMs = median(def[k]);
+    o.cutHash = cutSetHash(o.step.cuts);
+    o.activeVoxelsAfter = o.body.activity.activeVoxels.size();
+    if (params.contour) {
+      o.pieces = findPieces(o.body.grid).count;
+      o.surface = dualContour(o.body.grid, {.qefThreshold = 0.1, .threaded = params.threaded});
+      o.topology = surfaceTopology(o.surface);
     }
   }
-  out.step.positionUpdateMs = median(pos);
-  out.step.intersectionMs = median(inter);
-  out.step.subdivisionMs = median(sub);
-  out.step.deferredMs = median(def);
-  out.cutHash = cutSetHash(out.step.cuts);
-  out.activeVoxelsAfter = out.body.activity.activeVoxels.size();
-  if (params.contour) {
-    out.pieces = findPieces(out.body.grid).count;
-    out.surface = dualContour(out.body.grid, {.qefThreshold = 0.1, .threaded = params.threaded});
-    out.topology = surfaceTopology(out.surface);
-  }
   return out;
+}
+
+SingleFrameResult runSingleFrameCut(const CutBody& prepared, const BladeMotion& blade,
+                                    const SingleFrameParams& params) {
+  return std::move(runSingleFrameCuts({&prepared}, blade, params).front());
 }
 
 }  // namespace voxcut

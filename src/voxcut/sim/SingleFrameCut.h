@@ -6,6 +6,7 @@
 
 #include <optional>
 #include <utility>
+#include <vector>
 
 #include "voxcut/cutting/CutStep.h"
 #include "voxcut/fem/PrescribedDeformation.h"
@@ -44,5 +45,12 @@ struct SingleFrameResult {
 /// thread count; the timings are wall-clock medians.
 [[nodiscard]] SingleFrameResult runSingleFrameCut(const CutBody& prepared, const BladeMotion& blade,
                                                   const SingleFrameParams& params);
+
+/// As runSingleFrameCut for several bodies (the same model with and without the octree), their
+/// runs interleaved (one run of each, then the next round), so that a slow spell of the
+/// machine weighs on all of them alike and their ratios hold; one result per body, in order.
+[[nodiscard]] std::vector<SingleFrameResult> runSingleFrameCuts(const std::vector<const CutBody*>& prepared,
+                                                                const BladeMotion& blade,
+                                                                const SingleFrameParams& params);
 
 }  // namespace voxcut
