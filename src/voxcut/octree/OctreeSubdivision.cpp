@@ -24,7 +24,8 @@ bool linkConnected(const VoxelGrid& grid, std::size_t v, int a) {
 bool disconnect(VoxelGrid& grid, std::size_t v, int a) {
   const auto bit = static_cast<std::uint8_t>(1u << a);
   return (std::atomic_ref<std::uint8_t>(grid.linkData()[v])
-              .fetch_and(static_cast<std::uint8_t>(~bit), std::memory_order_relaxed) & bit) != 0;
+              .fetch_and(static_cast<std::uint8_t>(~bit), std::memory_order_relaxed) &
+          bit) != 0;
 }
 // (5-3) for a split level-1 cube: its 27 voxels and 54 links become active. Only when no task
 // runs: the state bytes of its faces are shared with neighbouring cubes (raising them inside
@@ -54,41 +55,47 @@ struct CutLink {
   int a;
 };
 
-// A thread's scratch memory, reused by every task it runs in one subdivision run (the position
-// cache stays valid for the whole run: positions do not change during it).
-struct WorkerScratch {
-  std::vector<std::pair<int, int>> cells;     // traceSquare: cells to visit
-  std::vector<std::uint8_t> visited, examined;  // traceSquare: per cell, per link
-  VoxelPositionCache positions;               // for the link test
-  // Per level: the cut links on each of the 8 sub-cubes' boundaries (reused between calls).
-  std::vector<std::array<std::vector<CutLink>, 8>> childCuts;
-  std::vector<CutLink> boundary;              // the cut links on a split cube's faces
-};
-
-// One task's work and findings (a task handles a range of cubes; whatever it finds is merged
-// in an order-independent way: each cut is recorded by one task, counts are summed, leaves
-// kept per cube).
+// A thread's worker: its findings in the current phase, and scratch memory reused by every
+// task it runs in one subdivision run (the position cache stays valid for the whole run:
+// positions do not change during it). One task runs on a thread at a time, so a worker is
+// never used by two at once; whatever the workers find is merged in an order-independent
+// way (each cut is recorded by one task, counts are summed, leaves kept per cube).
 struct Worker {
   VoxelOctree& oct;
   VoxelGrid& grid;
   const SubdivisionHooks& hooks;
-  std::vector<LinkCut> cuts;          // links this task cut
-  std::vector<CutLink> found;         // the same, as positions, for the sub-cube test
+  // Findings, cleared at the start of each phase.
+  std::vector<LinkCut> cuts;   // links this worker cut
+  std::vector<CutLink> found;  // the same, as positions, for the sub-cube test
   std::size_t tested = 0;
-  std::vector<Index3> opened;         // level-1 cubes split: opened after the parallel phase
-  std::vector<CubeBox> leaves;        // sub-cubes kept, cube after cube
+  std::vector<Index3> opened;   // level-1 cubes split: opened after the parallel phase
+  std::vector<CubeBox> leaves;  // sub-cubes kept, cube after cube
   std::vector<std::array<std::uint32_t, 3>> leafRanges;  // (cube slot, begin, end) in leaves
-  WorkerScratch& scratch;             // the running thread's
+  // Scratch.
+  std::vector<std::pair<int, int>> cells;       // traceSquare: cells to visit
+  std::vector<std::uint8_t> visited, examined;  // traceSquare: per cell, per link
+  VoxelPositionCache positions;                 // for the link test
+  // Per level: the cut links on each of the 8 sub-cubes' boundaries (reused between calls).
+  std::vector<std::array<std::vector<CutLink>, 8>> childCuts;
+  std::vector<CutLink> boundary;  // the cut links on a split cube's faces
 
-  Worker(VoxelOctree& o, VoxelGrid& g, const SubdivisionHooks& h, WorkerScratch& own)
-      : oct(o), grid(g), hooks(h), scratch(own) {}
+  Worker(VoxelOctree& o, VoxelGrid& g, const SubdivisionHooks& h) : oct(o), grid(g), hooks(h) {}
+
+  void clearFindings() {
+    cuts.clear();
+    found.clear();
+    tested = 0;
+    opened.clear();
+    leaves.clear();
+    leafRanges.clear();
+  }
 
   // The disconnected links on the faces of `cube`. A cube exists only where every link was
   // connected when it was made, and a cube with a cut on its boundary is split in the same
   // frame, so these are exactly this frame's cuts on its boundary. During the split phase
   // other tasks only cut links inside their own cubes, so these bits do not change.
   void gatherBoundaryCuts(const CubeBox& cube) {
-    scratch.boundary.clear();
+    boundary.clear();
     const int s = cube.size();
     for (int a = 0; a < 3; ++a) {
       const int u = (a + 1) % 3, w = (a + 2) % 3;
@@ -104,7 +111,7 @@ struct Worker {
             if (!linkConnected(grid, v, a)) {
               Index3 q = p;
               q[a] += k;
-              scratch.boundary.push_back({q, a});
+              boundary.push_back({q, a});
             }
         }
       }
@@ -118,7 +125,7 @@ struct Worker {
   void testLink(std::size_t v, int a, Point&& p) {
     ++tested;
     if (!linkConnected(grid, v, a)) return;
-    const std::optional<Hermite> hit = hooks.testLink(v, a, scratch.positions);
+    const std::optional<Hermite> hit = hooks.testLink(v, a, positions);
     if (!hit || !disconnect(grid, v, a)) return;
     cuts.push_back({VoxelGrid::linkId(v, a), *hit, std::nullopt});
     found.push_back({p(), a});
@@ -139,44 +146,66 @@ struct Worker {
     const auto mz = static_cast<std::size_t>(m);
     // Point (i, j) of the square; u-link (i, j) runs from it along u (i < m, j <= m), w-link
     // (i, j) along w (i <= m, j < m).
-    const auto voxelAt = [&](int i, int j) { return base + static_cast<std::size_t>(i) * su + static_cast<std::size_t>(j) * sw; };
-    scratch.cells.clear();
-    for (int i = 0; i < m; ++i) {
-      if (!linkConnected(grid, voxelAt(i, 0), u)) scratch.cells.push_back({i, 0});
-      if (!linkConnected(grid, voxelAt(i, m), u)) scratch.cells.push_back({i, m - 1});
-      if (!linkConnected(grid, voxelAt(0, i), w)) scratch.cells.push_back({0, i});
-      if (!linkConnected(grid, voxelAt(m, i), w)) scratch.cells.push_back({m - 1, i});
+    const auto voxelAt = [&](int i, int j) {
+      return base + static_cast<std::size_t>(i) * su + static_cast<std::size_t>(j) * sw;
+    };
+    const auto pointAt = [&](int i, int j) {
+      return [&o, u, w, i, j] {
+        Index3 p = o;
+        p[u] += i;
+        p[w] += j;
+        return p;
+      };
+    };
+    if (m == 2) {
+      // Two by two cells (a level-1 cube's face): the 4 inside links meet at the centre
+      // point and are all tested once a border link is cut; following the trace would test
+      // nearly as many, at a higher cost per link.
+      bool entered = false;
+      for (int i = 0; i < 2; ++i)
+        entered = entered || !linkConnected(grid, voxelAt(i, 0), u) ||
+                  !linkConnected(grid, voxelAt(i, 2), u) ||
+                  !linkConnected(grid, voxelAt(0, i), w) || !linkConnected(grid, voxelAt(2, i), w);
+      if (!entered) return;
+      testLink(voxelAt(0, 1), u, pointAt(0, 1));
+      testLink(voxelAt(1, 1), u, pointAt(1, 1));
+      testLink(voxelAt(1, 0), w, pointAt(1, 0));
+      testLink(voxelAt(1, 1), w, pointAt(1, 1));
+      return;
     }
-    if (scratch.cells.empty()) return;
-    scratch.visited.assign(mz * mz, 0);
-    scratch.examined.assign(2 * mz * (mz + 1), 0);  // u-links, then w-links
+    cells.clear();
+    for (int i = 0; i < m; ++i) {
+      if (!linkConnected(grid, voxelAt(i, 0), u)) cells.push_back({i, 0});
+      if (!linkConnected(grid, voxelAt(i, m), u)) cells.push_back({i, m - 1});
+      if (!linkConnected(grid, voxelAt(0, i), w)) cells.push_back({0, i});
+      if (!linkConnected(grid, voxelAt(m, i), w)) cells.push_back({m - 1, i});
+    }
+    if (cells.empty()) return;
+    visited.assign(mz * mz, 0);
+    examined.assign(2 * mz * (mz + 1), 0);  // u-links, then w-links
     // Examines the interior link (a u-link when `alongU`) and says whether it is cut.
     const auto cut = [&](bool alongU, int i, int j) {
-      const std::size_t slot = alongU ? static_cast<std::size_t>(j) * mz + static_cast<std::size_t>(i)
-                                      : mz * (mz + 1) + static_cast<std::size_t>(i) * mz + static_cast<std::size_t>(j);
+      const std::size_t slot =
+          alongU ? static_cast<std::size_t>(j) * mz + static_cast<std::size_t>(i)
+                 : mz * (mz + 1) + static_cast<std::size_t>(i) * mz + static_cast<std::size_t>(j);
       const int axis = alongU ? u : w;
       const std::size_t v = voxelAt(i, j);
-      if (!scratch.examined[slot]) {
-        scratch.examined[slot] = 1;
-        testLink(v, axis, [&] {
-          Index3 p = o;
-          p[u] += i;
-          p[w] += j;
-          return p;
-        });
+      if (!examined[slot]) {
+        examined[slot] = 1;
+        testLink(v, axis, pointAt(i, j));
       }
       return !linkConnected(grid, v, axis);
     };
-    while (!scratch.cells.empty()) {
-      const auto [i, j] = scratch.cells.back();
-      scratch.cells.pop_back();
-      std::uint8_t& seen = scratch.visited[static_cast<std::size_t>(j) * mz + static_cast<std::size_t>(i)];
+    while (!cells.empty()) {
+      const auto [i, j] = cells.back();
+      cells.pop_back();
+      std::uint8_t& seen = visited[static_cast<std::size_t>(j) * mz + static_cast<std::size_t>(i)];
       if (seen) continue;
       seen = 1;
-      if (j > 0 && cut(true, i, j)) scratch.cells.push_back({i, j - 1});
-      if (j + 1 < m && cut(true, i, j + 1)) scratch.cells.push_back({i, j + 1});
-      if (i > 0 && cut(false, i, j)) scratch.cells.push_back({i - 1, j});
-      if (i + 1 < m && cut(false, i + 1, j)) scratch.cells.push_back({i + 1, j});
+      if (j > 0 && cut(true, i, j)) cells.push_back({i, j - 1});
+      if (j + 1 < m && cut(true, i, j + 1)) cells.push_back({i, j + 1});
+      if (i > 0 && cut(false, i, j)) cells.push_back({i - 1, j});
+      if (i + 1 < m && cut(false, i + 1, j)) cells.push_back({i + 1, j});
     }
   }
 
@@ -184,6 +213,23 @@ struct Worker {
   void split(const CubeBox& cube, const std::vector<CutLink>& cutsOnBoundary) {
     const int s = cube.size(), h = s / 2;
     const std::size_t before = found.size();
+    if (cube.level == 1) {
+      // (5-1), (5-2) between the 8 voxel cells of a level-1 cube lie only the 6 links at its
+      // centre voxel: all are tested. (5-3) the cube opens up completely: recorded here,
+      // opened by openLevelOneCube once no task runs.
+      const Index3 c{cube.o.x + 1, cube.o.y + 1, cube.o.z + 1};
+      const std::size_t centre = grid.index(c);
+      for (int a = 0; a < 3; ++a) {
+        testLink(centre - grid.stride(a), a, [&] {
+          Index3 p = c;
+          --p[a];
+          return p;
+        });
+        testLink(centre, a, [&] { return c; });
+      }
+      opened.push_back(cube.o);
+      return;
+    }
     // (5-1), (5-2) between the sub-cubes: the links of the three mid-planes, the three centre
     // lines where they meet among them, followed along the blade's trace from the cube's faces
     // (a centre-line link is inside two mid-planes: the second sees it cut, or tests it again).
@@ -192,17 +238,12 @@ struct Worker {
       o[f] += h;
       traceSquare(o, f, s);
     }
-    // (5-3) a level-1 cube opens up completely: recorded here, opened by openLevelOneCube
-    // once no task runs.
-    if (cube.level == 1) {
-      opened.push_back(cube.o);
-      return;
-    }
     // (5-4) eight sub-cubes; (5-5) split those with a cut link on their boundary (the cube had
     // none inside before this frame, so they are on its faces or found just now); (5-6).
     // Sized by the first (largest) cube; the recursion only goes down, so `sub` stays valid.
-    if (scratch.childCuts.size() < static_cast<std::size_t>(cube.level) + 1) scratch.childCuts.resize(static_cast<std::size_t>(cube.level) + 1);
-    auto& sub = scratch.childCuts[static_cast<std::size_t>(cube.level)];
+    if (childCuts.size() < static_cast<std::size_t>(cube.level) + 1)
+      childCuts.resize(static_cast<std::size_t>(cube.level) + 1);
+    auto& sub = childCuts[static_cast<std::size_t>(cube.level)];
     for (auto& list : sub) list.clear();
     const auto distribute = [&](const CutLink& c) {
       // A link lies on the boundary of every sub-cube whose box holds it: it lies on one of
@@ -220,13 +261,15 @@ struct Worker {
       }
       for (int z = lo[2]; z <= hi[2]; ++z)
         for (int y = lo[1]; y <= hi[1]; ++y)
-          for (int x = lo[0]; x <= hi[0]; ++x) sub[static_cast<std::size_t>(x | (y << 1) | (z << 2))].push_back(c);
+          for (int x = lo[0]; x <= hi[0]; ++x)
+            sub[static_cast<std::size_t>(x | (y << 1) | (z << 2))].push_back(c);
     };
     for (const CutLink& c : cutsOnBoundary) distribute(c);
     for (std::size_t i = before; i < found.size(); ++i) distribute(found[i]);
     for (int k = 0; k < 8; ++k) {
-      const CubeBox child{{cube.o.x + (k & 1) * h, cube.o.y + ((k >> 1) & 1) * h, cube.o.z + (k >> 2) * h},
-                          cube.level - 1};
+      const CubeBox child{
+          {cube.o.x + (k & 1) * h, cube.o.y + ((k >> 1) & 1) * h, cube.o.z + (k >> 2) * h},
+          cube.level - 1};
       if (sub[static_cast<std::size_t>(k)].empty())
         leaves.push_back(child);
       else
@@ -252,17 +295,20 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
       if (cube >= 0) fn(static_cast<std::size_t>(cube));
     });
   };
-  std::vector<std::unique_ptr<WorkerScratch>> scratch(static_cast<std::size_t>(threadSlots()));
+  std::vector<std::unique_ptr<Worker>> workers(static_cast<std::size_t>(threadSlots()));
   Timer total;
   while (!pending.empty()) {
     // (1) mark the cubes around the newly cut links (raising a raised flag is harmless).
     affected.assign(oct.cubes.size(), 0);
-    parallelFor(0, pending.size(), 256, [&](std::size_t b, std::size_t e) {
-      for (std::size_t i = b; i < e; ++i)
-        cubesAround(pending[i], [&](std::size_t cube) {
-          std::atomic_ref<std::uint8_t>(affected[cube]).store(1, std::memory_order_relaxed);
-        });
-    }, threaded);
+    parallelFor(
+        0, pending.size(), 256,
+        [&](std::size_t b, std::size_t e) {
+          for (std::size_t i = b; i < e; ++i)
+            cubesAround(pending[i], [&](std::size_t cube) {
+              std::atomic_ref<std::uint8_t>(affected[cube]).store(1, std::memory_order_relaxed);
+            });
+        },
+        threaded);
     std::vector<std::uint32_t> list;
     std::vector<std::int32_t> slot(oct.cubes.size(), -1);
     for (std::size_t c = 0; c < affected.size(); ++c)
@@ -274,24 +320,24 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     ++stats.rounds;
     stats.affectedCubes += list.size();
 
-    // Runs fn(worker, i) for every listed cube i, in parallel; each task has its own worker,
-    // all of which are returned (in no particular order: merges must not depend on it).
-    std::mutex mergeLock;
+    // Runs fn(worker, i) for every listed cube i, in parallel, each task with its thread's
+    // worker, whose findings start empty.
     auto forEachCube = [&](auto&& fn) {
-      std::vector<std::unique_ptr<Worker>> workers;
-      parallelFor(0, list.size(), 1, [&](std::size_t b, std::size_t e) {
-        std::unique_ptr<WorkerScratch>& own = scratch[static_cast<std::size_t>(threadSlot())];
-        if (!own) own = std::make_unique<WorkerScratch>();
-        auto w = std::make_unique<Worker>(oct, grid, hooks, *own);
-        for (std::size_t i = b; i < e; ++i) fn(*w, i);
-        const std::lock_guard<std::mutex> lock(mergeLock);
-        workers.push_back(std::move(w));
-      }, threaded);
-      return workers;
+      for (auto& w : workers)
+        if (w) w->clearFindings();
+      parallelFor(
+          0, list.size(), 1,
+          [&](std::size_t b, std::size_t e) {
+            std::unique_ptr<Worker>& w = workers[static_cast<std::size_t>(threadSlot())];
+            if (!w) w = std::make_unique<Worker>(oct, grid, hooks);
+            for (std::size_t i = b; i < e; ++i) fn(*w, i);
+          },
+          threaded);
     };
     std::vector<LinkCut> roundCuts;
-    auto mergeCounts = [&](const std::vector<std::unique_ptr<Worker>>& workers) {
+    auto mergeCounts = [&] {
       for (const auto& w : workers) {
+        if (!w) continue;
         stats.testedLinks += w->tested;
         roundCuts.insert(roundCuts.end(), w->cuts.begin(), w->cuts.end());
       }
@@ -302,7 +348,7 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     // cubes is resolved by both, with the same results). A face's border is the cube's frame,
     // or lines of the mid-planes of the cube it was split from: decided already.
     Timer phase;
-    mergeCounts(forEachCube([&](Worker& w, std::size_t i) {
+    forEachCube([&](Worker& w, std::size_t i) {
       const OctreeCube& oc = oct.cubes[list[i]];
       const int s = 1 << oc.level;
       for (int f = 0; f < 6; ++f) {
@@ -321,7 +367,8 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
         }
         w.traceSquare(o, f / 2, s);
       }
-    }));
+    });
+    mergeCounts();
     stats.facesMs += phase.ms();
     // Only these can touch cubes outside this round's list: the split cuts links strictly
     // inside the cubes it splits, and splits every sub-cube they border.
@@ -330,16 +377,17 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
 
     // (5) split every affected cube, in parallel: their insides are disjoint.
     phase.restart();
-    const auto splitWork = forEachCube([&](Worker& w, std::size_t i) {
+    forEachCube([&](Worker& w, std::size_t i) {
       const OctreeCube& oc = oct.cubes[list[i]];
       const CubeBox cube{oc.origin, oc.level};
       w.gatherBoundaryCuts(cube);
       const auto begin = static_cast<std::uint32_t>(w.leaves.size());
-      w.split(cube, w.scratch.boundary);
-      w.leafRanges.push_back({static_cast<std::uint32_t>(i), begin, static_cast<std::uint32_t>(w.leaves.size())});
+      w.split(cube, w.boundary);
+      w.leafRanges.push_back(
+          {static_cast<std::uint32_t>(i), begin, static_cast<std::uint32_t>(w.leaves.size())});
     });
     stats.splitMs += phase.ms();
-    mergeCounts(splitWork);
+    mergeCounts();
     // Three independent jobs, run side by side (each writes its own data):
     //  - this round's cuts get their Hermite data (each was recorded once, by the task that
     //    disconnected it; the table's contents do not depend on the order); the face cuts
@@ -354,18 +402,20 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
       }
     };
     const auto openCubes = [&] {
-      for (const auto& w : splitWork)
-        for (const Index3& o : w->opened) openLevelOneCube(oct, grid, o);
+      for (const auto& w : workers)
+        if (w)
+          for (const Index3& o : w->opened) openLevelOneCube(oct, grid, o);
     };
     // The first sub-cube takes the split cube's slot, the others are appended in list order;
     // then each split cube's cells are rewritten, in parallel (disjoint cells).
     const auto storeSubCubes = [&] {
       std::vector<const CubeBox*> leafBegin(list.size()), leafEnd(list.size());
-      for (const auto& w : splitWork)
-        for (const auto& [i, b, e] : w->leafRanges) {
-          leafBegin[i] = w->leaves.data() + b;
-          leafEnd[i] = w->leaves.data() + e;
-        }
+      for (const auto& w : workers)
+        if (w)
+          for (const auto& [i, b, e] : w->leafRanges) {
+            leafBegin[i] = w->leaves.data() + b;
+            leafEnd[i] = w->leaves.data() + e;
+          }
       std::vector<std::uint32_t> firstAppended(list.size());
       std::vector<OctreeCube> oldCubes(list.size());
       for (std::size_t i = 0; i < list.size(); ++i) {
@@ -387,22 +437,30 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
           }
         }
       }
-      parallelFor(0, list.size(), 1, [&](std::size_t b, std::size_t e) {
-        for (std::size_t i = b; i < e; ++i) {
-          oct.setCubeCells(oldCubes[i].origin, oldCubes[i].level, -1);
-          std::uint32_t next = firstAppended[i];
-          for (const CubeBox* leaf = leafBegin[i]; leaf != leafEnd[i]; ++leaf)
-            oct.setCubeCells(leaf->o, leaf->level, static_cast<std::int32_t>(leaf == leafBegin[i] ? list[i] : next++));
-        }
-      }, threaded);
+      parallelFor(
+          0, list.size(), 1,
+          [&](std::size_t b, std::size_t e) {
+            for (std::size_t i = b; i < e; ++i) {
+              oct.setCubeCells(oldCubes[i].origin, oldCubes[i].level, -1);
+              std::uint32_t next = firstAppended[i];
+              for (const CubeBox* leaf = leafBegin[i]; leaf != leafEnd[i]; ++leaf)
+                oct.setCubeCells(
+                    leaf->o, leaf->level,
+                    static_cast<std::int32_t>(leaf == leafBegin[i] ? list[i] : next++));
+            }
+          },
+          threaded);
     };
-    parallelFor(0, 3, 1, [&](std::size_t b, std::size_t e) {
-      for (std::size_t job = b; job < e; ++job) {
-        if (job == 0) storeCuts();
-        if (job == 1) openCubes();
-        if (job == 2) storeSubCubes();
-      }
-    }, threaded);
+    parallelFor(
+        0, 3, 1,
+        [&](std::size_t b, std::size_t e) {
+          for (std::size_t job = b; job < e; ++job) {
+            if (job == 0) storeCuts();
+            if (job == 1) openCubes();
+            if (job == 2) storeSubCubes();
+          }
+        },
+        threaded);
     stats.cutLinks += roundCuts.size();
     cuts.insert(cuts.end(), roundCuts.begin(), roundCuts.end());
   }
