@@ -380,7 +380,8 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     forEachCube([&](Worker& w, std::size_t i) {
       const OctreeCube& oc = oct.cubes[list[i]];
       const CubeBox cube{oc.origin, oc.level};
-      w.gatherBoundaryCuts(cube);
+      // A level-1 cube tests the links at its centre whatever its faces hold.
+      if (cube.level > 1) w.gatherBoundaryCuts(cube);
       const auto begin = static_cast<std::uint32_t>(w.leaves.size());
       w.split(cube, w.boundary);
       w.leafRanges.push_back(
