@@ -136,9 +136,8 @@ struct Worker {
   // the square along its trace, which enters through the border: the trace is followed from
   // every cut border link, unit cell by unit cell; a cell's links not yet examined are tested,
   // and the cells across its cut links come next. The work grows with the length of the trace
-  // (a few tests per link it crosses: about four on the bunny's single-frame cut, counting
-  // the centre-line links two mid-planes share), not with the square's area. A square with no cut
-  // on its border holds none inside.
+  // (a few tests per link it crosses, counting the centre-line links two mid-planes share),
+  // not with the square's area. A square with no cut on its border holds none inside.
   void traceSquare(const Index3& o, int f, int m) {
     if (m < 2) return;  // no link inside
     const int u = (f + 1) % 3, w = (f + 2) % 3;
