@@ -68,6 +68,10 @@ struct Worker {
   std::vector<LinkCut> cuts;   // links this worker cut
   std::vector<CutLink> found;  // the same, as positions, for the sub-cube test
   std::size_t tested = 0;
+  // The faces phase's cuts on faces not shared whole with a cube split in the same round: only
+  // these can border a cube outside the round (next round's newly cut links).
+  std::vector<std::uint64_t> outward;
+  bool recordOutward = false;
   std::vector<Index3> opened;   // level-1 cubes split: opened after the parallel phase
   std::vector<CubeBox> leaves;  // sub-cubes kept, cube after cube
   std::vector<std::array<std::uint32_t, 3>> leafRanges;  // (cube slot, begin, end) in leaves
@@ -83,6 +87,7 @@ struct Worker {
 
   void clearFindings() {
     cuts.clear();
+    outward.clear();
     found.clear();
     tested = 0;
     opened.clear();
@@ -129,6 +134,7 @@ struct Worker {
     if (!hit || !disconnect(grid, v, a)) return;
     cuts.push_back({VoxelGrid::linkId(v, a), *hit, std::nullopt});
     found.push_back({p(), a});
+    if (recordOutward) outward.push_back(VoxelGrid::linkId(v, a));
   }
 
   // The links inside the square of side m at `o` in the plane normal to f, spanned by axes
@@ -369,25 +375,30 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
         Index3 o = oc.origin;
         o[f / 2] += (f & 1) * s;
         // A face shared whole with another affected cube of the same size is resolved once,
-        // by the cube listed first.
+        // by the cube listed first; its cuts border only cubes split in this round.
         Index3 across = oc.origin;
         across[f / 2] += (f & 1) ? s : -1;
+        bool shared = false;
         if (across[f / 2] >= 0 && across[f / 2] + 1 < d[f / 2]) {
           const std::int32_t other = oct.cellCube[grid.index(across)];
-          if (other >= 0 && slot[static_cast<std::size_t>(other)] >= 0 &&
-              slot[static_cast<std::size_t>(other)] < static_cast<std::int32_t>(i) &&
-              oct.cubes[static_cast<std::size_t>(other)].level == oc.level)
+          shared = other >= 0 && slot[static_cast<std::size_t>(other)] >= 0 &&
+                   oct.cubes[static_cast<std::size_t>(other)].level == oc.level;
+          if (shared && slot[static_cast<std::size_t>(other)] < static_cast<std::int32_t>(i))
             continue;
         }
+        w.recordOutward = !shared;
         w.traceSquare(o, f / 2, s);
+        w.recordOutward = false;
       }
     });
     mergeCounts();
     stats.facesMs += phase.ms();
     // Only these can touch cubes outside this round's list: the split cuts links strictly
-    // inside the cubes it splits, and splits every sub-cube they border.
+    // inside the cubes it splits, and splits every sub-cube they border; a face shared whole by
+    // two cubes of this round is split on both sides.
     pending.clear();
-    for (const LinkCut& c : roundCuts) pending.push_back(c.link);
+    for (const auto& w : workers)
+      if (w) pending.insert(pending.end(), w->outward.begin(), w->outward.end());
 
     // (5) split every affected cube, in parallel: their insides are disjoint.
     phase.restart();
