@@ -74,6 +74,42 @@ TEST(CutStep, OctreeCutsEqualTheBaselineForEveryModelAndDeformation) {
   }
 }
 
+// A blade that crosses the model sideways but advances through it about a voxel per frame,
+// as in a scene: after the first frames each sweep starts and ends inside the model, so its
+// edges lie inside octree cubes (level-1 ones too). Frame after frame, the octree cuts what
+// the baseline cuts.
+TEST(CutStep, SlowBladeCutsEqualTheBaselineFrameByFrame) {
+  for (const auto& [name, res] : {std::pair<const char*, int>{"bunny", 48}, {"liver", 48}}) {
+    const VoxelGrid g = model(name, res);
+    CutBody withOctree = body(g, true, Deformation::Bend);
+    CutBody baseline = body(g, false, Deformation::Bend);
+    const BladeMotion across = defaultBladeMotion(withOctree);
+    // From outside to past the middle, tilted a little so that it is not aligned with the
+    // grid.
+    const Vec3d way = across.to.a - across.from.a;
+    const int frames = static_cast<int>(0.6 * way.norm() / (1.3 * g.voxelSize()));
+    const Vec3d step = 0.6 * way / frames;
+    BladePose pose = across.from;
+    pose.b += Vec3d(0.0, 0.3, 0.0) * g.voxelSize();
+    std::size_t total = 0;
+    for (int frame = 0; frame < frames; ++frame) {
+      BladePose next = pose;
+      next.a += step;
+      next.b += step + Vec3d(0.0, 0.05, 0.0) * g.voxelSize();
+      const BladeSweep sweep = makeSweep(pose, next, static_cast<std::uint64_t>(frame));
+      const CutStepResult o = cutStep(withOctree, sweep);
+      const CutStepResult b = cutStep(baseline, sweep);
+      ASSERT_EQ(o.cuts.size(), b.cuts.size()) << name << " frame " << frame;
+      ASSERT_EQ(cutSetHash(o.cuts), cutSetHash(b.cuts)) << name << " frame " << frame;
+      total += b.cuts.size();
+      pose = next;
+    }
+    EXPECT_GT(total, 200u) << name;
+    for (std::size_t v = 0; v < g.voxelCount(); ++v)
+      for (int a = 0; a < 3; ++a) ASSERT_EQ(withOctree.grid.connected(v, a), baseline.grid.connected(v, a));
+  }
+}
+
 // A short blade reaches few elements: the step then positions only their voxels (and the
 // far ends of their links). It must cut exactly the connected links that a test of every
 // link of the grid finds crossed. (Without the octree: with it, a blade that starts and ends

@@ -220,26 +220,12 @@ struct Worker {
     const std::size_t before = found.size();
     if (cube.level == 1) {
       // (5-1), (5-2) between the 8 voxel cells of a level-1 cube lie only the 6 links at its
-      // centre voxel, each inside two of the three mid-planes (2 x 2 cells). A mid-plane with
-      // no cut on its border (on the cube's faces, decided already) holds none inside, so a
-      // link is tested only when both of its mid-planes have one. (5-3) the cube opens up
-      // completely: recorded here, opened by openLevelOneCube once no task runs.
+      // centre voxel: all are tested (where the blade's edge ends inside the cube, a mid-plane
+      // may hold a cut with none on its border). (5-3) the cube opens up completely: recorded
+      // here, opened by openLevelOneCube once no task runs.
       const Index3 c{cube.o.x + 1, cube.o.y + 1, cube.o.z + 1};
       const std::size_t centre = grid.index(c);
-      bool entered[3];
-      for (int f = 0; f < 3; ++f) {
-        const int u = (f + 1) % 3, w = (f + 2) % 3;
-        const std::size_t su = grid.stride(u), sw = grid.stride(w);
-        const std::size_t base = centre - su - sw;  // the mid-plane's corner (0, 0)
-        entered[f] = false;
-        for (std::size_t i = 0; i < 2 && !entered[f]; ++i)
-          entered[f] = !linkConnected(grid, base + i * su, u) ||
-                       !linkConnected(grid, base + i * su + 2 * sw, u) ||
-                       !linkConnected(grid, base + i * sw, w) ||
-                       !linkConnected(grid, base + 2 * su + i * sw, w);
-      }
       for (int a = 0; a < 3; ++a) {
-        if (!entered[(a + 1) % 3] || !entered[(a + 2) % 3]) continue;
         testLink(centre - grid.stride(a), a, [&] {
           Index3 p = c;
           --p[a];
