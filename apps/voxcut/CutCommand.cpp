@@ -163,7 +163,8 @@ int runBench(const BenchOptions& opt) {
       if (terminal) std::fprintf(stderr, "\r%s, %d thread(s) ...\033[K", m.c_str(), t);
       // Baseline and octree runs alternate, so that both see the same spells of the machine.
       std::vector<SingleFrameResult> pair = runSingleFrameCuts({&baseline, &withOctree}, motion, sp);
-      if (pair[0].cutHash != pair[1].cutHash) throw std::runtime_error("octree and baseline cut sets differ for " + m);
+      if (pair[0].cutHash != pair[1].cutHash)
+        throw std::runtime_error("octree and baseline cut sets differ for " + m);
       rows.push_back({m, t, false, std::move(pair[0])});
       rows.push_back({m, t, true, std::move(pair[1])});
     }

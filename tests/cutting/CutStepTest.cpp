@@ -106,7 +106,8 @@ TEST(CutStep, SlowBladeCutsEqualTheBaselineFrameByFrame) {
     }
     EXPECT_GT(total, 200u) << name;
     for (std::size_t v = 0; v < g.voxelCount(); ++v)
-      for (int a = 0; a < 3; ++a) ASSERT_EQ(withOctree.grid.connected(v, a), baseline.grid.connected(v, a));
+      for (int a = 0; a < 3; ++a)
+        ASSERT_EQ(withOctree.grid.connected(v, a), baseline.grid.connected(v, a));
   }
 }
 

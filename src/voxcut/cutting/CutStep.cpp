@@ -53,8 +53,8 @@ std::optional<Hermite> testLink(const CutBody& b, const std::vector<BladeSweep>&
 
 // The subdivision's link test (see SubdivisionHooks::testLink): the ends positioned on the
 // way, each voxel once per task (the cache).
-std::optional<Hermite> testCubeLink(const CutBody& b, const std::vector<BladeSweep>& sweeps, std::size_t v,
-                                    int a, VoxelPositionCache& cache) {
+std::optional<Hermite> testCubeLink(const CutBody& b, const std::vector<BladeSweep>& sweeps,
+                                    std::size_t v, int a, VoxelPositionCache& cache) {
   const auto position = [&](std::size_t u) {
     if (const Vec3d* p = cache.find(u)) return *p;
     const Vec3d p = b.deformation.voxelPosition(u);
@@ -184,7 +184,9 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   if (b.useOctree && !r.cuts.empty()) {
     timer.restart();
     SubdivisionHooks hooks;
-    hooks.testLink = [&](std::size_t v, int a, VoxelPositionCache& cache) { return testCubeLink(b, sweeps, v, a, cache); };
+    hooks.testLink = [&](std::size_t v, int a, VoxelPositionCache& cache) {
+      return testCubeLink(b, sweeps, v, a, cache);
+    };
     r.subdivision = subdivideCutCubes(b.activity, g, r.cuts, hooks, threaded);
     r.subdivisionMs = timer.ms();
     timer.restart();

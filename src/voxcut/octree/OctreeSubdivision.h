@@ -79,10 +79,11 @@ struct SubdivisionStats {
 /// Runs sub-steps (1)-(6). `cuts` holds the links cut so far this frame (already disconnected
 /// in `grid`, Hermite data set); the links this step cuts are disconnected, given Hermite data
 /// and appended, each once, in an order that depends on the schedule (sort them for a
-/// deterministic order). Cubes are split in place: a split cube keeps its slot for its first remaining
-/// sub-cube, new sub-cubes are appended and listed in octree.newCubes, level-1 cubes that
-/// split are marked deleted after activating their 27 voxels and 54 links. The deferred
-/// updates (compactCubes, activateNewCubeFrames, rebuildActiveVoxels) are left to the caller.
+/// deterministic order). Cubes are split in place: a split cube keeps its slot for its first
+/// remaining sub-cube, new sub-cubes are appended and listed in octree.newCubes, level-1
+/// cubes that split are marked deleted after activating their 27 voxels and 54 links. The
+/// deferred updates (compactCubes, activateNewCubeFrames, rebuildActiveVoxels) are left to
+/// the caller.
 /// Otherwise deterministic for any thread count: the cut set, the grid, the octree and the
 /// counts.
 SubdivisionStats subdivideCutCubes(VoxelOctree& octree, VoxelGrid& grid, std::vector<LinkCut>& cuts,

@@ -42,7 +42,8 @@ BladeMotion defaultBladeMotion(const CutBody& body) {
 }
 
 std::vector<SingleFrameResult> runSingleFrameCuts(const std::vector<const CutBody*>& prepared,
-                                                  const BladeMotion& blade, const SingleFrameParams& params) {
+                                                  const BladeMotion& blade,
+                                                  const SingleFrameParams& params) {
   const BladeSweep sweep = makeSweep(blade.from, blade.to, 0);
   const std::size_t n = prepared.size();
   std::vector<SingleFrameResult> out(n);

@@ -49,8 +49,8 @@ struct SingleFrameResult {
 /// As runSingleFrameCut for several bodies (the same model with and without the octree), their
 /// runs interleaved (one run of each, then the next round), so that a slow spell of the
 /// machine weighs on all of them alike and their ratios hold; one result per body, in order.
-[[nodiscard]] std::vector<SingleFrameResult> runSingleFrameCuts(const std::vector<const CutBody*>& prepared,
-                                                                const BladeMotion& blade,
-                                                                const SingleFrameParams& params);
+[[nodiscard]] std::vector<SingleFrameResult> runSingleFrameCuts(
+    const std::vector<const CutBody*>& prepared, const BladeMotion& blade,
+    const SingleFrameParams& params);
 
 }  // namespace voxcut
