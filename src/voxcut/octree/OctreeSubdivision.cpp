@@ -350,9 +350,9 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     };
 
     // (2)-(4) the faces of the affected cubes: their voxels are positioned and their links
-    // tested along the blade's trace (a face shared by two affected
-    // cubes is resolved by both, with the same results). A face's border is the cube's frame,
-    // or lines of the mid-planes of the cube it was split from: decided already.
+    // tested along the blade's trace (a face that two affected cubes of different sizes share
+    // in part is resolved by both, with the same results). A face's border is the cube's
+    // frame, or lines of the mid-planes of the cube it was split from: decided already.
     Timer phase;
     forEachCube([&](Worker& w, std::size_t i) {
       const OctreeCube& oc = oct.cubes[list[i]];
@@ -402,8 +402,7 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     mergeCounts();
     // Three independent jobs, run side by side (each writes its own data):
     //  - this round's cuts get their Hermite data (each was recorded once, by the task that
-    //    disconnected it; the table's contents do not depend on the order); the face cuts
-    //    among them are next round's newly cut links (6);
+    //    disconnected it; the table's contents do not depend on the order);
     //  - the split level-1 cubes opened (oct.state, oct.changed);
     //  - the sub-cubes stored (oct.cubes, oct.newCubes, oct.cellCube).
     const auto storeCuts = [&] {
