@@ -162,22 +162,6 @@ struct Worker {
         return p;
       };
     };
-    if (m == 2) {
-      // Two by two cells (a level-1 cube's face): the 4 inside links meet at the centre
-      // point and are all tested once a border link is cut; following the trace would test
-      // nearly as many, at a higher cost per link.
-      bool entered = false;
-      for (int i = 0; i < 2; ++i)
-        entered = entered || !linkConnected(grid, voxelAt(i, 0), u) ||
-                  !linkConnected(grid, voxelAt(i, 2), u) ||
-                  !linkConnected(grid, voxelAt(0, i), w) || !linkConnected(grid, voxelAt(2, i), w);
-      if (!entered) return;
-      testLink(voxelAt(0, 1), u, pointAt(0, 1));
-      testLink(voxelAt(1, 1), u, pointAt(1, 1));
-      testLink(voxelAt(1, 0), w, pointAt(1, 0));
-      testLink(voxelAt(1, 1), w, pointAt(1, 1));
-      return;
-    }
     cells.clear();
     for (int i = 0; i < m; ++i) {
       if (!linkConnected(grid, voxelAt(i, 0), u)) cells.push_back({i, 0});
@@ -186,6 +170,16 @@ struct Worker {
       if (!linkConnected(grid, voxelAt(m, i), w)) cells.push_back({m - 1, i});
     }
     if (cells.empty()) return;
+    if (m == 2) {
+      // Two by two cells (a level-1 cube's face): the 4 inside links meet at the centre
+      // point and are all tested once a border link is cut; following the trace would test
+      // nearly as many, at a higher cost per link.
+      testLink(voxelAt(0, 1), u, pointAt(0, 1));
+      testLink(voxelAt(1, 1), u, pointAt(1, 1));
+      testLink(voxelAt(1, 0), w, pointAt(1, 0));
+      testLink(voxelAt(1, 1), w, pointAt(1, 1));
+      return;
+    }
     visited.assign(mz * mz, 0);
     examined.assign(2 * mz * (mz + 1), 0);  // u-links, then w-links
     // Examines the interior link (a u-link when `alongU`) and says whether it is cut.
