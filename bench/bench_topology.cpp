@@ -4,6 +4,12 @@
 //    scenes/bunny-ear.json (100 frames, a few links per frame); counters give the mean and
 //    the largest single update in milliseconds.
 //  - PlaneCut: one plane through the ears at once (about 1,500 links).
+//  - ModelUpdate: the composite FEM model following BladeSequence's updates, the bunny fixed
+//    at its base. Per update, ElasticModel::updateTopology is timed (new elements' matrices,
+//    node masses, prolongation, and the block sparsity with the rows of unchanged
+//    neighbourhoods copied), and right after it, on a copy, the full rebuild of the reduced
+//    structure that used to follow every cut (setFixed: prolongation and every row gathered
+//    anew). Counters: both means per update, their ratio, the share of rows copied.
 // Each runs with 1 and 2 worker threads. Only the updates are timed (manual time); copying the
 // octree and disconnecting the links before each update are not.
 //
@@ -19,6 +25,7 @@
 #include "voxcut/core/Timer.h"
 #include "voxcut/fem/CutTopology.h"
 #include "voxcut/fem/DeformationOctree.h"
+#include "voxcut/fem/ElasticModel.h"
 #include "voxcut/io/ModelSource.h"
 #include "voxcut/voxel/Voxelizer.h"
 
@@ -136,8 +143,53 @@ void PlaneCut(benchmark::State& state) {
   runCuts(state, cut);
 }
 
+void ModelUpdate(benchmark::State& state) {
+  static const std::vector<std::vector<std::uint64_t>> frames = bladeFrames(bunny().grid, 100);
+  const int threads = static_cast<int>(state.range(0));
+  const ThreadLimit limit(threads);
+  const BunnyCase& base = bunny();
+  std::vector<ElasticMaterial> materials(2);
+  materials[1] = {1e5, 0.4, 1000.0, 1.0, 0.01};
+  double updateMs = 0, rebuildMs = 0, rows = 0, copied = 0, updates = 0;
+  for (auto _ : state) {
+    VoxelGrid grid = base.grid;
+    DeformationOctree octree = base.octree;
+    ElasticModel model(octree, grid, materials);
+    std::vector<std::uint8_t> fixed(octree.nodeCount(), 0);
+    for (std::size_t n = 0; n < fixed.size(); ++n)
+      fixed[n] = octree.restPositions()[n].y() <= 0.004 ? 1 : 0;
+    model.setFixed(fixed);
+    double total = 0;
+    for (const auto& cut : frames) {
+      if (cut.empty()) continue;
+      disconnect(grid, cut);
+      const TopologyChange tc = updateCutTopology(octree, grid, cut);
+      if (!tc.changed) continue;
+      Timer timer;
+      model.updateTopology(octree, grid, tc);
+      const double ms = timer.ms();
+      total += ms;
+      updateMs += ms;
+      ElasticModel full = model;
+      timer.restart();
+      full.setFixed(model.requestedFixed());
+      rebuildMs += timer.ms();
+      rows += static_cast<double>(model.freeNodeCount());
+      copied += static_cast<double>(model.sparsityRowsReused());
+      updates += 1;
+    }
+    state.SetIterationTime(total * 1e-3);
+  }
+  state.counters["threads"] = threads;
+  state.counters["update_ms"] = updates > 0 ? updateMs / updates : 0.0;
+  state.counters["rebuild_ms"] = updates > 0 ? rebuildMs / updates : 0.0;
+  state.counters["update/rebuild"] = rebuildMs > 0 ? updateMs / rebuildMs : 0.0;
+  state.counters["rows_copied"] = rows > 0 ? copied / rows : 0.0;
+}
+
 BENCHMARK(BladeSequence)->Arg(1)->Arg(2)->UseManualTime()->Unit(benchmark::kMillisecond)->MinTime(0.5);
 BENCHMARK(PlaneCut)->Arg(1)->Arg(2)->UseManualTime()->Unit(benchmark::kMillisecond)->MinTime(0.5);
+BENCHMARK(ModelUpdate)->Arg(1)->Arg(2)->UseManualTime()->Unit(benchmark::kMillisecond)->MinTime(0.5);
 
 }  // namespace
 }  // namespace voxcut

@@ -17,6 +17,7 @@
 namespace voxcut {
 namespace {
 
+using test::bladeFrames;
 using test::expectNoGap;
 using test::expectOctreeInvariants;
 using test::nodeConnectedComponents;
@@ -245,22 +246,6 @@ TEST(CutTopology, BunnyEarCut) {
   for (std::size_t v = 0; v < after.size(); ++v) ASSERT_LE((after[v] - moved[v]).norm(), 1e-12);
   shake(oc, 9);
   expectNoGap(g, oc, 1e-12);
-}
-
-/// The connected y-links crossed in each of `frames` frames by a horizontal blade at height y
-/// (voxel units) spanning x in [x0, x1) and sweeping z from z0 down to z1, like
-/// scenes/bunny-ear.json: frame f takes the links whose lower voxel has z in (z(f+1), z(f)].
-std::vector<std::vector<std::uint64_t>> bladeFrames(const VoxelGrid& g, int y, int x0, int x1, double z0,
-                                                    double z1, int frames) {
-  std::vector<std::vector<std::uint64_t>> out(static_cast<std::size_t>(frames));
-  for (int z = 0; z < g.dims().z; ++z)
-    for (int x = x0; x < x1; ++x) {
-      const std::size_t v = g.index(x, y, z);
-      if (!g.connected(v, 1)) continue;
-      const double f = (z0 - z) / (z0 - z1) * frames;
-      if (f >= 0 && f < frames) out[static_cast<std::size_t>(f)].push_back(VoxelGrid::linkId(v, 1));
-    }
-  return out;
 }
 
 /// Every array of two octrees and two changes is equal, bit for bit.

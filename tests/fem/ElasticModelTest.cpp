@@ -1,13 +1,18 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <numeric>
 #include <vector>
 
 #include "FemBodies.h"
+#include "OctreeChecks.h"
 #include "voxcut/core/Parallel.h"
+#include "voxcut/fem/CutTopology.h"
 #include "voxcut/fem/ElasticModel.h"
 #include "voxcut/fem/ImplicitEuler.h"
+#include "voxcut/io/ModelSource.h"
+#include "voxcut/voxel/Voxelizer.h"
 
 namespace voxcut {
 namespace {
@@ -165,6 +170,64 @@ TEST(ElasticModelTopology, GivenFixedFlagsEqualSetFixedAfterTheUpdate) {
   EXPECT_EQ(once.sparsity().column, twice.sparsity().column);
   EXPECT_EQ(once.sparsity().source, twice.sparsity().source);
   EXPECT_EQ(once.aggregation().aggregate, twice.aggregation().aggregate);
+}
+
+/// Every array of the reduced system's structure is equal, bit for bit.
+void expectSameStructure(const ElasticModel& a, const ElasticModel& b) {
+  ASSERT_EQ(a.freeNodes(), b.freeNodes());
+  for (auto rows : {&ElasticModel::prolongation, &ElasticModel::restriction,
+                    &ElasticModel::incidence}) {
+    ASSERT_EQ((a.*rows)().start, (b.*rows)().start);
+    ASSERT_EQ((a.*rows)().index, (b.*rows)().index);
+    ASSERT_EQ((a.*rows)().weight, (b.*rows)().weight);
+  }
+  const BlockSparsity &x = a.sparsity(), &y = b.sparsity();
+  ASSERT_EQ(x.rowStart, y.rowStart);
+  ASSERT_EQ(x.column, y.column);
+  ASSERT_EQ(x.diagonal, y.diagonal);
+  ASSERT_EQ(x.mirror, y.mirror);
+  ASSERT_EQ(x.sourceStart, y.sourceStart);
+  ASSERT_EQ(x.source, y.source);
+  ASSERT_EQ(x.sourceWeight, y.sourceWeight);
+}
+
+// A blade advancing through the bunny's ears a few links per frame, the bunny fixed at its
+// base: after each cut the updated structure equals a full rebuild (setFixed) bit for bit,
+// and most of its rows were copied from the structure before, not gathered anew.
+TEST(ElasticModelTopology, CutUpdateEqualsAFullRebuildAndCopiesMostRows) {
+  VoxelizeParams vp;
+  vp.resolution.resolution = 81;
+  VoxelGrid grid = voxelize(loadModel("bunny").materials, vp);
+  DeformationOctree octree = buildDeformationOctree(grid);
+  ElasticModel model(octree, grid, layeredMaterials(0.4));
+  std::vector<std::uint8_t> fixed(octree.nodeCount(), 0);
+  for (std::uint32_t n = 0; n < octree.nodeCount(); ++n)
+    fixed[n] = octree.nodeCoord(n).z <= 6 ? 1 : 0;
+  model.setFixed(fixed);
+  ASSERT_GT(octree.hangingNodeCount(), 0u);
+  const Index3 d = grid.dims();
+  const auto frames = test::bladeFrames(grid, static_cast<int>(0.8 * d.y), d.x / 8,
+                                        d.x * 5 / 8, 0.8 * d.z, 0.2 * d.z, 12);
+  std::size_t updates = 0, rows = 0, copied = 0;
+  for (const auto& cut : frames) {
+    if (cut.empty()) continue;
+    for (std::uint64_t id : cut) grid.setConnected(id / 3, static_cast<int>(id % 3), false);
+    const TopologyChange change = updateCutTopology(octree, grid, cut);
+    if (!change.changed) continue;
+    model.updateTopology(octree, grid, change);
+    ElasticModel full = model;
+    full.setFixed(model.requestedFixed());
+    EXPECT_EQ(full.sparsityRowsReused(), 0u);
+    expectSameStructure(model, full);
+    ++updates;
+    rows += model.freeNodeCount();
+    copied += model.sparsityRowsReused();
+  }
+  ASSERT_GE(updates, 5u);
+  // Each frame changes a strip a few elements wide: most rows lie away from it.
+  EXPECT_GT(copied, rows / 2);
+  EXPECT_LT(copied, rows);
+  std::printf("%zu updates, %zu of %zu rows copied\n", updates, copied, rows);
 }
 
 TEST(ElasticModelTopology, FixingAHangingNodeFixesItsMasters) {

@@ -1,9 +1,11 @@
 #pragma once
-// Invariant checks of a deformation octree, shared by the fem tests.
+// Invariant checks of a deformation octree, and a blade's cuts frame by frame, shared by the
+// fem tests.
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <map>
 #include <set>
 #include <vector>
@@ -260,6 +262,23 @@ inline int nodeConnectedComponents(const DeformationOctree& oc) {
   std::set<std::uint32_t> roots;
   for (const OctreeElement& e : oc.elements()) roots.insert(find(e.nodes[0]));
   return static_cast<int>(roots.size());
+}
+
+/// The connected y-links crossed in each of `frames` frames by a horizontal blade at height y
+/// (voxel units) spanning x in [x0, x1) and sweeping z from z0 down to z1, like
+/// scenes/bunny-ear.json: frame f takes the links whose lower voxel has z in (z(f+1), z(f)].
+inline std::vector<std::vector<std::uint64_t>> bladeFrames(const VoxelGrid& g, int y, int x0,
+                                                           int x1, double z0, double z1,
+                                                           int frames) {
+  std::vector<std::vector<std::uint64_t>> out(static_cast<std::size_t>(frames));
+  for (int z = 0; z < g.dims().z; ++z)
+    for (int x = x0; x < x1; ++x) {
+      const std::size_t v = g.index(x, y, z);
+      if (!g.connected(v, 1)) continue;
+      const double f = (z0 - z) / (z0 - z1) * frames;
+      if (f >= 0 && f < frames) out[static_cast<std::size_t>(f)].push_back(VoxelGrid::linkId(v, 1));
+    }
+  return out;
 }
 
 }  // namespace voxcut::test

@@ -51,6 +51,7 @@ ElasticModel::ElasticModel(const DeformationOctree& octree, const VoxelGrid& gri
   requested_.assign(octree.nodeCount(), 0);
   buildNodeData();
   buildConstraints();
+  buildSparsity(nullptr);
 }
 
 void ElasticModel::copyNodeCoords(const DeformationOctree& octree) {
@@ -65,6 +66,29 @@ void ElasticModel::computeElements(const DeformationOctree& octree, const VoxelG
   // throw after the parallel loop.
   std::vector<std::uint16_t> badMaterial(which.size(), 0);
   const Index3 dims = grid.dims();
+  // Elements full of one material (every level-0 element, most after a refinement) share
+  // their matrices per level and material: made once, from the same rows of voxels the scan
+  // below adds for such an element, so a copy is bit-identical to computing it again.
+  const std::size_t table = materials_.size();
+  if (fullElements_.size() != 8 * table) {
+    fullElements_.assign(8 * table, ElementMatrices{});
+    fullElementMade_.assign(8 * table, 0);
+  }
+  for (const std::uint32_t e : which) {
+    const int level = octree.element(e).level;
+    VOXCUT_ASSERT(level >= 0 && level < 8, "element level out of range");
+    for (std::size_t m = 1; m < table; ++m) {
+      const std::size_t slot = static_cast<std::size_t>(level) * table + m;
+      if (fullElementMade_[slot] != 0) continue;
+      const int s = 1 << level;
+      std::vector<MaterialMoments> region;
+      for (int z = 0; z < s; ++z)
+        for (int y = 0; y < s; ++y)
+          addVoxelRow(region, level, 0, s, y, z, static_cast<std::uint8_t>(m));
+      fullElements_[slot] = hexElementMatrices(level, octree.voxelSize(), region, materials_);
+      fullElementMade_[slot] = 1;
+    }
+  }
   parallelFor(
       0, which.size(), 4,
       [&](std::size_t b, std::size_t end) {
@@ -75,6 +99,7 @@ void ElasticModel::computeElements(const DeformationOctree& octree, const VoxelG
           const Index3 f = el.firstVoxel();
           const int s = el.size();
           region.clear();
+          std::size_t voxels = 0;
           for (int z = f.z; z < std::min(f.z + s, dims.z); ++z)
             for (int y = f.y; y < std::min(f.y + s, dims.y); ++y) {
               const int xEnd = std::min(f.x + s, dims.x);
@@ -95,11 +120,18 @@ void ElasticModel::computeElements(const DeformationOctree& octree, const VoxelG
                   badMaterial[k] = static_cast<std::uint16_t>(m == 0 ? 256 : m);
                 } else {
                   addVoxelRow(region, el.level, x - f.x, x1 - x, y - f.y, z - f.z, m);
+                  voxels += static_cast<std::size_t>(x1 - x);
                 }
                 x = x1;
               }
             }
-          if (badMaterial[k] == 0)
+          if (badMaterial[k] != 0) continue;
+          const auto cube = static_cast<std::size_t>(s) * static_cast<std::size_t>(s) *
+                            static_cast<std::size_t>(s);
+          if (region.size() == 1 && voxels == cube)
+            elements_[e] =
+                fullElements_[static_cast<std::size_t>(el.level) * table + region[0].material];
+          else
             elements_[e] = hexElementMatrices(el.level, octree.voxelSize(), region, materials_);
         }
       },
@@ -147,6 +179,7 @@ void ElasticModel::setFixed(std::vector<std::uint8_t> fixed) {
   fixed.resize(nodeCount(), 0);
   requested_ = std::move(fixed);
   buildConstraints();
+  buildSparsity(nullptr);
 }
 
 void ElasticModel::buildConstraints() {
@@ -236,10 +269,95 @@ void ElasticModel::buildConstraints() {
       restriction_.index[at] = static_cast<std::uint32_t>(n);
       restriction_.weight[at] = prolongation_.weight[k];
     }
-  buildSparsity();
 }
 
-void ElasticModel::buildSparsity() {
+/// Which rows of the new sparsity are copies of old rows, and how to renumber them.
+struct ElasticModel::SparsityReuse {
+  const BlockSparsity* old = nullptr;
+  std::vector<std::uint32_t> oldRow;     ///< per new row: the old row to copy, or kNotFree
+  std::vector<std::uint32_t> newColumn;  ///< per old free index: the new one (kNotFree: gone)
+  std::uint32_t oldMassBase = 0;         ///< 64 * old #elements
+};
+
+ElasticModel::SparsityReuse ElasticModel::sparsityReuse(
+    const TopologyChange& change, const WeightedRows& oldProlongation,
+    const WeightedRows& oldRestriction, const WeightedRows& oldIncidence,
+    const std::vector<std::uint32_t>& oldFreeNodes, std::size_t oldElementCount) const {
+  const std::size_t nodes = nodeCount(), oldNodes = oldProlongation.rows();
+  // A node is unchanged when it is the old node of the same id (one source, itself), meets the
+  // same element corners (kept elements keep their index) and has the same prolongation row
+  // (the same free nodes, by id, with the same weights). Any other node is changed.
+  std::vector<std::uint8_t> near(nodes, 0);
+  parallelFor(
+      0, nodes, 256,
+      [&](std::size_t b, std::size_t end) {
+        for (std::size_t n = b; n < end; ++n) {
+          const NodeSource& src = change.nodeSource[n];
+          bool same = n < oldNodes && src.count == 1 && src.nodes[0] == n;
+          if (same) {
+            const std::uint32_t i0 = incidence_.start[n], i1 = incidence_.start[n + 1];
+            const std::uint32_t o0 = oldIncidence.start[n], o1 = oldIncidence.start[n + 1];
+            same = i1 - i0 == o1 - o0 && std::equal(incidence_.index.begin() + i0,
+                                                    incidence_.index.begin() + i1,
+                                                    oldIncidence.index.begin() + o0);
+          }
+          if (same) {
+            const std::uint32_t p0 = prolongation_.start[n], p1 = prolongation_.start[n + 1];
+            const std::uint32_t o0 = oldProlongation.start[n];
+            same = p1 - p0 == oldProlongation.start[n + 1] - o0;
+            for (std::uint32_t k = 0; same && k < p1 - p0; ++k)
+              same = freeNodes_[prolongation_.index[p0 + k]] ==
+                         oldFreeNodes[oldProlongation.index[o0 + k]] &&
+                     prolongation_.weight[p0 + k] == oldProlongation.weight[o0 + k];
+          }
+          near[n] = same ? 0 : 1;
+        }
+      },
+      threaded_);
+  // Widen by one ring of elements: a node all of whose elements have only unchanged corners
+  // gathers exactly what it gathered before. (An element with a changed corner marks all its
+  // corners; a new element's corners are changed, their incidence differs.)
+  std::vector<std::uint8_t> ring = near;
+  for (const auto& corners : elementNodes_)
+    if (std::any_of(corners.begin(), corners.end(), [&](std::uint32_t n) { return near[n]; }))
+      for (std::uint32_t n : corners) ring[n] = 1;
+
+  SparsityReuse reuse;
+  reuse.oldMassBase = static_cast<std::uint32_t>(64 * oldElementCount);
+  reuse.newColumn.assign(oldFreeNodes.size(), kNotFree);
+  for (std::size_t j = 0; j < oldFreeNodes.size(); ++j)
+    if (oldFreeNodes[j] < nodes) reuse.newColumn[j] = freeIndex_[oldFreeNodes[j]];
+  // Row i is copied when every node restricting to it, now and before, is an unchanged node
+  // outside the ring (then the free node itself is one, and so was free before).
+  const std::size_t free = freeNodes_.size();
+  reuse.oldRow.assign(free, kNotFree);
+  std::vector<std::uint32_t> oldFreeIndex(oldNodes, kNotFree);
+  for (std::size_t j = 0; j < oldFreeNodes.size(); ++j)
+    oldFreeIndex[oldFreeNodes[j]] = static_cast<std::uint32_t>(j);
+  parallelFor(
+      0, free, 256,
+      [&](std::size_t b, std::size_t end) {
+        for (std::size_t i = b; i < end; ++i) {
+          const std::uint32_t f = freeNodes_[i];
+          if (ring[f] != 0 || f >= oldNodes) continue;
+          const std::uint32_t io = oldFreeIndex[f];
+          if (io == kNotFree) continue;
+          bool clean = true;
+          for (std::uint32_t r = restriction_.start[i]; clean && r < restriction_.start[i + 1]; ++r)
+            clean = ring[restriction_.index[r]] == 0;
+          for (std::uint32_t r = oldRestriction.start[io];
+               clean && r < oldRestriction.start[io + 1]; ++r) {
+            const std::uint32_t n = oldRestriction.index[r];
+            clean = n < nodes && ring[n] == 0;
+          }
+          if (clean) reuse.oldRow[i] = io;
+        }
+      },
+      threaded_);
+  return reuse;
+}
+
+void ElasticModel::buildSparsity(const SparsityReuse* reuse) {
   const std::size_t rows = freeNodes_.size();
   const auto massBase = static_cast<std::uint32_t>(64 * elementNodes_.size());
   VOXCUT_ASSERT(64 * elementNodes_.size() + nodeCount() < 0xffffffffull,
@@ -250,11 +368,13 @@ void ElasticModel::buildSparsity() {
   // Per row: its columns ascending, and per column on or above the diagonal the sources in
   // the order they are met (restriction, incidence, corner, prolongation order: fixed, so
   // assembly sums are too); the blocks below the diagonal get none.
-  // The rows are cut into fixed chunks; each fills its part (flat arrays) and the parts are
-  // joined in row order afterwards, so the result does not depend on the partition.
+  // Three passes: (1) the rows are cut into fixed chunks, and each gathers its rows into its
+  // part (flat arrays), except the rows copied from the old sparsity (SparsityReuse);
+  // (2) every row's offsets, in row order; (3) each chunk writes its rows in place, gathered
+  // or copied. Nothing depends on the partition or the thread count.
   struct Part {
     std::vector<std::uint32_t> rowEnd;     // per row: end of its columns in `column`
-    std::vector<std::uint32_t> column;     // per row, ascending
+    std::vector<std::uint32_t> column;     // per gathered row, ascending
     std::vector<std::uint32_t> sourceEnd;  // per column: end of its sources in `source`
     std::vector<std::uint32_t> source;
     std::vector<double> weight;
@@ -263,7 +383,8 @@ void ElasticModel::buildSparsity() {
     std::uint32_t column, source;
     double weight;
   };
-  constexpr std::size_t kRowsPerPart = 128;
+  auto copied = [&](std::size_t i) { return reuse != nullptr && reuse->oldRow[i] != kNotFree; };
+  constexpr std::size_t kRowsPerPart = 32;
   std::vector<Part> parts((rows + kRowsPerPart - 1) / kRowsPerPart);
   parallelFor(
       0, parts.size(), 1,
@@ -275,6 +396,10 @@ void ElasticModel::buildSparsity() {
           Part& part = parts[pi];
           const std::size_t end = std::min(rows, (pi + 1) * kRowsPerPart);
           for (std::size_t i = pi * kRowsPerPart; i < end; ++i) {
+            if (copied(i)) {
+              part.rowEnd.push_back(static_cast<std::uint32_t>(part.column.size()));
+              continue;
+            }
             entries.clear();
             columns.clear();
             // A column left of the diagonal only needs noting: the assembly sums the blocks on
@@ -327,47 +452,97 @@ void ElasticModel::buildSparsity() {
       },
       threaded_);
 
-  // Join: offsets of each part, then the parts copied in parallel.
-  std::vector<std::size_t> blockBase(parts.size() + 1, 0), sourceBase(parts.size() + 1, 0);
-  for (std::size_t pi = 0; pi < parts.size(); ++pi) {
-    blockBase[pi + 1] = blockBase[pi] + parts[pi].column.size();
-    sourceBase[pi + 1] = sourceBase[pi] + parts[pi].source.size();
-  }
-  VOXCUT_ASSERT(sourceBase.back() < 0xffffffffull, "too many block sources for 32-bit offsets");
+  // Offsets: each row's first block, and the first source of each row's first block.
+  std::vector<std::uint64_t> rowSource(rows + 1, 0);
   sparsity_ = BlockSparsity{};
+  sparsity_.rowStart.assign(rows + 1, 0);
+  for (std::size_t pi = 0; pi < parts.size(); ++pi) {
+    const Part& part = parts[pi];
+    std::uint32_t k = 0;  // the part's blocks before this row
+    for (std::size_t r = 0; r < part.rowEnd.size(); ++r) {
+      const std::size_t i = pi * kRowsPerPart + r;
+      std::uint64_t blocks = 0, sources = 0;
+      if (copied(i)) {
+        const BlockSparsity& old = *reuse->old;
+        const std::uint32_t io = reuse->oldRow[i];
+        blocks = old.rowStart[io + 1] - old.rowStart[io];
+        sources = old.sourceStart[old.rowStart[io + 1]] - old.sourceStart[old.rowStart[io]];
+      } else {
+        blocks = part.rowEnd[r] - k;
+        if (blocks > 0)
+          sources = part.sourceEnd[part.rowEnd[r] - 1] - (k > 0 ? part.sourceEnd[k - 1] : 0);
+        k = part.rowEnd[r];
+      }
+      const std::uint64_t next = sparsity_.rowStart[i] + blocks;
+      rowSource[i + 1] = rowSource[i] + sources;
+      VOXCUT_ASSERT(next < 0xffffffffull && rowSource[i + 1] < 0xffffffffull,
+                    "too many blocks or block sources for 32-bit offsets");
+      sparsity_.rowStart[i + 1] = static_cast<std::uint32_t>(next);
+    }
+  }
+  const std::size_t blockCount = sparsity_.rowStart[rows];
   sparsity_.diagonal.assign(rows, kNotFree);
-  sparsity_.rowStart.resize(rows + 1);
-  sparsity_.rowStart[0] = 0;
-  sparsity_.column.resize(blockBase.back());
-  sparsity_.sourceStart.resize(blockBase.back() + 1);
+  sparsity_.column.resize(blockCount);
+  sparsity_.sourceStart.resize(blockCount + 1);
   sparsity_.sourceStart[0] = 0;
-  sparsity_.source.resize(sourceBase.back());
-  sparsity_.sourceWeight.resize(sourceBase.back());
+  sparsity_.source.resize(rowSource[rows]);
+  sparsity_.sourceWeight.resize(rowSource[rows]);
+  std::vector<std::size_t> reused(parts.size(), 0);
   parallelFor(
       0, parts.size(), 1,
       [&](std::size_t pb, std::size_t pe) {
         for (std::size_t pi = pb; pi < pe; ++pi) {
           const Part& part = parts[pi];
-          const auto bb = static_cast<std::uint32_t>(blockBase[pi]);
-          const auto sb = static_cast<std::uint32_t>(sourceBase[pi]);
-          std::uint32_t k = 0;
+          std::uint32_t k = 0;  // next block of the part
           for (std::size_t r = 0; r < part.rowEnd.size(); ++r) {
             const std::size_t i = pi * kRowsPerPart + r;
-            for (; k < part.rowEnd[r]; ++k)
-              if (part.column[k] == i) sparsity_.diagonal[i] = bb + k;
-            sparsity_.rowStart[i + 1] = bb + part.rowEnd[r];
+            std::uint32_t slot = sparsity_.rowStart[i];
+            const auto sourceBase = static_cast<std::uint32_t>(rowSource[i]);
+            if (copied(i)) {
+              // An unchanged neighbourhood: the old row, renumbered. Free nodes keep their
+              // order (node-grid order, ids kept), so the columns stay ascending and on the
+              // same side of the diagonal; node n's mass moves with the mass base.
+              const BlockSparsity& old = *reuse->old;
+              const std::uint32_t io = reuse->oldRow[i];
+              const std::uint32_t s0 = old.rowStart[io], s1 = old.rowStart[io + 1];
+              const std::uint32_t k0 = old.sourceStart[s0], k1 = old.sourceStart[s1];
+              for (std::uint32_t s = s0; s < s1; ++s, ++slot) {
+                const std::uint32_t column = reuse->newColumn[old.column[s]];
+                VOXCUT_ASSERT(column != kNotFree, "a copied row couples to a node no longer free");
+                sparsity_.column[slot] = column;
+                sparsity_.sourceStart[slot + 1] = old.sourceStart[s + 1] - k0 + sourceBase;
+              }
+              std::copy(old.sourceWeight.begin() + k0, old.sourceWeight.begin() + k1,
+                        sparsity_.sourceWeight.begin() + sourceBase);
+              for (std::uint32_t at = k0; at < k1; ++at) {
+                const std::uint32_t src = old.source[at];
+                sparsity_.source[sourceBase + at - k0] =
+                    src < reuse->oldMassBase ? src : src - reuse->oldMassBase + massBase;
+              }
+              ++reused[pi];
+            } else {
+              const std::uint32_t partSource = k > 0 ? part.sourceEnd[k - 1] : 0;
+              for (; k < part.rowEnd[r]; ++k, ++slot) {
+                sparsity_.column[slot] = part.column[k];
+                sparsity_.sourceStart[slot + 1] = part.sourceEnd[k] - partSource + sourceBase;
+              }
+              const std::uint32_t partEnd = k > 0 ? part.sourceEnd[k - 1] : 0;
+              std::copy(part.source.begin() + partSource, part.source.begin() + partEnd,
+                        sparsity_.source.begin() + sourceBase);
+              std::copy(part.weight.begin() + partSource, part.weight.begin() + partEnd,
+                        sparsity_.sourceWeight.begin() + sourceBase);
+            }
+            for (std::uint32_t s = sparsity_.rowStart[i]; s < slot; ++s)
+              if (sparsity_.column[s] == i) sparsity_.diagonal[i] = s;
           }
-          std::copy(part.column.begin(), part.column.end(), sparsity_.column.begin() + bb);
-          for (std::size_t c = 0; c < part.sourceEnd.size(); ++c)
-            sparsity_.sourceStart[bb + c + 1] = sb + part.sourceEnd[c];
-          std::copy(part.source.begin(), part.source.end(), sparsity_.source.begin() + sb);
-          std::copy(part.weight.begin(), part.weight.end(), sparsity_.sourceWeight.begin() + sb);
         }
       },
       threaded_);
   for (std::size_t i = 0; i < rows; ++i)
     VOXCUT_ASSERT(sparsity_.diagonal[i] != kNotFree, "a free node without its diagonal block");
   sparsity_.mirror = blockMirrors(sparsity_);
+  sparsityRowsReused_ = 0;
+  for (std::size_t r : reused) sparsityRowsReused_ += r;
   static std::atomic<std::uint64_t> revisions{0};
   sparsityRevision_ = ++revisions;
 }
@@ -419,14 +594,24 @@ void ElasticModel::updateTopology(const DeformationOctree& octree, const VoxelGr
       requested[n] = all ? 1 : 0;
     }
   }
+  const std::size_t oldElementCount = elementNodes_.size();
   elementNodes_.clear();
   for (const OctreeElement& el : octree.elements()) elementNodes_.push_back(el.nodes);
   copyNodeCoords(octree);
   hanging_ = octree.hangingNodes();
   requested_ = std::move(requested);
   computeElements(octree, grid, fresh);
+  const WeightedRows oldIncidence = std::move(incidence_);
+  const WeightedRows oldProlongation = std::move(prolongation_);
+  const WeightedRows oldRestriction = std::move(restriction_);
+  const std::vector<std::uint32_t> oldFreeNodes = freeNodes_;
+  const BlockSparsity oldSparsity = std::move(sparsity_);
   buildNodeData();
   buildConstraints();
+  SparsityReuse reuse = sparsityReuse(change, oldProlongation, oldRestriction, oldIncidence,
+                                      oldFreeNodes, oldElementCount);
+  reuse.old = &oldSparsity;
+  buildSparsity(&reuse);
 }
 
 double ElasticModel::totalMass() const {
