@@ -7,8 +7,9 @@
 //    base (elements there refined to level 0, so 1-voxel elements meet level-3 ones);
 //  - Cantilever: scenes/cantilever.json (6,427 nodes of level-1 elements, E 1e7 Pa,
 //    tolerance 1e-4, 400 iterations).
-//  - Constraints: BunnyCut's reduced-system structure rebuilt (ElasticModel::setFixed), as
-//    after every cut.
+//  - Constraints: BunnyCut's reduced-system structure rebuilt in full (ElasticModel::setFixed,
+//    as for new fixed nodes; after a cut, updateTopology copies the rows away from it:
+//    bench_topology ModelUpdate).
 // Each step benchmark runs with 1 and 2 worker threads (first argument) and each
 // preconditioner (second: 0 Jacobi, 1 BlockJacobi, 2 SymmetricGaussSeidel, 3
 // IncompleteCholesky, 4 TwoLevel, 5 Cholesky). A body is first
@@ -165,9 +166,9 @@ void allSettings(benchmark::internal::Benchmark* b) {
   b->UseManualTime()->Unit(benchmark::kMillisecond)->MinTime(0.3);
 }
 
-/// The reduced system's structure rebuilt (hanging-node prolongation, restriction, block
-/// sparsity with its sources, aggregation), as after every cut, here on BunnyCut's model:
-/// what ElasticModel::setFixed redoes. Threads: the argument.
+/// The reduced system's structure rebuilt in full (hanging-node prolongation, restriction,
+/// block sparsity with its sources), here on BunnyCut's model: what ElasticModel::setFixed
+/// redoes. Threads: the argument.
 void Constraints(benchmark::State& state) {
   const ThreadLimit limit(static_cast<int>(state.range(0)));
   static FemCase c = bunnyCase(true);

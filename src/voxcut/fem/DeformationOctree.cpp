@@ -150,6 +150,8 @@ void DeformationOctree::forEachVoxelPosition(const std::vector<std::uint32_t>& v
         double inv = 1.0;
         RowSegment row{Vec3d::Zero(), Vec3d::Zero()};
         for (std::size_t i = b; i < e; ++i) {
+          // The voxels may be sparse (the octree's active ones): fetch ahead.
+          if (i + 16 < e) __builtin_prefetch(&embedding_[voxels[i + 16]]);
           const VoxelEmbedding& em = embedding_[voxels[i]];
           VOXCUT_ASSERT(em.element != kNoElement, "voxel is empty");
           if (!want(em.element)) {
