@@ -604,7 +604,7 @@ void ElasticModel::updateTopology(const DeformationOctree& octree, const VoxelGr
   const WeightedRows oldIncidence = std::move(incidence_);
   const WeightedRows oldProlongation = std::move(prolongation_);
   const WeightedRows oldRestriction = std::move(restriction_);
-  const std::vector<std::uint32_t> oldFreeNodes = freeNodes_;
+  const std::vector<std::uint32_t> oldFreeNodes = std::move(freeNodes_);
   const BlockSparsity oldSparsity = std::move(sparsity_);
   buildNodeData();
   buildConstraints();
