@@ -32,7 +32,7 @@ struct BlockSparsity;
 
 /// The symbolic part of IC(0) for one sparsity: for every block slot s = (i, k) below the
 /// diagonal, the pairs (slot (i, j), slot (k, j)) with j < k present in both rows, in
-/// ascending j. Built once per sparsity (ElasticModel::sparsity rebuilds it).
+/// ascending j. Built once per sparsity (per ElasticModel::sparsityRevision).
 struct IncompleteCholeskyPattern {
   std::vector<std::uint32_t> pairStart{0};  ///< #blocks + 1 offsets (empty range off the lower part)
   std::vector<std::uint32_t> pair;          ///< 2 slots per pair: (i, j) then (k, j)

@@ -129,8 +129,9 @@ class ElasticModel {
   /// is node n, ascending (weights unused, 1).
   [[nodiscard]] const WeightedRows& incidence() const { return incidence_; }
   [[nodiscard]] const BlockSparsity& sparsity() const { return sparsity_; }
-  /// Changes whenever sparsity() is rebuilt (unique across models; copies share it), so that
-  /// a solver can keep structures derived from the sparsity (ImplicitEuler's IC(0) pattern).
+  /// Changes whenever sparsity() is rebuilt or updated (unique across models; copies share
+  /// it), so that a solver can keep structures derived from the sparsity (ImplicitEuler's
+  /// IC(0) pattern).
   [[nodiscard]] std::uint64_t sparsityRevision() const { return sparsityRevision_; }
   /// Rows of the last sparsity build that were copied from the one before (updateTopology)
   /// rather than gathered anew; 0 after a full build.
