@@ -74,6 +74,47 @@ TEST(CutStep, OctreeCutsEqualTheBaselineForEveryModelAndDeformation) {
   }
 }
 
+// A blade shorter than the model, moved from a random point to another: its edge and the
+// paths of its tips start, end or run inside the model, through octree cubes whose border the
+// sweep may not cross at all. Those cubes are opened whole (subdivideCutCubes' openWhole), so
+// the octree still cuts exactly what the baseline cuts.
+TEST(CutStep, BladeEndingInsideTheModelCutsEqualTheBaseline) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  const std::pair<const char*, int> models[] = {{"bunny", 64}, {"liver", 64}, {"starfish", 100}};
+  std::size_t whole = 0;
+  for (const auto& [name, res] : models) {
+    const VoxelGrid g = model(name, res);
+    for (Deformation d : {Deformation::None, Deformation::Twist}) {
+      const CutBody withOctree = body(g, true, d);
+      const CutBody baseline = body(g, false, d);
+      Eigen::AlignedBox3d box;
+      for (std::size_t v = 0; v < g.voxelCount(); ++v)
+        if (g.occupied(v)) box.extend(withOctree.deformation.voxelPosition(v));
+      const auto inside = [&] {
+        return Vec3d(box.center() + 0.35 * Vec3d(U(rng), U(rng), U(rng)).cwiseProduct(box.sizes()));
+      };
+      for (int k = 0; k < 4; ++k) {
+        const double half = 0.25 * box.sizes().minCoeff() * (1.0 + 0.5 * U(rng));
+        const Vec3d c0 = inside(), c1 = inside();
+        const Vec3d d0 = Vec3d(U(rng), U(rng), U(rng)).normalized();
+        const Vec3d d1 = (d0 + 0.3 * Vec3d(U(rng), U(rng), U(rng))).normalized();
+        BladeMotion m;
+        m.from = {c0 - half * d0, c0 + half * d0};
+        m.to = {c1 - half * d1, c1 + half * d1};
+        SingleFrameParams sp;
+        sp.contour = false;
+        const SingleFrameResult o = runSingleFrameCut(withOctree, m, sp);
+        const SingleFrameResult b = runSingleFrameCut(baseline, m, sp);
+        ASSERT_EQ(o.step.cuts.size(), b.step.cuts.size()) << name << " " << deformationName(d) << " blade " << k;
+        ASSERT_EQ(o.cutHash, b.cutHash) << name << " " << deformationName(d) << " blade " << k;
+        whole += o.step.subdivision.wholeCubes;
+      }
+    }
+  }
+  EXPECT_GT(whole, 0u);  // the case arose
+}
+
 // A blade that crosses the model sideways but advances through it about a voxel per frame,
 // as in a scene: after the first frames each sweep starts and ends inside the model, so its
 // edges lie inside octree cubes (level-1 ones too). Frame after frame, the octree cuts what
@@ -113,36 +154,40 @@ TEST(CutStep, SlowBladeCutsEqualTheBaselineFrameByFrame) {
 
 // A short blade reaches few elements: the step then positions only their voxels (and the
 // far ends of their links). It must cut exactly the connected links that a test of every
-// link of the grid finds crossed. (Without the octree: with it, a blade that starts and ends
-// inside one octree cube crosses no active link, by the method's design; scenes' blades
-// enter from outside, and the scene tests compare both paths.)
+// link of the grid finds crossed, without the octree and with it (the whole sweep lies
+// inside the model: with the octree, only the cubes it reaches into are opened whole).
 TEST(CutStep, ShortSweepCutsExactlyTheCrossedLinks) {
   const VoxelGrid g = model("bunny", 101);
-  CutBody b = body(g, false, Deformation::Twist);
-  Eigen::AlignedBox3d box;
-  for (std::size_t v = 0; v < g.voxelCount(); ++v)
-    if (g.occupied(v)) box.extend(b.deformation.voxelPosition(v));
-  const Vec3d c = box.center(), s = box.sizes();
-  const double h = g.voxelSize();
-  // A blade a tenth of the model wide, tilted, moving 2 voxels through its middle.
-  const Vec3d half(0.05 * s.x(), 0.01 * s.y(), 0.015 * s.z());
-  const Vec3d move(0.3 * h, 0.4 * h, 2.0 * h);
-  const BladeSweep sweep = makeSweep({c - half, c + half}, {c - half + move, c + half + move}, 7);
-  std::vector<std::uint64_t> expected;
-  for (std::size_t v = 0; v < g.voxelCount(); ++v)
-    for (int a = 0; a < 3; ++a) {
-      if (!g.occupied(v) || !g.hasLink(v, a) || !g.connected(v, a)) continue;
-      const std::size_t w = v + g.stride(a);
-      if (intersectSegment(sweep, b.deformation.voxelPosition(v), b.deformation.voxelPosition(w), v, w))
-        expected.push_back(VoxelGrid::linkId(v, a));
+  for (const bool octree : {false, true}) {
+    CutBody b = body(g, octree, Deformation::Twist);
+    Eigen::AlignedBox3d box;
+    for (std::size_t v = 0; v < g.voxelCount(); ++v)
+      if (g.occupied(v)) box.extend(b.deformation.voxelPosition(v));
+    const Vec3d c = box.center(), s = box.sizes();
+    const double h = g.voxelSize();
+    // A blade a tenth of the model wide, tilted, moving 2 voxels through its middle.
+    const Vec3d half(0.05 * s.x(), 0.01 * s.y(), 0.015 * s.z());
+    const Vec3d move(0.3 * h, 0.4 * h, 2.0 * h);
+    const BladeSweep sweep = makeSweep({c - half, c + half}, {c - half + move, c + half + move}, 7);
+    std::vector<std::uint64_t> expected;
+    for (std::size_t v = 0; v < g.voxelCount(); ++v)
+      for (int a = 0; a < 3; ++a) {
+        if (!g.occupied(v) || !g.hasLink(v, a) || !g.connected(v, a)) continue;
+        const std::size_t w = v + g.stride(a);
+        if (intersectSegment(sweep, b.deformation.voxelPosition(v), b.deformation.voxelPosition(w), v, w))
+          expected.push_back(VoxelGrid::linkId(v, a));
+      }
+    const CutStepResult r = cutStep(b, sweep);
+    ASSERT_GT(r.markedElements, 0u);
+    ASSERT_LT(4 * r.markedElements, b.deformation.elementCount()) << "the blade should reach few elements";
+    ASSERT_GT(expected.size(), 20u);
+    std::vector<std::uint64_t> cut;
+    for (const LinkCut& lc : r.cuts) cut.push_back(lc.link);
+    EXPECT_EQ(cut, expected) << (octree ? "octree" : "baseline");
+    if (octree) {
+      EXPECT_GT(r.subdivision.wholeCubes, 0u);
     }
-  const CutStepResult r = cutStep(b, sweep);
-  ASSERT_GT(r.markedElements, 0u);
-  ASSERT_LT(4 * r.markedElements, b.deformation.elementCount()) << "the blade should reach few elements";
-  ASSERT_GT(expected.size(), 20u);
-  std::vector<std::uint64_t> cut;
-  for (const LinkCut& lc : r.cuts) cut.push_back(lc.link);
-  EXPECT_EQ(cut, expected);
+  }
 }
 
 TEST(CutStep, CutSetDoesNotDependOnThreadCount) {

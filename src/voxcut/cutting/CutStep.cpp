@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
 
 #include "voxcut/core/Parallel.h"
 #include "voxcut/core/Timer.h"
@@ -62,6 +63,79 @@ std::optional<Hermite> testCubeLink(const CutBody& b, const std::vector<BladeSwe
     return p;
   };
   return testLink(b, sweeps, v, a, position(v), position(v + b.grid.stride(a)));
+}
+
+// The octree cubes that the boundary of the sweeps passes through or next to (see
+// subdivideCutCubes): the boundary is every sweep edge that no other sweep shares (by its
+// corners' ids), sampled every quarter voxel; each sample inside an element is taken back to
+// the rest grid through that element's map, and the cubes over the unit cells around it (one
+// cell either way on each axis) are listed, ascending.
+std::vector<std::uint32_t> boundaryCubes(const CutBody& b, const std::vector<BladeSweep>& sweeps) {
+  struct Edge {
+    std::uint64_t lo, hi;
+    Vec3d p, q;
+  };
+  std::vector<Edge> edges;
+  for (const BladeSweep& s : sweeps)
+    for (std::size_t k = 0; k < 4; ++k) {
+      const std::size_t k1 = (k + 1) % 4;
+      edges.push_back({std::min(s.ids[k], s.ids[k1]), std::max(s.ids[k], s.ids[k1]),
+                       s.corners[k], s.corners[k1]});
+    }
+  std::sort(edges.begin(), edges.end(), [](const Edge& x, const Edge& y) {
+    return std::tie(x.lo, x.hi) < std::tie(y.lo, y.hi);
+  });
+  Eigen::AlignedBox3d all;
+  for (const auto& box : b.elementBoxes) all.extend(box);
+  const DeformationOctree& d = b.deformation;
+  const VoxelOctree& oct = b.activity;
+  const Index3 dims = b.grid.dims();
+  const double h = b.grid.voxelSize();
+  std::vector<std::uint8_t> listed(oct.cubes.size(), 0);
+  std::vector<std::uint32_t> out;
+  const auto sample = [&](const Vec3d& x) {
+    if (!all.contains(x)) return;
+    for (const std::uint32_t e : b.hash.cellElements(b.hash.cellOf(x))) {
+      Eigen::AlignedBox3d box = b.elementBoxes[e];
+      box.extend(box.min() - Vec3d::Constant(1e-9 * h));
+      box.extend(box.max() + Vec3d::Constant(1e-9 * h));
+      Vec3d t;
+      if (!box.contains(x) || !d.trilinearCoordinates(e, x, t)) continue;
+      // Continuous rest voxel coordinates: an element's corner nodes lie half a voxel before
+      // its first voxel's centre and s - 1/2 after it.
+      const OctreeElement& el = d.element(e);
+      const Index3 f = el.firstVoxel();
+      Index3 cell;
+      for (int k = 0; k < 3; ++k)
+        cell[k] = static_cast<int>(std::floor(f[k] - 0.5 + el.size() * t[k]));
+      for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const Index3 c{cell.x + dx, cell.y + dy, cell.z + dz};
+            if (c.x < 0 || c.y < 0 || c.z < 0 || c.x + 1 >= dims.x || c.y + 1 >= dims.y ||
+                c.z + 1 >= dims.z)
+              continue;
+            const std::int32_t cube = oct.cellCube[b.grid.index(c)];
+            if (cube < 0 || listed[static_cast<std::size_t>(cube)] != 0) continue;
+            listed[static_cast<std::size_t>(cube)] = 1;
+            out.push_back(static_cast<std::uint32_t>(cube));
+          }
+    }
+  };
+  for (std::size_t i = 0; i < edges.size();) {
+    std::size_t j = i + 1;
+    while (j < edges.size() && edges[j].lo == edges[i].lo && edges[j].hi == edges[i].hi) ++j;
+    if (j == i + 1) {
+      const Edge& e = edges[i];
+      const double len = (e.q - e.p).norm();
+      const int n = std::isfinite(len) ? static_cast<int>(std::ceil(len / (0.25 * h))) : 0;
+      for (int k = 0; k <= std::min(n, 1 << 22); ++k)
+        sample(n > 0 ? Vec3d(e.p + (static_cast<double>(k) / n) * (e.q - e.p)) : e.p);
+    }
+    i = j;
+  }
+  std::sort(out.begin(), out.end());
+  return out;
 }
 
 }  // namespace
@@ -180,14 +254,17 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   }
   r.intersectionMs = cullMs + timer.ms();
 
-  // Octree subdivision around the new cuts (nothing to subdivide or update without any).
-  if (b.useOctree && !r.cuts.empty()) {
+  // Octree subdivision around the new cuts and in the cubes that the sweeps' boundary reaches
+  // into (nothing to subdivide or update without either).
+  const std::vector<std::uint32_t> whole =
+      b.useOctree ? boundaryCubes(b, sweeps) : std::vector<std::uint32_t>{};
+  if (b.useOctree && (!r.cuts.empty() || !whole.empty())) {
     timer.restart();
     SubdivisionHooks hooks;
     hooks.testLink = [&](std::size_t v, int a, VoxelPositionCache& cache) {
       return testCubeLink(b, sweeps, v, a, cache);
     };
-    r.subdivision = subdivideCutCubes(b.activity, g, r.cuts, hooks, threaded);
+    r.subdivision = subdivideCutCubes(b.activity, g, r.cuts, hooks, threaded, whole);
     r.subdivisionMs = timer.ms();
     timer.restart();
     activateNewCubeFrames(b.activity, g, threaded);

@@ -1,6 +1,8 @@
 #include "voxcut/fem/DeformationOctree.h"
 
+#include <Eigen/LU>
 #include <algorithm>
+#include <cmath>
 #include <initializer_list>
 #include <string>
 #include <utility>
@@ -130,6 +132,51 @@ RowSegment rowSegment(const std::vector<Vec3d>& p, const std::array<std::uint32_
 Vec3d DeformationOctree::pointInElement(std::uint32_t e, const Vec3d& t) const {
   const RowSegment r = rowSegment(positions_, elements_[e].nodes, t.y(), t.z());
   return r.start + t.x() * r.delta;
+}
+
+namespace {
+
+/// Trilinear map of element `nodes` at xi and its Jacobian.
+void elementMap(const std::vector<Vec3d>& positions, const std::array<std::uint32_t, 8>& nodes,
+                const Vec3d& xi, Vec3d& x, Eigen::Matrix3d& jacobian) {
+  x.setZero();
+  jacobian.setZero();
+  for (std::size_t c = 0; c < 8; ++c) {
+    double w[3], dw[3];
+    for (std::size_t i = 0; i < 3; ++i) {
+      const bool high = ((c >> i) & 1u) != 0;
+      w[i] = high ? xi[static_cast<Eigen::Index>(i)] : 1.0 - xi[static_cast<Eigen::Index>(i)];
+      dw[i] = high ? 1.0 : -1.0;
+    }
+    const Vec3d& p = positions[nodes[c]];
+    x += (w[0] * w[1] * w[2]) * p;
+    jacobian.col(0) += (dw[0] * w[1] * w[2]) * p;
+    jacobian.col(1) += (w[0] * dw[1] * w[2]) * p;
+    jacobian.col(2) += (w[0] * w[1] * dw[2]) * p;
+  }
+}
+
+}  // namespace
+
+bool DeformationOctree::trilinearCoordinates(std::uint32_t e, const Vec3d& p, Vec3d& t) const {
+  const auto& nodes = elements_[e].nodes;
+  t = Vec3d::Constant(0.5);
+  const double tol = 1e-12 * voxelSize_ * elements_[e].size();
+  Vec3d x;
+  Eigen::Matrix3d jacobian;
+  for (int it = 0; it < 20; ++it) {
+    elementMap(positions_, nodes, t, x, jacobian);
+    const Vec3d r = x - p;
+    if (r.norm() <= tol) break;
+    const double det = jacobian.determinant();
+    if (!(std::abs(det) > 0) || !std::isfinite(det)) return false;
+    t -= jacobian.inverse() * r;
+    if (!t.allFinite() || t.cwiseAbs().maxCoeff() > 4.0) return false;
+  }
+  elementMap(positions_, nodes, t, x, jacobian);
+  constexpr double kSlack = 1e-9;
+  return (x - p).norm() <= 1e-6 * voxelSize_ && (t.array() >= -kSlack).all() &&
+         (t.array() <= 1.0 + kSlack).all();
 }
 
 Vec3d DeformationOctree::voxelPosition(std::size_t v) const {

@@ -6,6 +6,7 @@
 #include <memory>
 #include <mutex>
 
+#include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/core/Timer.h"
 
@@ -27,28 +28,30 @@ bool disconnect(VoxelGrid& grid, std::size_t v, int a) {
               .fetch_and(static_cast<std::uint8_t>(~bit), std::memory_order_relaxed) &
           bit) != 0;
 }
-// (5-3) for a split level-1 cube: its 27 voxels and 54 links become active. Only when no task
-// runs: the state bytes of its faces are shared with neighbouring cubes (raising them inside
-// the tasks took atomic read-modify-writes, three times as long as this pass).
-void openLevelOneCube(VoxelOctree& oct, const VoxelGrid& grid, const Index3& o) {
-  for (int z = 0; z <= 2; ++z)
-    for (int y = 0; y <= 2; ++y)
-      for (int x = 0; x <= 2; ++x) {
-        const int d[3] = {x, y, z};
-        auto bits = static_cast<std::uint8_t>(kOpenedVoxel);
-        for (int a = 0; a < 3; ++a)
-          if (d[a] < 2) bits = static_cast<std::uint8_t>(bits | (1u << a));
-        const std::size_t v = grid.index(o.x + x, o.y + y, o.z + z);
-        oct.state[v] |= bits;
-        oct.markChanged(v);
-      }
-}
-
 struct CubeBox {
   Index3 o;
   int level;
   [[nodiscard]] int size() const { return 1 << level; }
 };
+
+// (5-3) for a split level-1 cube (27 voxels, 54 links), and for a cube opened whole: all its
+// voxels and links become active. Only when no task runs: the state bytes of its faces are
+// shared with neighbouring cubes (raising them inside the tasks took atomic
+// read-modify-writes, three times as long as this pass).
+void openCube(VoxelOctree& oct, const VoxelGrid& grid, const CubeBox& cube) {
+  const int s = cube.size();
+  for (int z = 0; z <= s; ++z)
+    for (int y = 0; y <= s; ++y)
+      for (int x = 0; x <= s; ++x) {
+        const int d[3] = {x, y, z};
+        auto bits = static_cast<std::uint8_t>(kOpenedVoxel);
+        for (int a = 0; a < 3; ++a)
+          if (d[a] < s) bits = static_cast<std::uint8_t>(bits | (1u << a));
+        const std::size_t v = grid.index(cube.o.x + x, cube.o.y + y, cube.o.z + z);
+        oct.state[v] |= bits;
+        oct.markChanged(v);
+      }
+}
 
 struct CutLink {
   Index3 p;
@@ -72,7 +75,7 @@ struct Worker {
   // these can border a cube outside the round (next round's newly cut links).
   std::vector<std::uint64_t> outward;
   bool recordOutward = false;
-  std::vector<Index3> opened;   // level-1 cubes split: opened after the parallel phase
+  std::vector<CubeBox> opened;  // level-1 cubes split, cubes opened whole: opened afterwards
   std::vector<CubeBox> leaves;  // sub-cubes kept, cube after cube
   std::vector<std::array<std::uint32_t, 3>> leafRanges;  // (cube slot, begin, end) in leaves
   // Scratch.
@@ -208,6 +211,39 @@ struct Worker {
     }
   }
 
+  // Every link of the square of side m at `o` in the plane normal to f, its border included
+  // (the face of a cube opened whole).
+  void testWholeSquare(const Index3& o, int f, int m) {
+    const int u = (f + 1) % 3, w = (f + 2) % 3;
+    for (int j = 0; j <= m; ++j)
+      for (int i = 0; i <= m; ++i) {
+        Index3 p = o;
+        p[u] += i;
+        p[w] += j;
+        const std::size_t v = grid.index(p);
+        if (i < m) testLink(v, u, [p] { return p; });
+        if (j < m) testLink(v, w, [p] { return p; });
+      }
+  }
+
+  // Every link strictly inside a cube opened whole (its faces are tested already); the cube
+  // leaves no sub-cube and opens completely once no task runs.
+  void openWhole(const CubeBox& cube) {
+    const int s = cube.size();
+    for (int z = 0; z <= s; ++z)
+      for (int y = 0; y <= s; ++y)
+        for (int x = 0; x <= s; ++x) {
+          const int d[3] = {x, y, z};
+          const Index3 p{cube.o.x + x, cube.o.y + y, cube.o.z + z};
+          for (int a = 0; a < 3; ++a) {
+            const int u = (a + 1) % 3, w = (a + 2) % 3;
+            if (d[a] < s && d[u] > 0 && d[u] < s && d[w] > 0 && d[w] < s)
+              testLink(grid.index(p), a, [p] { return p; });
+          }
+        }
+    opened.push_back(cube);
+  }
+
   // Sub-steps (5-1)-(5-6) on one cube; `cutsOnBoundary` lists the cut links on its faces.
   void split(const CubeBox& cube, const std::vector<CutLink>& cutsOnBoundary) {
     const int s = cube.size(), h = s / 2;
@@ -227,7 +263,7 @@ struct Worker {
         });
         testLink(centre, a, [&] { return c; });
       }
-      opened.push_back(cube.o);
+      opened.push_back(cube);
       return;
     }
     // (5-1), (5-2) between the sub-cubes: the links of the three mid-planes, the three centre
@@ -281,7 +317,8 @@ struct Worker {
 }  // namespace
 
 SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vector<LinkCut>& cuts,
-                                   const SubdivisionHooks& hooks, bool threaded) {
+                                   const SubdivisionHooks& hooks, bool threaded,
+                                   const std::vector<std::uint32_t>& openWhole) {
   SubdivisionStats stats;
   const Index3 d = grid.dims();
   std::vector<std::uint64_t> pending;
@@ -296,8 +333,14 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     });
   };
   std::vector<std::unique_ptr<Worker>> workers(static_cast<std::size_t>(threadSlots()));
+  // Cubes opened whole in this round (the first only; see the header).
+  std::vector<std::uint8_t> whole(oct.cubes.size(), 0);
+  for (const std::uint32_t c : openWhole) {
+    VOXCUT_ASSERT(c < oct.cubes.size() && !oct.cubes[c].deleted, "openWhole: not a live cube");
+    whole[c] = 1;
+  }
   Timer total;
-  while (!pending.empty()) {
+  while (!pending.empty() || !openWhole.empty()) {
     // (1) mark the cubes around the newly cut links (raising a raised flag is harmless).
     affected.assign(oct.cubes.size(), 0);
     parallelFor(
@@ -309,6 +352,8 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
             });
         },
         threaded);
+    if (stats.rounds == 0)
+      for (const std::uint32_t c : openWhole) affected[c] = 1;
     std::vector<std::uint32_t> list;
     std::vector<std::int32_t> slot(oct.cubes.size(), -1);
     for (std::size_t c = 0; c < affected.size(); ++c)
@@ -317,8 +362,11 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
         list.push_back(static_cast<std::uint32_t>(c));
       }
     if (list.empty()) break;
+    const bool firstRound = stats.rounds == 0;
+    const auto isWhole = [&](std::size_t i) { return firstRound && whole[list[i]] != 0; };
     ++stats.rounds;
     stats.affectedCubes += list.size();
+    if (firstRound) stats.wholeCubes = openWhole.size();
 
     // Runs fn(worker, i) for every listed cube i, in parallel, each task with its thread's
     // worker, whose findings start empty.
@@ -351,6 +399,17 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     forEachCube([&](Worker& w, std::size_t i) {
       const OctreeCube& oc = oct.cubes[list[i]];
       const int s = 1 << oc.level;
+      if (isWhole(i)) {
+        // Every link of every face: a cut on one can border any neighbour.
+        w.recordOutward = true;
+        for (int f = 0; f < 6; ++f) {
+          Index3 o = oc.origin;
+          o[f / 2] += (f & 1) * s;
+          w.testWholeSquare(o, f / 2, s);
+        }
+        w.recordOutward = false;
+        return;
+      }
       for (int f = 0; f < 6; ++f) {
         Index3 o = oc.origin;
         o[f / 2] += (f & 1) * s;
@@ -361,8 +420,10 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
         bool shared = false;
         if (across[f / 2] >= 0 && across[f / 2] + 1 < d[f / 2]) {
           const std::int32_t other = oct.cellCube[grid.index(across)];
+          // (A cube opened whole tests every link of its faces itself.)
           shared = other >= 0 && slot[static_cast<std::size_t>(other)] >= 0 &&
-                   oct.cubes[static_cast<std::size_t>(other)].level == oc.level;
+                   oct.cubes[static_cast<std::size_t>(other)].level == oc.level &&
+                   !isWhole(static_cast<std::size_t>(slot[static_cast<std::size_t>(other)]));
           if (shared && slot[static_cast<std::size_t>(other)] < static_cast<std::int32_t>(i))
             continue;
         }
@@ -385,10 +446,14 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     forEachCube([&](Worker& w, std::size_t i) {
       const OctreeCube& oc = oct.cubes[list[i]];
       const CubeBox cube{oc.origin, oc.level};
-      // A level-1 cube tests the links at its centre whatever its faces hold.
-      if (cube.level > 1) w.gatherBoundaryCuts(cube);
       const auto begin = static_cast<std::uint32_t>(w.leaves.size());
-      w.split(cube, w.boundary);
+      if (isWhole(i)) {
+        w.openWhole(cube);
+      } else {
+        // A level-1 cube tests the links at its centre whatever its faces hold.
+        if (cube.level > 1) w.gatherBoundaryCuts(cube);
+        w.split(cube, w.boundary);
+      }
       w.leafRanges.push_back(
           {static_cast<std::uint32_t>(i), begin, static_cast<std::uint32_t>(w.leaves.size())});
     });
@@ -409,7 +474,7 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     const auto openCubes = [&] {
       for (const auto& w : workers)
         if (w)
-          for (const Index3& o : w->opened) openLevelOneCube(oct, grid, o);
+          for (const CubeBox& c : w->opened) openCube(oct, grid, c);
     };
     // The first sub-cube takes the split cube's slot, the others are appended in list order;
     // then each split cube's cells are rewritten, in parallel (disjoint cells).

@@ -69,6 +69,7 @@ struct SubdivisionHooks {
 struct SubdivisionStats {
   int rounds = 0;                 ///< passes through sub-steps (1)-(6)
   std::size_t affectedCubes = 0;  ///< cubes marked in sub-step (1), summed over rounds
+  std::size_t wholeCubes = 0;     ///< of which opened whole (the sweep's boundary in them)
   std::size_t testedLinks = 0;    ///< links the subdivision examined (tested unless already cut)
   std::size_t cutLinks = 0;       ///< of which crossed
   double facesMs = 0;             ///< wall time in sub-steps (2)-(4), the affected cubes' faces
@@ -86,7 +87,15 @@ struct SubdivisionStats {
 /// the caller.
 /// Otherwise deterministic for any thread count: the cut set, the grid, the octree and the
 /// counts.
+///
+/// `openWhole` lists cubes (ids, ascending) that the boundary of the blade's sweep passes
+/// through or next to: where the blade's edge or the path of its tip ends inside a cube, the
+/// sweep can cross links inside it and on its faces without crossing any link on its border,
+/// and following the trace from the border cannot find them. In the first round these cubes
+/// are opened whole: every link on their faces and inside them is tested, and all their voxels
+/// and links become active, as a level-1 cube's do.
 SubdivisionStats subdivideCutCubes(VoxelOctree& octree, VoxelGrid& grid, std::vector<LinkCut>& cuts,
-                                   const SubdivisionHooks& hooks, bool threaded = true);
+                                   const SubdivisionHooks& hooks, bool threaded = true,
+                                   const std::vector<std::uint32_t>& openWhole = {});
 
 }  // namespace voxcut

@@ -1,59 +1,11 @@
 #include "voxcut/sim/BladeFront.h"
 
-#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 
 #include "voxcut/core/Error.h"
 
 namespace voxcut {
-namespace {
-
-// Trilinear map of element e and its Jacobian at xi.
-void elementMap(const DeformationOctree& d, std::uint32_t e, const Vec3d& xi, Vec3d& x, Eigen::Matrix3d& J) {
-  const OctreeElement& el = d.element(e);
-  x.setZero();
-  J.setZero();
-  for (int c = 0; c < 8; ++c) {
-    const int b[3] = {c & 1, (c >> 1) & 1, (c >> 2) & 1};
-    double w[3], dw[3];
-    for (int i = 0; i < 3; ++i) {
-      w[i] = b[i] ? xi[i] : 1.0 - xi[i];
-      dw[i] = b[i] ? 1.0 : -1.0;
-    }
-    const Vec3d& p = d.positions()[el.nodes[c]];
-    x += (w[0] * w[1] * w[2]) * p;
-    J.col(0) += (dw[0] * w[1] * w[2]) * p;
-    J.col(1) += (w[0] * dw[1] * w[2]) * p;
-    J.col(2) += (w[0] * w[1] * dw[2]) * p;
-  }
-}
-
-// Trilinear coordinates of p in element e by Newton's method; false when they do not settle
-// inside [0, 1]^3 (with a small allowance).
-bool invertMap(const DeformationOctree& d, std::uint32_t e, const Vec3d& p, Vec3d& xi) {
-  xi = Vec3d::Constant(0.5);
-  const double tol = 1e-12 * d.voxelSize() * d.element(e).size();
-  for (int it = 0; it < 20; ++it) {
-    Vec3d x;
-    Eigen::Matrix3d J;
-    elementMap(d, e, xi, x, J);
-    const Vec3d r = x - p;
-    if (r.norm() <= tol) break;
-    const double det = J.determinant();
-    if (!(std::abs(det) > 0) || !std::isfinite(det)) return false;
-    xi -= J.inverse() * r;
-    if (!xi.allFinite() || xi.cwiseAbs().maxCoeff() > 4.0) return false;
-  }
-  Vec3d x;
-  Eigen::Matrix3d J;
-  elementMap(d, e, xi, x, J);
-  constexpr double kSlack = 1e-9;
-  return (x - p).norm() <= 1e-6 * d.voxelSize() && (xi.array() >= -kSlack).all() &&
-         (xi.array() <= 1.0 + kSlack).all();
-}
-
-}  // namespace
 
 std::vector<Vec3d> sampleBlade(const BladePose& pose, int segments) {
   VOXCUT_ASSERT(segments >= 1, "sampleBlade: at least one segment");
@@ -83,7 +35,7 @@ BladeFront embedFront(const std::vector<Vec3d>& points, const std::vector<std::u
       box.extend(box.max() + Vec3d::Constant(1e-9 * d.voxelSize()));
       if (!box.contains(p)) continue;
       Vec3d xi;
-      if (!invertMap(d, e, p, xi)) continue;
+      if (!d.trilinearCoordinates(e, p, xi)) continue;
       const OctreeElement& el = d.element(e);
       // The voxel of the cube at xi: a copy that owns it is the one holding this point.
       Index3 vox = el.firstVoxel();
