@@ -255,11 +255,11 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   r.intersectionMs = cullMs + timer.ms();
 
   // Octree subdivision around the new cuts and in the cubes that the sweeps' boundary reaches
-  // into (nothing to subdivide or update without either).
+  // into (nothing to subdivide or update without either); finding those cubes is part of it.
+  timer.restart();
   const std::vector<std::uint32_t> whole =
       b.useOctree ? boundaryCubes(b, sweeps) : std::vector<std::uint32_t>{};
   if (b.useOctree && (!r.cuts.empty() || !whole.empty())) {
-    timer.restart();
     SubdivisionHooks hooks;
     hooks.testLink = [&](std::size_t v, int a, VoxelPositionCache& cache) {
       return testCubeLink(b, sweeps, v, a, cache);
