@@ -271,6 +271,8 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
     compactCubes(b.activity, threaded);
     rebuildActiveVoxels(b.activity, threaded);
     r.deferredMs = timer.ms();
+  } else if (b.useOctree) {
+    r.subdivisionMs = timer.ms();
   }
   std::sort(r.cuts.begin(), r.cuts.end(), [](const LinkCut& x, const LinkCut& y) { return x.link < y.link; });
   return r;
