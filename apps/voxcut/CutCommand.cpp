@@ -98,7 +98,7 @@ int runCut(const CutOptions& opt) {
     j["marked_elements"] = s.markedElements;
     j["tested_links"] = s.testedLinks + s.subdivision.testedLinks;
     j["subdivision"] = {{"rounds", s.subdivision.rounds}, {"affected_cubes", s.subdivision.affectedCubes},
-                        {"whole_cubes", s.subdivision.wholeCubes},
+                        {"boundary_cubes", s.subdivision.boundaryCubes},
                         {"tested_links", s.subdivision.testedLinks}, {"cut_links", s.subdivision.cutLinks},
                         {"faces_ms", s.subdivision.facesMs}, {"split_ms", s.subdivision.splitMs},
                         {"bookkeeping_ms", s.subdivision.bookkeepingMs}};

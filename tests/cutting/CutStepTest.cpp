@@ -76,13 +76,14 @@ TEST(CutStep, OctreeCutsEqualTheBaselineForEveryModelAndDeformation) {
 
 // A blade shorter than the model, moved from a random point to another: its edge and the
 // paths of its tips start, end or run inside the model, through octree cubes whose border the
-// sweep may not cross at all. Those cubes are opened whole (subdivideCutCubes' openWhole), so
-// the octree still cuts exactly what the baseline cuts.
+// sweep may not cross at all. Those cubes are split anyway and their traces seeded where the
+// boundary crosses them (subdivideCutCubes' SweepBoundary), so the octree still cuts exactly
+// what the baseline cuts.
 TEST(CutStep, BladeEndingInsideTheModelCutsEqualTheBaseline) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> U(-1.0, 1.0);
   const std::pair<const char*, int> models[] = {{"bunny", 64}, {"liver", 64}, {"starfish", 100}};
-  std::size_t whole = 0;
+  std::size_t reached = 0;
   for (const auto& [name, res] : models) {
     const VoxelGrid g = model(name, res);
     for (Deformation d : {Deformation::None, Deformation::Twist}) {
@@ -108,11 +109,11 @@ TEST(CutStep, BladeEndingInsideTheModelCutsEqualTheBaseline) {
         const SingleFrameResult b = runSingleFrameCut(baseline, m, sp);
         ASSERT_EQ(o.step.cuts.size(), b.step.cuts.size()) << name << " " << deformationName(d) << " blade " << k;
         ASSERT_EQ(o.cutHash, b.cutHash) << name << " " << deformationName(d) << " blade " << k;
-        whole += o.step.subdivision.wholeCubes;
+        reached += o.step.subdivision.boundaryCubes;
       }
     }
   }
-  EXPECT_GT(whole, 0u);  // the case arose
+  EXPECT_GT(reached, 0u);  // the case arose
 }
 
 // A blade that crosses the model sideways but advances through it about a voxel per frame,
@@ -155,7 +156,7 @@ TEST(CutStep, SlowBladeCutsEqualTheBaselineFrameByFrame) {
 // A short blade reaches few elements: the step then positions only their voxels (and the
 // far ends of their links). It must cut exactly the connected links that a test of every
 // link of the grid finds crossed, without the octree and with it (the whole sweep lies
-// inside the model: with the octree, only the cubes it reaches into are opened whole).
+// inside the model: with the octree, found from the cubes its boundary reaches into).
 TEST(CutStep, ShortSweepCutsExactlyTheCrossedLinks) {
   const VoxelGrid g = model("bunny", 101);
   for (const bool octree : {false, true}) {
@@ -185,7 +186,7 @@ TEST(CutStep, ShortSweepCutsExactlyTheCrossedLinks) {
     for (const LinkCut& lc : r.cuts) cut.push_back(lc.link);
     EXPECT_EQ(cut, expected) << (octree ? "octree" : "baseline");
     if (octree) {
-      EXPECT_GT(r.subdivision.wholeCubes, 0u);
+      EXPECT_GT(r.subdivision.boundaryCubes, 0u);
     }
   }
 }

@@ -147,9 +147,7 @@ void SpatialHash::build(const std::vector<Eigen::AlignedBox3d>& boxes, double ce
 
 std::vector<std::uint32_t> SpatialHash::cellElements(const Index3& cell) const {
   std::vector<std::uint32_t> out;
-  const std::uint64_t b = bucketOf(cell);
-  for (std::uint32_t k = bucketStart_[b]; k < bucketStart_[b + 1]; ++k)
-    if (entries_[k].cell == cell) out.push_back(entries_[k].element);
+  forEachInCell(cell, [&](std::uint32_t e) { out.push_back(e); });
   return out;
 }
 

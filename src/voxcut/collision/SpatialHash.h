@@ -44,6 +44,14 @@ class SpatialHash {
   [[nodiscard]] Eigen::AlignedBox3d cellBox(const Index3& cell) const;
   /// Elements registered in `cell`, in increasing id.
   [[nodiscard]] std::vector<std::uint32_t> cellElements(const Index3& cell) const;
+  /// Calls fn(element) for each element registered in `cell`, in increasing id (no
+  /// allocation).
+  template <class Fn>
+  void forEachInCell(const Index3& cell, Fn&& fn) const {
+    const std::uint64_t b = bucketOf(cell);
+    for (std::uint32_t k = bucketStart_[b]; k < bucketStart_[b + 1]; ++k)
+      if (entries_[k].cell == cell) fn(entries_[k].element);
+  }
 
   /// Elements whose box overlaps `box` (closed boxes), sorted and unique.
   [[nodiscard]] std::vector<std::uint32_t> elementsInBox(const Eigen::AlignedBox3d& box) const;

@@ -65,12 +65,12 @@ std::optional<Hermite> testCubeLink(const CutBody& b, const std::vector<BladeSwe
   return testLink(b, sweeps, v, a, position(v), position(v + b.grid.stride(a)));
 }
 
-// The octree cubes that the boundary of the sweeps passes through or next to (see
-// subdivideCutCubes): the boundary is every sweep edge that no other sweep shares (by its
-// corners' ids), sampled every quarter voxel; each sample inside an element is taken back to
-// the rest grid through that element's map, and the cubes over the unit cells around it (one
-// cell either way on each axis) are listed, ascending.
-std::vector<std::uint32_t> boundaryCubes(const CutBody& b, const std::vector<BladeSweep>& sweeps) {
+// The boundary of the sweeps as the subdivision needs it (SweepBoundary): every sweep edge
+// that no other sweep shares (by its corners' ids), sampled every half voxel; each sample
+// inside an element is taken back to the rest grid through that element's map (every copy
+// that holds it), and the cubes over the unit cells around it (one cell either way on each
+// axis) are listed, ascending.
+SweepBoundary sweepBoundary(const CutBody& b, const std::vector<BladeSweep>& sweeps) {
   struct Edge {
     std::uint64_t lo, hi;
     Vec3d p, q;
@@ -92,35 +92,67 @@ std::vector<std::uint32_t> boundaryCubes(const CutBody& b, const std::vector<Bla
   const Index3 dims = b.grid.dims();
   const double h = b.grid.voxelSize();
   std::vector<std::uint8_t> listed(oct.cubes.size(), 0);
-  std::vector<std::uint32_t> out;
+  SweepBoundary out;
+  const Vec3d pad = Vec3d::Constant(1e-9 * h);
+  const auto inBox = [&](std::uint32_t e, const Vec3d& x) {
+    const Eigen::AlignedBox3d& box = b.elementBoxes[e];
+    return (x.array() >= (box.min() - pad).array()).all() &&
+           (x.array() <= (box.max() + pad).array()).all();
+  };
+  // Point x at trilinear coordinates t of element e: its rest voxel coordinates (an element's
+  // corner nodes lie half a voxel before its first voxel's centre and size - 1/2 after it),
+  // and the cubes around it.
+  Index3 lastCell{-2, -2, -2};
+  const auto take = [&](std::uint32_t e, const Vec3d& t) {
+    const OctreeElement& el = d.element(e);
+    const Index3 f = el.firstVoxel();
+    Vec3d q;
+    Index3 cell;
+    for (int k = 0; k < 3; ++k) {
+      q[k] = f[k] - 0.5 + el.size() * t[k];
+      cell[k] = static_cast<int>(std::floor(q[k]));
+    }
+    out.points.push_back(q);
+    if (cell == lastCell) return;  // its cubes are listed already
+    lastCell = cell;
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const Index3 c{cell.x + dx, cell.y + dy, cell.z + dz};
+          if (c.x < 0 || c.y < 0 || c.z < 0 || c.x + 1 >= dims.x || c.y + 1 >= dims.y ||
+              c.z + 1 >= dims.z)
+            continue;
+          const std::int32_t cube = oct.cellCube[b.grid.index(c)];
+          if (cube < 0 || listed[static_cast<std::size_t>(cube)] != 0) continue;
+          listed[static_cast<std::size_t>(cube)] = 1;
+          out.cubes.push_back(static_cast<std::uint32_t>(cube));
+        }
+  };
+  std::uint32_t hint = kNoElement;  // the element that held the previous sample, and where
+  Vec3d hintT = Vec3d::Constant(0.5);
   const auto sample = [&](const Vec3d& x) {
     if (!all.contains(x)) return;
-    for (const std::uint32_t e : b.hash.cellElements(b.hash.cellOf(x))) {
-      Eigen::AlignedBox3d box = b.elementBoxes[e];
-      box.extend(box.min() - Vec3d::Constant(1e-9 * h));
-      box.extend(box.max() + Vec3d::Constant(1e-9 * h));
-      Vec3d t;
-      if (!box.contains(x) || !d.trilinearCoordinates(e, x, t)) continue;
-      // Continuous rest voxel coordinates: an element's corner nodes lie half a voxel before
-      // its first voxel's centre and s - 1/2 after it.
-      const OctreeElement& el = d.element(e);
-      const Index3 f = el.firstVoxel();
-      Index3 cell;
-      for (int k = 0; k < 3; ++k)
-        cell[k] = static_cast<int>(std::floor(f[k] - 0.5 + el.size() * t[k]));
-      for (int dz = -1; dz <= 1; ++dz)
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx) {
-            const Index3 c{cell.x + dx, cell.y + dy, cell.z + dz};
-            if (c.x < 0 || c.y < 0 || c.z < 0 || c.x + 1 >= dims.x || c.y + 1 >= dims.y ||
-                c.z + 1 >= dims.z)
-              continue;
-            const std::int32_t cube = oct.cellCube[b.grid.index(c)];
-            if (cube < 0 || listed[static_cast<std::size_t>(cube)] != 0) continue;
-            listed[static_cast<std::size_t>(cube)] = 1;
-            out.push_back(static_cast<std::uint32_t>(cube));
-          }
+    Vec3d t;
+    // Strictly inside the previous sample's element: the maps of the other cubes' elements
+    // do not reach it (the octree is conforming, short of inverted elements), only the other
+    // copies of the same cube can.
+    if (hint != kNoElement && inBox(hint, x) && d.trilinearCoordinates(hint, x, t, hintT) &&
+        (t.array() > 1e-6).all() && (t.array() < 1.0 - 1e-6).all()) {
+      hintT = t;
+      const OctreeElement& el = d.element(hint);
+      for (std::uint32_t c = d.firstCopy(el.level, el.coord); c != kNoElement; c = d.nextCopy(c)) {
+        Vec3d tc = t;
+        if (c == hint || (inBox(c, x) && d.trilinearCoordinates(c, x, tc))) take(c, tc);
+      }
+      return;
     }
+    hint = kNoElement;
+    b.hash.forEachInCell(b.hash.cellOf(x), [&](std::uint32_t e) {
+      if (!inBox(e, x) || !d.trilinearCoordinates(e, x, t)) return;
+      take(e, t);
+      hint = e;
+      hintT = t;
+    });
   };
   for (std::size_t i = 0; i < edges.size();) {
     std::size_t j = i + 1;
@@ -128,13 +160,13 @@ std::vector<std::uint32_t> boundaryCubes(const CutBody& b, const std::vector<Bla
     if (j == i + 1) {
       const Edge& e = edges[i];
       const double len = (e.q - e.p).norm();
-      const int n = std::isfinite(len) ? static_cast<int>(std::ceil(len / (0.25 * h))) : 0;
+      const int n = std::isfinite(len) ? static_cast<int>(std::ceil(len / (0.5 * h))) : 0;
       for (int k = 0; k <= std::min(n, 1 << 22); ++k)
         sample(n > 0 ? Vec3d(e.p + (static_cast<double>(k) / n) * (e.q - e.p)) : e.p);
     }
     i = j;
   }
-  std::sort(out.begin(), out.end());
+  std::sort(out.cubes.begin(), out.cubes.end());
   return out;
 }
 
@@ -255,16 +287,15 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   r.intersectionMs = cullMs + timer.ms();
 
   // Octree subdivision around the new cuts and in the cubes that the sweeps' boundary reaches
-  // into (nothing to subdivide or update without either); finding those cubes is part of it.
+  // into (nothing to subdivide or update without either); finding the boundary is part of it.
   timer.restart();
-  const std::vector<std::uint32_t> whole =
-      b.useOctree ? boundaryCubes(b, sweeps) : std::vector<std::uint32_t>{};
-  if (b.useOctree && (!r.cuts.empty() || !whole.empty())) {
+  const SweepBoundary boundary = b.useOctree ? sweepBoundary(b, sweeps) : SweepBoundary{};
+  if (b.useOctree && (!r.cuts.empty() || !boundary.cubes.empty())) {
     SubdivisionHooks hooks;
     hooks.testLink = [&](std::size_t v, int a, VoxelPositionCache& cache) {
       return testCubeLink(b, sweeps, v, a, cache);
     };
-    r.subdivision = subdivideCutCubes(b.activity, g, r.cuts, hooks, threaded, whole);
+    r.subdivision = subdivideCutCubes(b.activity, g, r.cuts, hooks, threaded, boundary);
     r.subdivisionMs = timer.ms();
     timer.restart();
     activateNewCubeFrames(b.activity, g, threaded);

@@ -158,9 +158,10 @@ void elementMap(const std::vector<Vec3d>& positions, const std::array<std::uint3
 
 }  // namespace
 
-bool DeformationOctree::trilinearCoordinates(std::uint32_t e, const Vec3d& p, Vec3d& t) const {
+bool DeformationOctree::trilinearCoordinates(std::uint32_t e, const Vec3d& p, Vec3d& t,
+                                             const Vec3d& start) const {
   const auto& nodes = elements_[e].nodes;
-  t = Vec3d::Constant(0.5);
+  t = start;
   const double tol = 1e-12 * voxelSize_ * elements_[e].size();
   Vec3d x;
   Eigen::Matrix3d jacobian;

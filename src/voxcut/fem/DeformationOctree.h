@@ -135,9 +135,11 @@ class DeformationOctree {
   /// Current position of a point with trilinear coordinates `t` in element e (metres).
   [[nodiscard]] Vec3d pointInElement(std::uint32_t e, const Vec3d& t) const;
   /// The inverse: trilinear coordinates `t` of the current point p (metres) in element e, by
-  /// Newton's method from the centre. False when they do not settle inside [0, 1]^3 (with an
-  /// allowance of 1e-9) within 1e-6 voxel of p: the point is not in the element.
-  [[nodiscard]] bool trilinearCoordinates(std::uint32_t e, const Vec3d& p, Vec3d& t) const;
+  /// Newton's method from `start` (default: the centre). False when they do not settle inside
+  /// [0, 1]^3 (with an allowance of 1e-9) within 1e-6 voxel of p: the point is not in the
+  /// element.
+  [[nodiscard]] bool trilinearCoordinates(std::uint32_t e, const Vec3d& p, Vec3d& t,
+                                          const Vec3d& start = Vec3d::Constant(0.5)) const;
   /// out[i] = voxelPosition(voxels[i]) for every i (out is resized), in parallel; every
   /// listed voxel must be occupied. Deterministic for any thread count.
   void updateVoxelPositions(const std::vector<std::uint32_t>& voxels, std::vector<Vec3d>& out,

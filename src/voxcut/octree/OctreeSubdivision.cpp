@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <cmath>
 #include <memory>
 #include <mutex>
 
@@ -34,20 +35,18 @@ struct CubeBox {
   [[nodiscard]] int size() const { return 1 << level; }
 };
 
-// (5-3) for a split level-1 cube (27 voxels, 54 links), and for a cube opened whole: all its
-// voxels and links become active. Only when no task runs: the state bytes of its faces are
-// shared with neighbouring cubes (raising them inside the tasks took atomic
-// read-modify-writes, three times as long as this pass).
-void openCube(VoxelOctree& oct, const VoxelGrid& grid, const CubeBox& cube) {
-  const int s = cube.size();
-  for (int z = 0; z <= s; ++z)
-    for (int y = 0; y <= s; ++y)
-      for (int x = 0; x <= s; ++x) {
+// (5-3) for a split level-1 cube: its 27 voxels and 54 links become active. Only when no task
+// runs: the state bytes of its faces are shared with neighbouring cubes (raising them inside
+// the tasks took atomic read-modify-writes, three times as long as this pass).
+void openLevelOneCube(VoxelOctree& oct, const VoxelGrid& grid, const Index3& o) {
+  for (int z = 0; z <= 2; ++z)
+    for (int y = 0; y <= 2; ++y)
+      for (int x = 0; x <= 2; ++x) {
         const int d[3] = {x, y, z};
         auto bits = static_cast<std::uint8_t>(kOpenedVoxel);
         for (int a = 0; a < 3; ++a)
-          if (d[a] < s) bits = static_cast<std::uint8_t>(bits | (1u << a));
-        const std::size_t v = grid.index(cube.o.x + x, cube.o.y + y, cube.o.z + z);
+          if (d[a] < 2) bits = static_cast<std::uint8_t>(bits | (1u << a));
+        const std::size_t v = grid.index(o.x + x, o.y + y, o.z + z);
         oct.state[v] |= bits;
         oct.markChanged(v);
       }
@@ -75,15 +74,18 @@ struct Worker {
   // these can border a cube outside the round (next round's newly cut links).
   std::vector<std::uint64_t> outward;
   bool recordOutward = false;
-  std::vector<CubeBox> opened;  // level-1 cubes split, cubes opened whole: opened afterwards
+  std::vector<Index3> opened;   // level-1 cubes split: opened after the parallel phase
   std::vector<CubeBox> leaves;  // sub-cubes kept, cube after cube
   std::vector<std::array<std::uint32_t, 3>> leafRanges;  // (cube slot, begin, end) in leaves
   // Scratch.
   std::vector<std::pair<int, int>> cells;       // traceSquare: cells to visit
   std::vector<std::uint8_t> visited, examined;  // traceSquare: per cell, per link
   VoxelPositionCache positions;                 // for the link test
-  // Per level: the cut links on each of the 8 sub-cubes' boundaries (reused between calls).
+  // Per level: the cut links on each of the 8 sub-cubes' boundaries, and the boundary points
+  // near the sub-cube being split (reused between calls).
   std::vector<std::array<std::vector<CutLink>, 8>> childCuts;
+  std::vector<std::vector<Vec3d>> childPoints;
+  std::vector<Vec3d> cubePoints;  // the boundary points near the cube a task resolves
   std::vector<CutLink> boundary;  // the cut links on a split cube's faces
 
   Worker(VoxelOctree& o, VoxelGrid& g, const SubdivisionHooks& h) : oct(o), grid(g), hooks(h) {}
@@ -147,7 +149,12 @@ struct Worker {
   // and the cells across its cut links come next. The work grows with the length of the trace
   // (a few tests per link it crosses, counting the centre-line links two mid-planes share),
   // not with the square's area. A square with no cut on its border holds none inside.
-  void traceSquare(const Index3& o, int f, int m) {
+  //
+  // Where the sweep's boundary (the blade's edge, the path of its tips) crosses the square, the
+  // trace may end inside it without reaching the border: `points` (rest voxel coordinates of
+  // the boundary, sampled densely) seed the trace too, at the cells around every point within
+  // one voxel of the square's plane.
+  void traceSquare(const Index3& o, int f, int m, const std::vector<Vec3d>* points = nullptr) {
     if (m < 2) return;  // no link inside
     const int u = (f + 1) % 3, w = (f + 2) % 3;
     const std::size_t base = grid.index(o), su = grid.stride(u), sw = grid.stride(w);
@@ -172,6 +179,16 @@ struct Worker {
       if (!linkConnected(grid, voxelAt(0, i), w)) cells.push_back({0, i});
       if (!linkConnected(grid, voxelAt(m, i), w)) cells.push_back({m - 1, i});
     }
+    if (points != nullptr)
+      for (const Vec3d& q : *points) {
+        if (std::abs(q[f] - o[f]) > 1.0) continue;
+        const int ci = static_cast<int>(std::floor(q[u])) - o[u];
+        const int cj = static_cast<int>(std::floor(q[w])) - o[w];
+        for (int dj = -1; dj <= 1; ++dj)
+          for (int di = -1; di <= 1; ++di)
+            if (ci + di >= 0 && ci + di < m && cj + dj >= 0 && cj + dj < m)
+              cells.push_back({ci + di, cj + dj});
+      }
     if (cells.empty()) return;
     if (m == 2) {
       // Two by two cells (a level-1 cube's face): the 4 inside links meet at the centre
@@ -211,43 +228,30 @@ struct Worker {
     }
   }
 
-  // Every link of the square of side m at `o` in the plane normal to f, its border included
-  // (the face of a cube opened whole).
-  void testWholeSquare(const Index3& o, int f, int m) {
-    const int u = (f + 1) % 3, w = (f + 2) % 3;
-    for (int j = 0; j <= m; ++j)
-      for (int i = 0; i <= m; ++i) {
-        Index3 p = o;
-        p[u] += i;
-        p[w] += j;
-        const std::size_t v = grid.index(p);
-        if (i < m) testLink(v, u, [p] { return p; });
-        if (j < m) testLink(v, w, [p] { return p; });
-      }
-  }
-
-  // Every link strictly inside a cube opened whole (its faces are tested already); the cube
-  // leaves no sub-cube and opens completely once no task runs.
-  void openWhole(const CubeBox& cube) {
-    const int s = cube.size();
-    for (int z = 0; z <= s; ++z)
-      for (int y = 0; y <= s; ++y)
-        for (int x = 0; x <= s; ++x) {
-          const int d[3] = {x, y, z};
-          const Index3 p{cube.o.x + x, cube.o.y + y, cube.o.z + z};
-          for (int a = 0; a < 3; ++a) {
-            const int u = (a + 1) % 3, w = (a + 2) % 3;
-            if (d[a] < s && d[u] > 0 && d[u] < s && d[w] > 0 && d[w] < s)
-              testLink(grid.index(p), a, [p] { return p; });
-          }
-        }
-    opened.push_back(cube);
+  // The sweep's boundary points (rest voxel coordinates) within `margin` of the box of side
+  // `size` at `o`, from `from`.
+  static void pointsNear(const std::vector<Vec3d>& from, const Index3& o, int size,
+                         double margin, std::vector<Vec3d>& out) {
+    out.clear();
+    for (const Vec3d& q : from) {
+      bool near = true;
+      for (int k = 0; k < 3 && near; ++k)
+        near = q[k] >= o[k] - margin && q[k] <= o[k] + size + margin;
+      if (near) out.push_back(q);
+    }
   }
 
   // Sub-steps (5-1)-(5-6) on one cube; `cutsOnBoundary` lists the cut links on its faces.
-  void split(const CubeBox& cube, const std::vector<CutLink>& cutsOnBoundary) {
+  //
+  // `points`: the sweep's boundary points near the cube (empty for most cubes). A sub-cube
+  // with such a point is split too, even with no cut on its faces; where that finds no cut at
+  // all, the cube stays whole (kept as one leaf). Returns whether it stayed whole.
+  // `cutOnBoundary`: whether a link on its faces is cut (for a top-level level-1 cube,
+  // cutsOnBoundary is not gathered).
+  bool split(const CubeBox& cube, const std::vector<CutLink>& cutsOnBoundary,
+             const std::vector<Vec3d>& points, bool cutOnBoundary) {
     const int s = cube.size(), h = s / 2;
-    const std::size_t before = found.size();
+    const std::size_t before = found.size(), leavesBefore = leaves.size();
     if (cube.level == 1) {
       // (5-1), (5-2) between the 8 voxel cells of a level-1 cube lie only the 6 links at its
       // centre voxel: all are tested (where the blade's edge ends inside the cube, a mid-plane
@@ -263,8 +267,12 @@ struct Worker {
         });
         testLink(centre, a, [&] { return c; });
       }
-      opened.push_back(cube);
-      return;
+      if (!cutOnBoundary && found.size() == before) {
+        leaves.push_back(cube);
+        return true;
+      }
+      opened.push_back(cube.o);
+      return false;
     }
     // (5-1), (5-2) between the sub-cubes: the links of the three mid-planes, the three centre
     // lines where they meet among them, followed along the blade's trace from the cube's faces
@@ -272,14 +280,17 @@ struct Worker {
     for (int f = 0; f < 3; ++f) {
       Index3 o = cube.o;
       o[f] += h;
-      traceSquare(o, f, s);
+      traceSquare(o, f, s, points.empty() ? nullptr : &points);
     }
     // (5-4) eight sub-cubes; (5-5) split those with a cut link on their boundary (the cube had
     // none inside before this frame, so they are on its faces or found just now); (5-6).
     // Sized by the first (largest) cube; the recursion only goes down, so `sub` stays valid.
-    if (childCuts.size() < static_cast<std::size_t>(cube.level) + 1)
+    if (childCuts.size() < static_cast<std::size_t>(cube.level) + 1) {
       childCuts.resize(static_cast<std::size_t>(cube.level) + 1);
+      childPoints.resize(static_cast<std::size_t>(cube.level) + 1);
+    }
     auto& sub = childCuts[static_cast<std::size_t>(cube.level)];
+    auto& near = childPoints[static_cast<std::size_t>(cube.level)];
     for (auto& list : sub) list.clear();
     const auto distribute = [&](const CutLink& c) {
       // A link lies on the boundary of every sub-cube whose box holds it: it lies on one of
@@ -302,15 +313,26 @@ struct Worker {
     };
     for (const CutLink& c : cutsOnBoundary) distribute(c);
     for (std::size_t i = before; i < found.size(); ++i) distribute(found[i]);
+    bool whole = !cutOnBoundary && found.size() == before;
     for (int k = 0; k < 8; ++k) {
       const CubeBox child{
           {cube.o.x + (k & 1) * h, cube.o.y + ((k >> 1) & 1) * h, cube.o.z + (k >> 2) * h},
           cube.level - 1};
-      if (sub[static_cast<std::size_t>(k)].empty())
+      near.clear();
+      if (!points.empty()) pointsNear(points, child.o, child.size(), 1.0, near);
+      if (sub[static_cast<std::size_t>(k)].empty() && near.empty())
         leaves.push_back(child);
       else
-        split(child, sub[static_cast<std::size_t>(k)]);
+        whole = split(child, sub[static_cast<std::size_t>(k)], near,
+                      !sub[static_cast<std::size_t>(k)].empty()) &&
+                whole;
     }
+    if (whole) {
+      // Only boundary points brought it here, and nothing in it is cut.
+      leaves.resize(leavesBefore);
+      leaves.push_back(cube);
+    }
+    return whole;
   }
 };
 
@@ -318,7 +340,7 @@ struct Worker {
 
 SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vector<LinkCut>& cuts,
                                    const SubdivisionHooks& hooks, bool threaded,
-                                   const std::vector<std::uint32_t>& openWhole) {
+                                   const SweepBoundary& boundary) {
   SubdivisionStats stats;
   const Index3 d = grid.dims();
   std::vector<std::uint64_t> pending;
@@ -333,14 +355,14 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     });
   };
   std::vector<std::unique_ptr<Worker>> workers(static_cast<std::size_t>(threadSlots()));
-  // Cubes opened whole in this round (the first only; see the header).
-  std::vector<std::uint8_t> whole(oct.cubes.size(), 0);
-  for (const std::uint32_t c : openWhole) {
-    VOXCUT_ASSERT(c < oct.cubes.size() && !oct.cubes[c].deleted, "openWhole: not a live cube");
-    whole[c] = 1;
+  // Cubes the sweep's boundary reaches into (the first round only; see the header).
+  std::vector<std::uint8_t> reached(oct.cubes.size(), 0);
+  for (const std::uint32_t c : boundary.cubes) {
+    VOXCUT_ASSERT(c < oct.cubes.size() && !oct.cubes[c].deleted, "boundary: not a live cube");
+    reached[c] = 1;
   }
   Timer total;
-  while (!pending.empty() || !openWhole.empty()) {
+  while (!pending.empty() || (stats.rounds == 0 && !boundary.cubes.empty())) {
     // (1) mark the cubes around the newly cut links (raising a raised flag is harmless).
     affected.assign(oct.cubes.size(), 0);
     parallelFor(
@@ -352,8 +374,10 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
             });
         },
         threaded);
+    // 1: a cut link around it; 2: only the sweep's boundary reaches into it.
     if (stats.rounds == 0)
-      for (const std::uint32_t c : openWhole) affected[c] = 1;
+      for (const std::uint32_t c : boundary.cubes)
+        if (affected[c] == 0) affected[c] = 2;
     std::vector<std::uint32_t> list;
     std::vector<std::int32_t> slot(oct.cubes.size(), -1);
     for (std::size_t c = 0; c < affected.size(); ++c)
@@ -363,10 +387,10 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
       }
     if (list.empty()) break;
     const bool firstRound = stats.rounds == 0;
-    const auto isWhole = [&](std::size_t i) { return firstRound && whole[list[i]] != 0; };
+    const auto isReached = [&](std::size_t i) { return firstRound && reached[list[i]] != 0; };
     ++stats.rounds;
     stats.affectedCubes += list.size();
-    if (firstRound) stats.wholeCubes = openWhole.size();
+    if (firstRound) stats.boundaryCubes = boundary.cubes.size();
 
     // Runs fn(worker, i) for every listed cube i, in parallel, each task with its thread's
     // worker, whose findings start empty.
@@ -399,17 +423,8 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     forEachCube([&](Worker& w, std::size_t i) {
       const OctreeCube& oc = oct.cubes[list[i]];
       const int s = 1 << oc.level;
-      if (isWhole(i)) {
-        // Every link of every face: a cut on one can border any neighbour.
-        w.recordOutward = true;
-        for (int f = 0; f < 6; ++f) {
-          Index3 o = oc.origin;
-          o[f / 2] += (f & 1) * s;
-          w.testWholeSquare(o, f / 2, s);
-        }
-        w.recordOutward = false;
-        return;
-      }
+      const bool seeded = isReached(i);
+      if (seeded) Worker::pointsNear(boundary.points, oc.origin, s, 2.0, w.cubePoints);
       for (int f = 0; f < 6; ++f) {
         Index3 o = oc.origin;
         o[f / 2] += (f & 1) * s;
@@ -420,15 +435,15 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
         bool shared = false;
         if (across[f / 2] >= 0 && across[f / 2] + 1 < d[f / 2]) {
           const std::int32_t other = oct.cellCube[grid.index(across)];
-          // (A cube opened whole tests every link of its faces itself.)
+          // (A cube the boundary reaches into traces its faces itself, seeded.)
           shared = other >= 0 && slot[static_cast<std::size_t>(other)] >= 0 &&
-                   oct.cubes[static_cast<std::size_t>(other)].level == oc.level &&
-                   !isWhole(static_cast<std::size_t>(slot[static_cast<std::size_t>(other)]));
+                   oct.cubes[static_cast<std::size_t>(other)].level == oc.level && !seeded &&
+                   !isReached(static_cast<std::size_t>(slot[static_cast<std::size_t>(other)]));
           if (shared && slot[static_cast<std::size_t>(other)] < static_cast<std::int32_t>(i))
             continue;
         }
         w.recordOutward = !shared;
-        w.traceSquare(o, f / 2, s);
+        w.traceSquare(o, f / 2, s, seeded ? &w.cubePoints : nullptr);
         w.recordOutward = false;
       }
     });
@@ -447,13 +462,16 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
       const OctreeCube& oc = oct.cubes[list[i]];
       const CubeBox cube{oc.origin, oc.level};
       const auto begin = static_cast<std::uint32_t>(w.leaves.size());
-      if (isWhole(i)) {
-        w.openWhole(cube);
-      } else {
-        // A level-1 cube tests the links at its centre whatever its faces hold.
-        if (cube.level > 1) w.gatherBoundaryCuts(cube);
-        w.split(cube, w.boundary);
-      }
+      // A level-1 cube tests the links at its centre whatever its faces hold; one listed for
+      // a cut around it has one on its faces, so they are gathered only for one listed for
+      // the sweep's boundary alone (which stays whole if none of its links is cut).
+      const bool cutAround = affected[list[i]] == 1;
+      w.boundary.clear();
+      if (cube.level > 1 || !cutAround) w.gatherBoundaryCuts(cube);
+      w.cubePoints.clear();
+      if (isReached(i)) Worker::pointsNear(boundary.points, cube.o, cube.size(), 1.0, w.cubePoints);
+      const bool cutOnBoundary = cube.level > 1 || !cutAround ? !w.boundary.empty() : true;
+      w.split(cube, w.boundary, w.cubePoints, cutOnBoundary);
       w.leafRanges.push_back(
           {static_cast<std::uint32_t>(i), begin, static_cast<std::uint32_t>(w.leaves.size())});
     });
@@ -474,7 +492,7 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     const auto openCubes = [&] {
       for (const auto& w : workers)
         if (w)
-          for (const CubeBox& c : w->opened) openCube(oct, grid, c);
+          for (const Index3& o : w->opened) openLevelOneCube(oct, grid, o);
     };
     // The first sub-cube takes the split cube's slot, the others are appended in list order;
     // then each split cube's cells are rewritten, in parallel (disjoint cells).

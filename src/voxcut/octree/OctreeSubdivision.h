@@ -65,11 +65,20 @@ struct SubdivisionHooks {
   std::function<std::optional<Hermite>(std::size_t v, int a, VoxelPositionCache& cache)> testLink;
 };
 
+/// The boundary of a frame's sweeps as the subdivision needs it (subdivideCutCubes).
+struct SweepBoundary {
+  /// Points along the boundary, in rest voxel coordinates (voxel (i, j, k)'s centre is
+  /// (i, j, k)), at most half a voxel apart along each boundary curve inside the model.
+  std::vector<Vec3d> points;
+  /// The cubes over the unit cells within one cell of a point, ascending.
+  std::vector<std::uint32_t> cubes;
+};
+
 /// Counts of one subdivision run.
 struct SubdivisionStats {
   int rounds = 0;                 ///< passes through sub-steps (1)-(6)
   std::size_t affectedCubes = 0;  ///< cubes marked in sub-step (1), summed over rounds
-  std::size_t wholeCubes = 0;     ///< of which opened whole (the sweep's boundary in them)
+  std::size_t boundaryCubes = 0;  ///< of which the sweep's boundary reaches into (first round)
   std::size_t testedLinks = 0;    ///< links the subdivision examined (tested unless already cut)
   std::size_t cutLinks = 0;       ///< of which crossed
   double facesMs = 0;             ///< wall time in sub-steps (2)-(4), the affected cubes' faces
@@ -88,14 +97,14 @@ struct SubdivisionStats {
 /// Otherwise deterministic for any thread count: the cut set, the grid, the octree and the
 /// counts.
 ///
-/// `openWhole` lists cubes (ids, ascending) that the boundary of the blade's sweep passes
-/// through or next to: where the blade's edge or the path of its tip ends inside a cube, the
-/// sweep can cross links inside it and on its faces without crossing any link on its border,
-/// and following the trace from the border cannot find them. In the first round these cubes
-/// are opened whole: every link on their faces and inside them is tested, and all their voxels
-/// and links become active, as a level-1 cube's do.
+/// `boundary`: where the blade's edge or the path of its tips ends inside the model, the sweep
+/// can cross links of a cube, on its faces and inside it, without crossing any link on its
+/// border, and a trace followed from the border would not find them. The cubes the sweep's
+/// boundary reaches into are split in the first round even without a cut on their border,
+/// and on their faces and mid-planes (and their sub-cubes') the trace also starts at the
+/// cells where the boundary's points cross the plane.
 SubdivisionStats subdivideCutCubes(VoxelOctree& octree, VoxelGrid& grid, std::vector<LinkCut>& cuts,
                                    const SubdivisionHooks& hooks, bool threaded = true,
-                                   const std::vector<std::uint32_t>& openWhole = {});
+                                   const SweepBoundary& boundary = {});
 
 }  // namespace voxcut
