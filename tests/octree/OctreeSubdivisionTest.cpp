@@ -196,6 +196,121 @@ TEST(OctreeSubdivision, IncrementalActiveTablesEqualAFullRebuild) {
   }
 }
 
+// A blade that starts and ends inside one cube: its sweep, a small rectangle, crosses links of
+// the cube but none of its active frame links, so no cut leads the subdivision there. Given
+// the sweep's boundary (points along the rectangle's edges and the cubes around them), the
+// subdivision finds exactly the links a test of every link finds; without it, none. A
+// rectangle that crosses no link leaves every cube as it was.
+TEST(OctreeSubdivision, SweepInsideACubeIsFoundFromItsBoundary) {
+  const VoxelGrid rest = model("bunny", 64);
+  const VoxelOctree built = buildVoxelOctree(rest, OctreeParams::uniform(1, 4, 0));
+  // The largest cube, and a rectangle around a point near its centre (voxel coordinates).
+  std::size_t big = 0;
+  for (std::size_t c = 0; c < built.cubes.size(); ++c)
+    if (built.cubes[c].level > built.cubes[big].level) big = c;
+  const OctreeCube& cube = built.cubes[big];
+  const double size = 1 << cube.level;
+  ASSERT_GE(cube.level, 3);
+  const Vec3d n = Vec3d(0.3, 1.0, 0.45).normalized();
+  const Vec3d u = n.cross(Vec3d::UnitX()).normalized(), w = n.cross(u);
+  struct Rectangle {
+    Vec3d c;
+    double half;
+  };
+  const auto voxelCoords = [&](std::size_t v) {
+    const Index3 p = rest.coord(v);
+    return Vec3d(p.x, p.y, p.z);
+  };
+  const auto crossing = [&](const Rectangle& r, std::size_t v, int a) -> std::optional<Hermite> {
+    const Vec3d p0 = voxelCoords(v), p1 = voxelCoords(v + rest.stride(a));
+    const double s0 = n.dot(p0 - r.c), s1 = n.dot(p1 - r.c);
+    if ((s0 < 0) == (s1 < 0)) return std::nullopt;
+    const double t = s0 / (s0 - s1);
+    const Vec3d x = p0 + t * (p1 - p0) - r.c;
+    if (std::abs(u.dot(x)) > r.half || std::abs(w.dot(x)) > r.half) return std::nullopt;
+    Hermite h;
+    h.t = std::clamp(static_cast<float>(t), 1e-3f, 1.f - 1e-3f);
+    for (int i = 0; i < 3; ++i) h.n[i] = static_cast<float>(n[a] < 0 ? -n[i] : n[i]);
+    return h;
+  };
+  const auto boundaryOf = [&](const Rectangle& r, const VoxelOctree& oct) {
+    SweepBoundary b;
+    const Vec3d corner[4] = {r.c + r.half * (u + w), r.c + r.half * (u - w), r.c - r.half * (u + w),
+                             r.c - r.half * (u - w)};
+    std::vector<std::uint8_t> listed(oct.cubes.size(), 0);
+    for (int e = 0; e < 4; ++e)
+      for (int k = 0; k <= 40; ++k) {
+        const Vec3d q = corner[e] + (k / 40.0) * (corner[(e + 1) % 4] - corner[e]);
+        b.points.push_back(q);
+        for (int dz = -1; dz <= 1; ++dz)
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+              const std::int32_t id = oct.cellCube[rest.index(static_cast<int>(std::floor(q.x())) + dx,
+                                                              static_cast<int>(std::floor(q.y())) + dy,
+                                                              static_cast<int>(std::floor(q.z())) + dz)];
+              if (id >= 0 && !listed[static_cast<std::size_t>(id)]) {
+                listed[static_cast<std::size_t>(id)] = 1;
+                b.cubes.push_back(static_cast<std::uint32_t>(id));
+              }
+            }
+      }
+    std::sort(b.cubes.begin(), b.cubes.end());
+    return b;
+  };
+  // Cuts with the octree as a cut step would: the active links, then the subdivision.
+  const auto cut = [&](const Rectangle& r, VoxelGrid& g, VoxelOctree& oct, const SweepBoundary& b) {
+    std::vector<LinkCut> cuts;
+    for (std::uint32_t v : oct.activeVoxels)
+      for (int a = 0; a < 3; ++a)
+        if (oct.linkActive(v, a) && g.connected(v, a))
+          if (const auto h = crossing(r, v, a)) cuts.push_back({VoxelGrid::linkId(v, a), *h, std::nullopt});
+    for (const LinkCut& c : cuts) g.setConnected(static_cast<std::size_t>(c.link / 3), static_cast<int>(c.link % 3), false);
+    SubdivisionHooks hooks;
+    hooks.testLink = [&](std::size_t v, int a, VoxelPositionCache&) { return crossing(r, v, a); };
+    const SubdivisionStats s = subdivideCutCubes(oct, g, cuts, hooks, true, b);
+    activateNewCubeFrames(oct, g);
+    compactCubes(oct);
+    rebuildActiveVoxels(oct);
+    std::vector<std::uint64_t> ids;
+    for (const LinkCut& c : cuts) ids.push_back(c.link);
+    std::sort(ids.begin(), ids.end());
+    return std::make_pair(ids, s);
+  };
+  const Vec3d centre = Vec3d(cube.origin.x, cube.origin.y, cube.origin.z) + Vec3d::Constant(0.5 * size);
+  const Rectangle r{centre + Vec3d(0.23, -0.41, 0.17), 0.3 * size};
+  std::vector<std::uint64_t> expected;
+  for (std::size_t v = 0; v < rest.voxelCount(); ++v)
+    for (int a = 0; a < 3; ++a)
+      if (rest.occupied(v) && rest.hasLink(v, a) && rest.connected(v, a) && crossing(r, v, a))
+        expected.push_back(VoxelGrid::linkId(v, a));
+  ASSERT_GT(expected.size(), 10u);
+  {
+    VoxelGrid g = rest;
+    VoxelOctree oct = built;
+    const auto [ids, s] = cut(r, g, oct, boundaryOf(r, oct));
+    EXPECT_EQ(ids, expected);
+    EXPECT_GT(s.boundaryCubes, 0u);
+    expectOctreeConsistent(g, oct);
+    expectActiveTablesConsistent(g, oct);
+  }
+  {
+    VoxelGrid g = rest;
+    VoxelOctree oct = built;
+    EXPECT_TRUE(cut(r, g, oct, {}).first.empty()) << "the frame alone should not lead there";
+  }
+  {
+    // Half a voxel across, around the centre of a unit cell: it crosses no link.
+    const Rectangle tiny{Vec3d(std::floor(r.c.x()) + 0.5, std::floor(r.c.y()) + 0.5, std::floor(r.c.z()) + 0.5), 0.25};
+    VoxelGrid g = rest;
+    VoxelOctree oct = built;
+    const auto before = oct.cubesPerLevel();
+    const auto [ids, s] = cut(tiny, g, oct, boundaryOf(tiny, oct));
+    EXPECT_TRUE(ids.empty());
+    EXPECT_GT(s.testedLinks, 0u);
+    EXPECT_EQ(oct.cubesPerLevel(), before);
+  }
+}
+
 TEST(OctreeSubdivision, NothingHappensWithoutCuts) {
   VoxelGrid g = model("bunny", 48);
   VoxelOctree oct = buildVoxelOctree(g, OctreeParams::uniform(1, 3, 0));
