@@ -10,7 +10,9 @@
 /// cells across its cut links come next): the tests grow with the length of the trace, a
 /// few per link it crosses, not with the area. Squares of 2 x 2 cells and level-1 cubes test
 /// their few inside links directly. The bunny's single-frame cut tests 8,996 links and cuts
-/// 2,199 of them (bisecting each face into squares tested 14,930).
+/// 2,199 of them (bisecting each face into squares tested 14,930). Beyond the paper: where the
+/// sweep's boundary lies inside the model, the cubes it reaches into are split too and their
+/// traces seeded along it (SweepBoundary), so the cut stays exact there as well.
 
 #include <functional>
 #include <optional>
