@@ -35,23 +35,6 @@ struct CubeBox {
   [[nodiscard]] int size() const { return 1 << level; }
 };
 
-// (5-3) for a split level-1 cube: its 27 voxels and 54 links become active. Only when no task
-// runs: the state bytes of its faces are shared with neighbouring cubes (raising them inside
-// the tasks took atomic read-modify-writes, three times as long as this pass).
-void openLevelOneCube(VoxelOctree& oct, const VoxelGrid& grid, const Index3& o) {
-  for (int z = 0; z <= 2; ++z)
-    for (int y = 0; y <= 2; ++y)
-      for (int x = 0; x <= 2; ++x) {
-        const int d[3] = {x, y, z};
-        auto bits = static_cast<std::uint8_t>(kOpenedVoxel);
-        for (int a = 0; a < 3; ++a)
-          if (d[a] < 2) bits = static_cast<std::uint8_t>(bits | (1u << a));
-        const std::size_t v = grid.index(o.x + x, o.y + y, o.z + z);
-        oct.state[v] |= bits;
-        oct.markChanged(v);
-      }
-}
-
 struct CutLink {
   Index3 p;
   int a;
@@ -74,7 +57,7 @@ struct Worker {
   // these can border a cube outside the round (next round's newly cut links).
   std::vector<std::uint64_t> outward;
   bool recordOutward = false;
-  std::vector<Index3> opened;   // level-1 cubes split: opened after the parallel phase
+  std::vector<Index3> opened;   // level-1 cubes split (listed in octree.openedCubes)
   std::vector<CubeBox> leaves;  // sub-cubes kept, cube after cube
   std::vector<std::array<std::uint32_t, 3>> leafRanges;  // (cube slot, begin, end) in leaves
   // Scratch.
@@ -256,7 +239,9 @@ struct Worker {
       // (5-1), (5-2) between the 8 voxel cells of a level-1 cube lie only the 6 links at its
       // centre voxel: all are tested (where the blade's edge ends inside the cube, a mid-plane
       // may hold a cut with none on its border). (5-3) the cube opens up completely: recorded
-      // here, opened by openLevelOneCube once no task runs.
+      // here (VoxelOctree::openedCubes); its 27 voxels and 54 links, the frames of its level-0
+      // sub-cubes, are activated with the other new frames in deferred update (b), since this
+      // frame's cutting does not read them (the subdivision reads the link bits only).
       const Index3 c{cube.o.x + 1, cube.o.y + 1, cube.o.z + 1};
       const std::size_t centre = grid.index(c);
       for (int a = 0; a < 3; ++a) {
@@ -477,11 +462,11 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     });
     stats.splitMs += phase.ms();
     mergeCounts();
-    // Three independent jobs, run side by side (each writes its own data):
+    // Two independent jobs, run side by side (each writes its own data):
     //  - this round's cuts get their Hermite data (each was recorded once, by the task that
     //    disconnected it; the table's contents do not depend on the order);
-    //  - the split level-1 cubes opened (oct.state, oct.changed);
-    //  - the sub-cubes stored (oct.cubes, oct.newCubes, oct.cellCube).
+    //  - the split level-1 cubes listed for the frame activation (oct.openedCubes, in any
+    //    order), and the sub-cubes stored (oct.cubes, oct.newCubes, oct.cellCube).
     const auto storeCuts = [&] {
       HermiteMap& hermite = grid.hermite();
       for (std::size_t k = 0; k < roundCuts.size(); ++k) {
@@ -491,8 +476,7 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     };
     const auto openCubes = [&] {
       for (const auto& w : workers)
-        if (w)
-          for (const Index3& o : w->opened) openLevelOneCube(oct, grid, o);
+        if (w) oct.openedCubes.insert(oct.openedCubes.end(), w->opened.begin(), w->opened.end());
     };
     // The first sub-cube takes the split cube's slot, the others are appended in list order;
     // then each split cube's cells are rewritten, in parallel (disjoint cells).
@@ -540,12 +524,14 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
           threaded);
     };
     parallelFor(
-        0, 3, 1,
+        0, 2, 1,
         [&](std::size_t b, std::size_t e) {
           for (std::size_t job = b; job < e; ++job) {
             if (job == 0) storeCuts();
-            if (job == 1) openCubes();
-            if (job == 2) storeSubCubes();
+            if (job == 1) {
+              openCubes();
+              storeSubCubes();
+            }
           }
         },
         threaded);

@@ -93,11 +93,11 @@ struct SubdivisionStats {
 /// and appended, each once, in an order that depends on the schedule (sort them for a
 /// deterministic order). Cubes are split in place: a split cube keeps its slot for its first
 /// remaining sub-cube, new sub-cubes are appended and listed in octree.newCubes, level-1
-/// cubes that split are marked deleted after activating their 27 voxels and 54 links. The
-/// deferred updates (compactCubes, activateNewCubeFrames, rebuildActiveVoxels) are left to
-/// the caller.
-/// Otherwise deterministic for any thread count: the cut set, the grid, the octree and the
-/// counts.
+/// cubes that split are marked deleted and listed in octree.openedCubes (their 27 voxels and
+/// 54 links are activated by activateNewCubeFrames). The deferred updates (compactCubes,
+/// activateNewCubeFrames, rebuildActiveVoxels) are left to the caller.
+/// Otherwise deterministic for any thread count: the cut set, the grid, the octree (up to the
+/// order of openedCubes) and the counts.
 ///
 /// `boundary`: where the blade's edge or the path of its tips ends inside the model, the sweep
 /// can cross links of a cube, on its faces and inside it, without crossing any link on its

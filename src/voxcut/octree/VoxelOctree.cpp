@@ -328,6 +328,21 @@ void activateNewCubeFrames(VoxelOctree& oct, const VoxelGrid& grid, bool threade
     });
   }
   oct.newCubes.clear();
+  // Split level-1 cubes: all 27 voxels and their 54 links inside the cube. Serial: the cubes
+  // share face voxels, and markChanged lists each voxel once.
+  for (const Index3& o : oct.openedCubes)
+    for (int z = 0; z <= 2; ++z)
+      for (int y = 0; y <= 2; ++y)
+        for (int x = 0; x <= 2; ++x) {
+          const int d[3] = {x, y, z};
+          auto bits = static_cast<std::uint8_t>(kOpenedVoxel);
+          for (int a = 0; a < 3; ++a)
+            if (d[a] < 2) bits = static_cast<std::uint8_t>(bits | (1u << a));
+          const std::size_t v = grid.index(o.x + x, o.y + y, o.z + z);
+          oct.state[v] |= bits;
+          oct.markChanged(v);
+        }
+  oct.openedCubes.clear();
 }
 
 namespace {

@@ -81,6 +81,10 @@ struct VoxelOctree {
     changed.push_back(static_cast<std::uint32_t>(v));
   }
   std::vector<std::uint32_t> newCubes;      ///< cubes created since the last frame activation
+  /// Origins of the level-1 cubes split since the last frame activation (paper (5-3)): their
+  /// 8 level-0 sub-cubes are not stored, and activateNewCubeFrames activates their frames,
+  /// which are all 27 voxels and 54 links of the cube.
+  std::vector<Index3> openedCubes;
 
   [[nodiscard]] bool linkActive(std::size_t v, int a) const { return (state[v] >> a) & 1u; }
   [[nodiscard]] bool voxelActive(std::size_t v) const { return state[v] & kActiveVoxel; }
@@ -120,7 +124,8 @@ int forEachCellAroundLink(const Index3& dims, const Index3& voxel, int a, Fn&& f
 /// live cube, and rewrites the cube map where cubes moved.
 void compactCubes(VoxelOctree& octree, bool threaded = true);
 /// Deferred update (b): activates the voxels and links on the edges of cubes created since the
-/// last call (the protective frame of new cubes).
+/// last call (the protective frame of new cubes), and of the level-0 cubes of the level-1 cubes
+/// split since then (openedCubes: every voxel and link of such a cube).
 void activateNewCubeFrames(VoxelOctree& octree, const VoxelGrid& grid, bool threaded = true);
 /// Deferred update (c): folds kOpenedVoxel into kActiveVoxel and rebuilds the sorted active
 /// voxel index array, its link table (activeNext) and the index map (activeIndex): from the
