@@ -33,9 +33,11 @@ std::optional<Hermite> planeTest(const VoxelGrid& g, const Vec3d& n, double d, s
 }
 
 // Cuts with the octree: active links first, then subdivision; returns the stats. `asked`
-// collects every link the subdivision handed to the link test.
+// collects every link the subdivision handed to the link test; `openedCount`, if given, receives
+// how many level-1 cubes were split.
 SubdivisionStats cutWithOctree(VoxelGrid& g, VoxelOctree& oct, const Vec3d& n, double d,
-                               std::vector<std::uint64_t>& asked) {
+                               std::vector<std::uint64_t>& asked,
+                               std::size_t* openedCount = nullptr) {
   std::vector<LinkCut> cuts;
   for (std::uint32_t v : oct.activeVoxels)
     for (int a = 0; a < 3; ++a)
@@ -54,7 +56,26 @@ SubdivisionStats cutWithOctree(VoxelGrid& g, VoxelOctree& oct, const Vec3d& n, d
     return planeTest(g, n, d, v, a);
   };
   const SubdivisionStats s = subdivideCutCubes(oct, g, cuts, hooks);
+  // Split level-1 cubes are listed (their cells no longer covered) and opened with the frame
+  // activation: all 27 voxels and 54 links active.
+  const std::vector<Index3> opened = oct.openedCubes;
+  if (openedCount != nullptr) *openedCount = opened.size();
+  for (const Index3& o : opened) EXPECT_EQ(oct.cellCube[g.index(o)], -1);
   activateNewCubeFrames(oct, g);
+  EXPECT_TRUE(oct.openedCubes.empty());
+  for (const Index3& o : opened)
+    for (int z = 0; z <= 2; ++z)
+      for (int y = 0; y <= 2; ++y)
+        for (int x = 0; x <= 2; ++x) {
+          const std::size_t v = g.index(o.x + x, o.y + y, o.z + z);
+          EXPECT_TRUE(oct.state[v] & (kActiveVoxel | kOpenedVoxel)) << v;
+          const int at[3] = {x, y, z};
+          for (int a = 0; a < 3; ++a) {
+            if (at[a] < 2) {
+              EXPECT_TRUE(oct.linkActive(v, a)) << v;
+            }
+          }
+        }
   compactCubes(oct);
   rebuildActiveVoxels(oct);
   return s;
@@ -125,8 +146,10 @@ TEST(OctreeSubdivision, PlanarCutsEqualTheBaselineLinkForLink) {
       VoxelOctree oct = buildVoxelOctree(g, OctreeParams::uniform(g.materialNames().size(), 4, 0));
       const std::size_t before = oct.activeVoxels.size();
       std::vector<std::uint64_t> asked;
-      const SubdivisionStats s = cutWithOctree(g, oct, n, d, asked);
+      std::size_t opened = 0;
+      const SubdivisionStats s = cutWithOctree(g, oct, n, d, asked, &opened);
       EXPECT_GT(s.rounds, 0);
+      EXPECT_GT(opened, 0u);
       EXPECT_GT(oct.activeVoxels.size(), before);
       for (std::size_t v = 0; v < g.voxelCount(); ++v)
         for (int a = 0; a < 3; ++a) ASSERT_EQ(g.connected(v, a), base.connected(v, a)) << name << " " << trial;

@@ -279,7 +279,8 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
     r.cuts.insert(r.cuts.end(), found[c].begin(), found[c].end());
   }
   for (std::size_t k = 0; k < r.cuts.size(); ++k) {
-    if (k + 8 < r.cuts.size()) g.hermite().prefetch(r.cuts[k + 8].link);
+    if (k + HermiteMap::kPrefetchAhead < r.cuts.size())
+      g.hermite().prefetch(r.cuts[k + HermiteMap::kPrefetchAhead].link);
     LinkCut& lc = r.cuts[k];
     g.setConnected(static_cast<std::size_t>(lc.link / 3), static_cast<int>(lc.link % 3), false);
     lc.previous = g.hermite().exchange(lc.link, lc.hermite);

@@ -268,8 +268,9 @@ Eigen::AlignedBox3d DeformationOctree::elementBounds(std::uint32_t e) const {
 void DeformationOctree::updateElementBounds(std::vector<Eigen::AlignedBox3d>& out,
                                             bool threaded) const {
   out.resize(elements_.size());
+  // Serial for a few thousand elements: the pass is shorter than waking the workers.
   parallelFor(
-      0, elements_.size(), 256,
+      0, elements_.size(), 2048,
       [&](std::size_t b, std::size_t e) {
         for (std::size_t i = b; i < e; ++i) out[i] = elementBounds(static_cast<std::uint32_t>(i));
       },

@@ -339,6 +339,16 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
       if (cube >= 0) fn(static_cast<std::size_t>(cube));
     });
   };
+  auto prefetchCellsAround = [&](std::uint64_t link) {
+    const auto v = static_cast<std::size_t>(link / 3);
+    const int a = static_cast<int>(link % 3);
+    const std::size_t su = grid.stride((a + 1) % 3), sw = grid.stride((a + 2) % 3);
+    const std::int32_t* cells = oct.cellCube.data();
+    __builtin_prefetch(cells + v);
+    if (v >= su) __builtin_prefetch(cells + (v - su));
+    if (v >= sw) __builtin_prefetch(cells + (v - sw));
+    if (v >= su + sw) __builtin_prefetch(cells + (v - su - sw));
+  };
   std::vector<std::unique_ptr<Worker>> workers(static_cast<std::size_t>(threadSlots()));
   // Cubes the sweep's boundary reaches into (the first round only; see the header).
   std::vector<std::uint8_t> reached(oct.cubes.size(), 0);
@@ -353,10 +363,13 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     parallelFor(
         0, pending.size(), 256,
         [&](std::size_t b, std::size_t e) {
-          for (std::size_t i = b; i < e; ++i)
+          for (std::size_t i = b; i < e; ++i) {
+            // The cube map is large and the links scattered: fetch the cells of a link ahead.
+            if (i + 16 < e) prefetchCellsAround(pending[i + 16]);
             cubesAround(pending[i], [&](std::size_t cube) {
               std::atomic_ref<std::uint8_t>(affected[cube]).store(1, std::memory_order_relaxed);
             });
+          }
         },
         threaded);
     // 1: a cut link around it; 2: only the sweep's boundary reaches into it.
@@ -470,7 +483,8 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     const auto storeCuts = [&] {
       HermiteMap& hermite = grid.hermite();
       for (std::size_t k = 0; k < roundCuts.size(); ++k) {
-        if (k + 8 < roundCuts.size()) hermite.prefetch(roundCuts[k + 8].link);
+        if (k + HermiteMap::kPrefetchAhead < roundCuts.size())
+          hermite.prefetch(roundCuts[k + HermiteMap::kPrefetchAhead].link);
         roundCuts[k].previous = hermite.exchange(roundCuts[k].link, roundCuts[k].hermite);
       }
     };

@@ -38,6 +38,9 @@ class HermiteMap {
   void set(std::uint64_t link, const Hermite& h) { (void)exchange(link, h); }
   /// As set, returning the entry it replaced, if any (one probe instead of find + set).
   std::optional<Hermite> exchange(std::uint64_t link, const Hermite& h);
+  /// How many links ahead a loop that sets many links prefetches (the table is large and its
+  /// slots scattered: a miss costs about as much as a few dozen exchanges that hit).
+  static constexpr std::size_t kPrefetchAhead = 24;
   /// Hints the processor to fetch the table slot where `link` would start its probe (for a
   /// loop that sets many links: their slots are scattered over the table).
   void prefetch(std::uint64_t link) const {
