@@ -42,8 +42,8 @@ enum VoxelState : std::uint8_t {
   kActiveLinkY = 1u << 1,
   kActiveLinkZ = 1u << 2,
   kActiveVoxel = 1u << 3,
-  kOpenedVoxel = 1u << 4,  ///< activated by this frame's subdivision; folded into kActiveVoxel
-                           ///< by rebuildActiveVoxels (so activeVoxels stays valid until then)
+  kOpenedVoxel = 1u << 4,  ///< in a level-1 cube split this frame (set by activateNewCubeFrames);
+                           ///< folded into kActiveVoxel by rebuildActiveVoxels
   kListedVoxel = 1u << 5,  ///< listed in VoxelOctree::changed (cleared by rebuildActiveVoxels)
 };
 
