@@ -14,7 +14,6 @@ inline void expectActiveTablesConsistent(const VoxelGrid& g, const VoxelOctree& 
   std::size_t k = 0;
   ASSERT_TRUE(oct.changed.empty());
   for (std::size_t v = 0; v < g.voxelCount(); ++v) {
-    ASSERT_FALSE(oct.state[v] & kOpenedVoxel) << v;  // folded into kActiveVoxel
     if (!oct.voxelActive(v)) {
       ASSERT_EQ(oct.activeIndex[v], kNoActive) << v;
       continue;

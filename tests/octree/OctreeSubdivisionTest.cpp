@@ -68,7 +68,7 @@ SubdivisionStats cutWithOctree(VoxelGrid& g, VoxelOctree& oct, const Vec3d& n, d
       for (int y = 0; y <= 2; ++y)
         for (int x = 0; x <= 2; ++x) {
           const std::size_t v = g.index(o.x + x, o.y + y, o.z + z);
-          EXPECT_TRUE(oct.state[v] & (kActiveVoxel | kOpenedVoxel)) << v;
+          EXPECT_TRUE(oct.voxelActive(v)) << v;
           const int at[3] = {x, y, z};
           for (int a = 0; a < 3; ++a) {
             if (at[a] < 2) {

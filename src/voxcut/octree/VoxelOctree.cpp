@@ -335,7 +335,7 @@ void activateNewCubeFrames(VoxelOctree& oct, const VoxelGrid& grid, bool threade
       for (int y = 0; y <= 2; ++y)
         for (int x = 0; x <= 2; ++x) {
           const int d[3] = {x, y, z};
-          auto bits = static_cast<std::uint8_t>(kOpenedVoxel);
+          auto bits = static_cast<std::uint8_t>(kActiveVoxel);
           for (int a = 0; a < 3; ++a)
             if (d[a] < 2) bits = static_cast<std::uint8_t>(bits | (1u << a));
           const std::size_t v = grid.index(o.x + x, o.y + y, o.z + z);
@@ -374,7 +374,6 @@ void rebuildAllActive(VoxelOctree& oct, bool threaded) {
       for (std::size_t v = p * kChunk; v < std::min(n, (p + 1) * kChunk); ++v) {
         std::uint8_t& s = oct.state[v];
         s = static_cast<std::uint8_t>(s & ~kListedVoxel);
-        if (s & kOpenedVoxel) s = static_cast<std::uint8_t>((s & ~kOpenedVoxel) | kActiveVoxel);
         oct.activeIndex[v] = kNoActive;
         if (s & kActiveVoxel) parts[p].push_back(static_cast<std::uint32_t>(v));
       }
@@ -411,7 +410,6 @@ void updateActive(VoxelOctree& oct, bool threaded) {
   for (std::uint32_t v : changed) {
     std::uint8_t& s = oct.state[v];
     s = static_cast<std::uint8_t>(s & ~kListedVoxel);
-    if (s & kOpenedVoxel) s = static_cast<std::uint8_t>((s & ~kOpenedVoxel) | kActiveVoxel);
     if ((s & kActiveVoxel) && oct.activeIndex[v] == kNoActive) added.push_back(v);
   }
   std::sort(added.begin(), added.end());

@@ -42,8 +42,6 @@ enum VoxelState : std::uint8_t {
   kActiveLinkY = 1u << 1,
   kActiveLinkZ = 1u << 2,
   kActiveVoxel = 1u << 3,
-  kOpenedVoxel = 1u << 4,  ///< in a level-1 cube split this frame (set by activateNewCubeFrames);
-                           ///< folded into kActiveVoxel by rebuildActiveVoxels
   kListedVoxel = 1u << 5,  ///< listed in VoxelOctree::changed (cleared by rebuildActiveVoxels)
 };
 
@@ -61,8 +59,8 @@ struct VoxelOctree {
   std::vector<std::array<std::uint32_t, 3>> activeNext;
   std::vector<std::uint32_t> activeIndex;   ///< per voxel: its entry in activeVoxels, or kNoActive
   /// Voxels whose state bits were raised since the last rebuildActiveVoxels, each once (in
-  /// any order; see markChanged): the subdivision's opened cubes and activateNewCubeFrames
-  /// list theirs. Code that changes `state` otherwise must clear activeIndex, which makes the
+  /// any order; see markChanged): activateNewCubeFrames lists those of the new frames and
+  /// the opened level-1 cubes. Code that changes `state` otherwise must clear activeIndex, which makes the
   /// next rebuild a full one.
   std::vector<std::uint32_t> changed;
 
@@ -127,8 +125,7 @@ void compactCubes(VoxelOctree& octree, bool threaded = true);
 /// last call (the protective frame of new cubes), and of the level-0 cubes of the level-1 cubes
 /// split since then (openedCubes: every voxel and link of such a cube).
 void activateNewCubeFrames(VoxelOctree& octree, const VoxelGrid& grid, bool threaded = true);
-/// Deferred update (c): folds kOpenedVoxel into kActiveVoxel and rebuilds the sorted active
-/// voxel index array, its link table (activeNext) and the index map (activeIndex): from the
+/// Deferred update (c): rebuilds the sorted active voxel index array, its link table (activeNext) and the index map (activeIndex): from the
 /// previous tables and the `changed` voxels when those tables exist (work in proportion to
 /// the active voxels, not the grid), else from a scan of the grid. Clears `changed`.
 void rebuildActiveVoxels(VoxelOctree& octree, bool threaded = true);
