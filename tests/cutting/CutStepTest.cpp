@@ -4,6 +4,7 @@
 
 #include "voxcut/core/Parallel.h"
 #include "voxcut/cutting/CutStep.h"
+#include "voxcut/fem/CutTopology.h"
 #include "voxcut/fem/PrescribedDeformation.h"
 #include "voxcut/io/ModelSource.h"
 #include "voxcut/sim/SingleFrameCut.h"
@@ -220,6 +221,52 @@ TEST(CutStep, CutThroughTheMiddleLeavesTwoClosedPieces) {
     EXPECT_TRUE(r.topology.manifold) << name;
     EXPECT_EQ(r.topology.pieces, 2) << name;
   }
+}
+
+// The embeddings a body keeps in active order are those of its active voxels after every step
+// (new active voxels), and a topology edit of the deformation octree (new element copies,
+// renumbered elements) makes the next step gather them again.
+TEST(CutStep, ActiveEmbeddingsFollowTheActiveVoxelsAndTopologyEdits) {
+  const VoxelGrid g = model("bunny", 48);
+  CutBody b = body(g, true, Deformation::Bend);
+  const auto current = [&] {
+    const std::vector<std::uint32_t>& active = b.activity.activeVoxels;
+    if (b.activeEmbeddings.size() != active.size()) return false;
+    for (std::size_t i = 0; i < active.size(); ++i) {
+      const VoxelEmbedding& have = b.activeEmbeddings[i];
+      const VoxelEmbedding& want = b.deformation.embedding(active[i]);
+      if (have.element != want.element || have.offset != want.offset) return false;
+    }
+    return true;
+  };
+  EXPECT_TRUE(current());
+  const std::size_t before = b.activity.activeVoxels.size();
+  const BladeMotion across = defaultBladeMotion(b);
+  const CutStepResult first = cutStep(b, makeSweep(across.from, across.to, 0));
+  ASSERT_GT(first.cuts.size(), 100u);
+  EXPECT_GT(b.activity.activeVoxels.size(), before);  // the subdivision opened cubes
+  EXPECT_TRUE(current());
+
+  // A topology edit: element copies per voxel part on both sides of the cut.
+  const std::uint64_t stamp = b.deformation.embeddingStamp();
+  std::vector<std::uint64_t> links;
+  for (const LinkCut& c : first.cuts) links.push_back(c.link);
+  const TopologyChange change = updateCutTopology(b.deformation, b.grid, links);
+  ASSERT_TRUE(change.changed);
+  EXPECT_NE(b.deformation.embeddingStamp(), stamp);
+  EXPECT_FALSE(current());  // stale: elements were renumbered
+  // A step whose blade cuts nothing gathers them first, and positions with the new ones.
+  const Vec3d far = 10.0 * b.deformation.restVoxelBounds().diagonal();
+  const BladePose away{across.from.a + far, across.from.b + far};
+  const CutStepResult second = cutStep(b, makeSweep(away, away, 1));
+  EXPECT_TRUE(second.cuts.empty());
+  EXPECT_TRUE(current());
+  // Copies keep theirs; a refresh of a current body changes nothing.
+  CutBody copy = b;
+  EXPECT_EQ(copy.deformation.embeddingStamp(), b.deformation.embeddingStamp());
+  refreshActiveEmbeddings(copy);
+  EXPECT_EQ(copy.activeEmbeddingsFor[0], b.activeEmbeddingsFor[0]);
+  EXPECT_EQ(copy.activeEmbeddingsFor[1], b.activeEmbeddingsFor[1]);
 }
 
 TEST(CutStep, HermiteDataIsInTheRestFrame) {

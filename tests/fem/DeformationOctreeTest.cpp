@@ -191,7 +191,12 @@ TEST(DeformationOctree, BunnyCountsAndInvariants) {
 
 TEST(DeformationOctree, VoxelPositionListMatchesSingleAndThreads) {
   const VoxelGrid& g = bunnyGrid();
-  const DeformationOctree oc = buildDeformationOctree(g);
+  DeformationOctree oc = buildDeformationOctree(g);
+  // Deformed: every node moved at random by up to 0.3 voxel (hanging ones from their masters).
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> U(-0.3, 0.3);
+  for (Vec3d& p : oc.positions()) p += g.voxelSize() * Vec3d(U(rng), U(rng), U(rng));
+  oc.updateHangingNodes();
   std::vector<std::uint32_t> voxels;
   for (std::size_t v = 0; v < g.voxelCount(); ++v)
     if (g.occupied(v)) voxels.push_back(static_cast<std::uint32_t>(v));
@@ -224,6 +229,23 @@ TEST(DeformationOctree, VoxelPositionListMatchesSingleAndThreads) {
   EXPECT_EQ(maskedOwners, owners);
   for (std::size_t i = 0; i < voxels.size(); ++i)
     ASSERT_EQ(four[i], mask[owners[i]] ? one[i] : untouched) << "voxel " << voxels[i];
+  // From embeddings gathered in list order: the same positions (with a mask: only there),
+  // and the mask per entry.
+  std::vector<VoxelEmbedding> embeddings;
+  oc.gatherEmbeddings(voxels, embeddings);
+  ASSERT_EQ(embeddings.size(), voxels.size());
+  for (const bool onlyMasked : {false, true}) {
+    std::vector<Vec3d> five(voxels.size(), untouched);
+    std::vector<std::uint8_t> inMask;
+    oc.updateVoxelPositions(embeddings, mask, onlyMasked, five, inMask);
+    ASSERT_EQ(inMask.size(), voxels.size());
+    for (std::size_t i = 0; i < voxels.size(); ++i) {
+      ASSERT_EQ(embeddings[i].element, owners[i]);
+      ASSERT_EQ(inMask[i], mask[owners[i]]);
+      ASSERT_EQ(five[i], !onlyMasked || mask[owners[i]] ? one[i] : untouched) << "voxel " << voxels[i];
+      ASSERT_EQ(oc.voxelPosition(embeddings[i]), one[i]);
+    }
+  }
   // Element bounds hold their voxels.
   std::vector<Eigen::AlignedBox3d> boxes;
   oc.updateElementBounds(boxes);

@@ -191,8 +191,18 @@ CutBody makeCutBody(VoxelGrid grid, const CutBodyParams& params, bool threaded) 
   b.grid.hermite().reserve(2 * b.grid.hermite().size() + 4096);
   b.obbMargin = params.obbMargin > 0 ? params.obbMargin : 0.5 * b.grid.voxelSize();
   b.activePositions.assign(b.activity.activeVoxels.size(), Vec3d::Zero());
-  b.activeOwners.assign(b.activity.activeVoxels.size(), kNoElement);
+  refreshActiveEmbeddings(b, threaded);
   return b;
+}
+
+void refreshActiveEmbeddings(CutBody& b, bool threaded) {
+  const std::uint64_t stamps[2] = {b.activity.activeStamp, b.deformation.embeddingStamp()};
+  if (b.activeEmbeddingsFor[0] == stamps[0] && b.activeEmbeddingsFor[1] == stamps[1] &&
+      b.activeEmbeddings.size() == b.activity.activeVoxels.size())
+    return;
+  b.deformation.gatherEmbeddings(b.activity.activeVoxels, b.activeEmbeddings, threaded);
+  b.activeEmbeddingsFor[0] = stamps[0];
+  b.activeEmbeddingsFor[1] = stamps[1];
 }
 
 CutStepResult cutStep(CutBody& b, const BladeSweep& sweep, bool threaded) {
@@ -222,7 +232,8 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   for (std::uint8_t m : marked) r.markedElements += m;
   const double cullMs = timer.ms();
 
-  // Voxel position update, stored in active order with each active voxel's element. When
+  // Voxel position update, stored in active order, with whether each active voxel's element
+  // is marked (from the embeddings kept in active order, see CutBody). When
   // the blade reaches under half the elements (a frame of a running scene, and the bunny's
   // single-frame cut: 242 of 534), only the voxels in marked elements are positioned and a
   // link to a voxel outside them positions that end on the way; else (a longer sweep) every
@@ -233,47 +244,60 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   timer.restart();
   const std::vector<std::uint32_t>& active = b.activity.activeVoxels;
   const bool fewMarked = 2 * r.markedElements < marked.size();
-  if (fewMarked)
-    b.deformation.updateVoxelPositions(active, b.activePositions, b.activeOwners, marked, threaded);
-  else
-    b.deformation.updateVoxelPositions(active, b.activePositions, b.activeOwners, threaded);
+  refreshActiveEmbeddings(b, threaded);
+  const std::vector<VoxelEmbedding>& embeddings = b.activeEmbeddings;
+  b.deformation.updateVoxelPositions(embeddings, marked, fewMarked, b.activePositions,
+                                     b.activeMarked, threaded);
   r.positionUpdateMs = timer.ms();
 
-  // Intersection test: the active connected links with an end in a marked element. Per active
-  // entry first whether its element is marked: one byte to read per link end below.
+  // Intersection test: each active connected link (v, a) once, from its low voxel v, when
+  // either end lies in a marked element. Per chunk of entries, first the candidates, without
+  // a branch per link: the octree's active links come and go from one entry to the next
+  // (frames, shell), and branching on each cost it more than the test of the links that
+  // pass (measured on the bunny: 0.41 ms instead of 0.19 for this pass at 1 thread); then
+  // the candidates are tested.
   timer.restart();
-  b.activeMarked.resize(active.size());
-  parallelFor(0, active.size(), 8192, [&](std::size_t i0, std::size_t i1) {
-    for (std::size_t i = i0; i < i1; ++i) {
-      const std::uint32_t e = b.activeOwners[i];
-      b.activeMarked[i] = e != kNoElement && marked[e] ? 1 : 0;
-    }
-  }, threaded);
-  const auto inMarked = [&](std::size_t i) { return b.activeMarked[i] != 0; };
   const auto positionOf = [&](std::size_t i, bool isMarked) {
-    return isMarked || !fewMarked ? b.activePositions[i] : b.deformation.voxelPosition(active[i]);
+    return isMarked || !fewMarked ? b.activePositions[i] : b.deformation.voxelPosition(embeddings[i]);
   };
+  VOXCUT_ASSERT(active.size() < (std::size_t{1} << 30), "too many active voxels for the link table");
+  const auto nActive = static_cast<std::uint32_t>(active.size());
+  b.activeMarked.push_back(0);  // entry nActive: what a missing link's far end reads
+  const std::uint8_t* inMarked = b.activeMarked.data();
+  const std::vector<std::array<std::uint32_t, 3>>& next = b.activity.activeNext;
   constexpr std::size_t kChunk = 1024;
   std::vector<std::vector<LinkCut>> found((active.size() + kChunk - 1) / kChunk);
   std::vector<std::size_t> tested(found.size(), 0);
   parallelFor(0, found.size(), 1, [&](std::size_t c0, std::size_t c1) {
-    for (std::size_t c = c0; c < c1; ++c)
-      for (std::size_t i = c * kChunk; i < std::min(active.size(), (c + 1) * kChunk); ++i) {
-        // Each active link (v, a) once, from its low voxel v, when either end lies in a
-        // marked element.
-        const bool here = inMarked(i);
-        const std::size_t v = active[i];
-        for (int a = 0; a < 3; ++a) {
-          const std::uint32_t j = b.activity.activeNext[i][static_cast<std::size_t>(a)];
-          if (j == kNoActive) continue;
-          const bool there = inMarked(j);
-          if (!(here || there) || !g.connected(v, a)) continue;
-          ++tested[c];
-          if (const auto h = testLink(b, sweeps, v, a, positionOf(i, here), positionOf(j, there)))
-            found[c].push_back({VoxelGrid::linkId(v, a), *h, std::nullopt});
+    std::array<std::uint32_t, 3 * kChunk> candidates;  // entry * 4 + axis
+    std::array<std::uint32_t, 3 * kChunk> farEnds;     // the entry across
+    for (std::size_t c = c0; c < c1; ++c) {
+      std::size_t count = 0;
+      const std::size_t end = std::min(active.size(), (c + 1) * kChunk);
+      for (std::size_t i = c * kChunk; i < end; ++i) {
+        const unsigned here = inMarked[i];
+        const auto first = static_cast<std::uint32_t>(4 * i);
+        for (std::uint32_t a = 0; a < 3; ++a) {
+          const std::uint32_t j = next[i][a];  // kNoActive is above every entry
+          candidates[count] = first + a;
+          farEnds[count] = j;
+          count += static_cast<unsigned>(j < nActive) & (here | inMarked[std::min(j, nActive)]);
         }
       }
+      for (std::size_t k = 0; k < count; ++k) {
+        const std::size_t i = candidates[k] >> 2;
+        const int a = static_cast<int>(candidates[k] & 3u);
+        const std::size_t v = active[i];
+        if (!g.connected(v, a)) continue;
+        const std::uint32_t j = farEnds[k];
+        ++tested[c];
+        if (const auto h = testLink(b, sweeps, v, a, positionOf(i, inMarked[i] != 0),
+                                    positionOf(j, inMarked[j] != 0)))
+          found[c].push_back({VoxelGrid::linkId(v, a), *h, std::nullopt});
+      }
+    }
   }, threaded);
+
   for (std::size_t c = 0; c < found.size(); ++c) {
     r.testedLinks += tested[c];
     r.cuts.insert(r.cuts.end(), found[c].begin(), found[c].end());
@@ -302,6 +326,7 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
     activateNewCubeFrames(b.activity, g, threaded);
     compactCubes(b.activity, threaded);
     rebuildActiveVoxels(b.activity, threaded);
+    refreshActiveEmbeddings(b, threaded);
     r.deferredMs = timer.ms();
   } else if (b.useOctree) {
     r.subdivisionMs = timer.ms();

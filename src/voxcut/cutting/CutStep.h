@@ -36,7 +36,13 @@ struct CutBody {
   /// Per entry of activity.activeVoxels: its position this frame (where the step positioned
   /// it: every entry, or those in elements under the blade when it reaches few; see cutStep).
   std::vector<Vec3d> activePositions;
-  std::vector<std::uint32_t> activeOwners;   ///< per entry of activity.activeVoxels: its element
+  /// Per entry of activity.activeVoxels: its embedding in the deformation octree, kept across
+  /// frames in the active voxels' order, so that the position update reads it in order
+  /// instead of one voxel at a time from the grid-sized table; gathered again
+  /// (refreshActiveEmbeddings) when either of the stamps it was gathered for has changed
+  /// (a new active voxel array, a topology edit).
+  std::vector<VoxelEmbedding> activeEmbeddings;
+  std::uint64_t activeEmbeddingsFor[2] = {0, 0};  ///< activity.activeStamp, deformation.embeddingStamp()
   std::vector<std::uint8_t> activeMarked;    ///< per entry: its element is under the blade (scratch)
   std::vector<Eigen::AlignedBox3d> elementBoxes;
   SpatialHash hash;
@@ -44,6 +50,11 @@ struct CutBody {
 
 /// Builds the deformation octree and the activity marks of `grid`.
 [[nodiscard]] CutBody makeCutBody(VoxelGrid grid, const CutBodyParams& params, bool threaded = true);
+
+/// Gathers body.activeEmbeddings again unless it is current (see CutBody). cutStep calls it
+/// first, and again after its deferred updates; a caller that edits the deformation octree's
+/// topology can call it afterwards, so that the next step does not wait for it.
+void refreshActiveEmbeddings(CutBody& body, bool threaded = true);
 
 /// Timings (ms) and counts of one frame's cutting tool collision.
 struct CutStepResult {

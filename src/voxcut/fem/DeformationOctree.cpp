@@ -9,6 +9,7 @@
 
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
+#include "voxcut/core/Stamp.h"
 #include "voxcut/fem/CutTopology.h"
 
 namespace voxcut {
@@ -29,7 +30,8 @@ DeformationOctree::DeformationOctree(const VoxelGrid& grid, int maxLevel,
       elements_(std::move(elements)),
       nodeCoords_(std::move(nodeCoords)),
       hanging_(std::move(hanging)),
-      embedding_(std::move(embedding)) {
+      embedding_(std::move(embedding)),
+      embeddingStamp_(newStamp()) {
   VOXCUT_ASSERT(embedding_.size() == grid.voxelCount(), "one embedding per grid voxel");
   restPositions_.resize(nodeCoords_.size());
   for (std::size_t n = 0; n < nodeCoords_.size(); ++n)
@@ -184,23 +186,29 @@ Vec3d DeformationOctree::voxelPosition(std::size_t v) const {
   return pointInElement(embedding_[v].element, localCoordinates(v));
 }
 
-template <class Want, class Write, class Skip>
-void DeformationOctree::forEachVoxelPosition(const std::vector<std::uint32_t>& voxels,
-                                             bool threaded, Want&& want, Write&& write,
-                                             Skip&& skip) const {
+Vec3d DeformationOctree::voxelPosition(const VoxelEmbedding& em) const {
+  VOXCUT_ASSERT(em.element != kNoElement, "voxel is empty");
+  const double inv = 1.0 / static_cast<double>(elements_[em.element].size());
+  return pointInElement(em.element, {(em.offset[0] + 0.5) * inv, (em.offset[1] + 0.5) * inv,
+                                     (em.offset[2] + 0.5) * inv});
+}
+
+template <class EmbeddingAt, class Prefetch, class Want, class Write, class Skip>
+void DeformationOctree::forEachVoxelPosition(std::size_t n, EmbeddingAt&& embeddingAt,
+                                             Prefetch&& prefetch, bool threaded, Want&& want,
+                                             Write&& write, Skip&& skip) const {
   // Voxels listed in index order come in runs along x through one element: the row segment
   // is computed once per run (element, y offset, z offset) and each voxel costs one lerp.
   parallelFor(
-      0, voxels.size(), 4096,
+      0, n, 4096,
       [&](std::size_t b, std::size_t e) {
         std::uint32_t element = kNoElement;
         std::uint8_t oy = 0, oz = 0;
         double inv = 1.0;
         RowSegment row{Vec3d::Zero(), Vec3d::Zero()};
         for (std::size_t i = b; i < e; ++i) {
-          // The voxels may be sparse (the octree's active ones): fetch ahead.
-          if (i + 16 < e) __builtin_prefetch(&embedding_[voxels[i + 16]]);
-          const VoxelEmbedding& em = embedding_[voxels[i]];
+          if (i + 16 < e) prefetch(i + 16);
+          const VoxelEmbedding& em = embeddingAt(i);
           VOXCUT_ASSERT(em.element != kNoElement, "voxel is empty");
           if (!want(em.element)) {
             skip(i, em.element);
@@ -220,10 +228,54 @@ void DeformationOctree::forEachVoxelPosition(const std::vector<std::uint32_t>& v
       threaded);
 }
 
+template <class Want, class Write, class Skip>
+void DeformationOctree::forEachListedVoxelPosition(const std::vector<std::uint32_t>& voxels,
+                                                   bool threaded, Want&& want, Write&& write,
+                                                   Skip&& skip) const {
+  // The voxels may be sparse (the octree's active ones): their embeddings are fetched ahead.
+  forEachVoxelPosition(
+      voxels.size(), [&](std::size_t i) -> const VoxelEmbedding& { return embedding_[voxels[i]]; },
+      [&](std::size_t i) { __builtin_prefetch(&embedding_[voxels[i]]); }, threaded,
+      std::forward<Want>(want), std::forward<Write>(write), std::forward<Skip>(skip));
+}
+
+void DeformationOctree::gatherEmbeddings(const std::vector<std::uint32_t>& voxels,
+                                         std::vector<VoxelEmbedding>& out, bool threaded) const {
+  out.resize(voxels.size());
+  parallelFor(
+      0, voxels.size(), 4096,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) {
+          if (i + 16 < e) __builtin_prefetch(&embedding_[voxels[i + 16]]);
+          out[i] = embedding_[voxels[i]];
+        }
+      },
+      threaded);
+}
+
+void DeformationOctree::updateVoxelPositions(const std::vector<VoxelEmbedding>& embeddings,
+                                             const std::vector<std::uint8_t>& elementMask,
+                                             bool onlyMasked, std::vector<Vec3d>& out,
+                                             std::vector<std::uint8_t>& inMask,
+                                             bool threaded) const {
+  VOXCUT_ASSERT(elementMask.size() == elements_.size(), "one mask byte per element");
+  out.resize(embeddings.size());
+  inMask.resize(embeddings.size());
+  forEachVoxelPosition(
+      embeddings.size(), [&](std::size_t i) -> const VoxelEmbedding& { return embeddings[i]; },
+      [](std::size_t) {}, threaded,
+      [&](std::uint32_t e) { return !onlyMasked || elementMask[e] != 0; },
+      [&](std::size_t i, std::uint32_t e, const Vec3d& p) {
+        out[i] = p;
+        inMask[i] = elementMask[e];
+      },
+      [&](std::size_t i, std::uint32_t) { inMask[i] = 0; });
+}
+
 void DeformationOctree::updateVoxelPositions(const std::vector<std::uint32_t>& voxels,
                                              std::vector<Vec3d>& out, bool threaded) const {
   out.resize(voxels.size());
-  forEachVoxelPosition(
+  forEachListedVoxelPosition(
       voxels, threaded, [](std::uint32_t) { return true; },
       [&](std::size_t i, std::uint32_t, const Vec3d& p) { out[i] = p; },
       [](std::size_t, std::uint32_t) {});
@@ -234,7 +286,7 @@ void DeformationOctree::updateVoxelPositions(const std::vector<std::uint32_t>& v
                                              bool threaded) const {
   out.resize(voxels.size());
   owners.resize(voxels.size());
-  forEachVoxelPosition(
+  forEachListedVoxelPosition(
       voxels, threaded, [](std::uint32_t) { return true; },
       [&](std::size_t i, std::uint32_t e, const Vec3d& p) {
         out[i] = p;
@@ -250,7 +302,7 @@ void DeformationOctree::updateVoxelPositions(const std::vector<std::uint32_t>& v
   VOXCUT_ASSERT(elementMask.size() == elements_.size(), "one mask byte per element");
   out.resize(voxels.size());
   owners.resize(voxels.size());
-  forEachVoxelPosition(
+  forEachListedVoxelPosition(
       voxels, threaded, [&](std::uint32_t e) { return elementMask[e] != 0; },
       [&](std::size_t i, std::uint32_t e, const Vec3d& p) {
         out[i] = p;

@@ -1,5 +1,7 @@
 #include "voxcut/fem/TopologyEditor.h"
 
+#include "voxcut/core/Stamp.h"
+
 #include <algorithm>
 
 #include "voxcut/core/Parallel.h"
@@ -277,6 +279,8 @@ std::vector<std::uint64_t> TopologyEditor::ambiguousCubes() const {
 }
 
 TopologyChange TopologyEditor::run() {
+  // Embeddings (and elements) change from here on: what was derived from them is stale.
+  oc_.embeddingStamp_ = newStamp();
   for (int round = 0;; ++round) {
     VOXCUT_ASSERT(round < 64, "topology update does not settle");
     partitionPending();

@@ -4,6 +4,7 @@
 #include <atomic>
 
 #include "voxcut/core/Parallel.h"
+#include "voxcut/core/Stamp.h"
 
 namespace voxcut {
 namespace {
@@ -460,11 +461,15 @@ void updateActive(VoxelOctree& oct, bool threaded) {
 }  // namespace
 
 void rebuildActiveVoxels(VoxelOctree& oct, bool threaded) {
-  if (oct.activeIndex.size() == oct.state.size() && oct.activeNext.size() == oct.activeVoxels.size())
+  const bool incremental =
+      oct.activeIndex.size() == oct.state.size() && oct.activeNext.size() == oct.activeVoxels.size();
+  if (incremental && oct.changed.empty()) return;  // nothing was raised: the tables stand
+  if (incremental)
     updateActive(oct, threaded);
   else
     rebuildAllActive(oct, threaded);
   oct.changed.clear();
+  oct.activeStamp = newStamp();
 }
 
 }  // namespace voxcut

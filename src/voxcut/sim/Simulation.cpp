@@ -219,6 +219,8 @@ void Simulation::stepBody(SimBody& b, std::vector<double>& ms, FrameReport& repo
       b.model.updateTopology(b.cut.deformation, b.cut.grid, change,
                              b.fixedBoxes.empty() ? nullptr : &fixed);
       b.solver.updateTopology(change);
+      // The collision's per-entry embeddings, gathered here rather than in next frame's step.
+      refreshActiveEmbeddings(b.cut, params_.threaded);
     }
   }
   for (std::size_t ti = 0; ti < scene_.tools.size(); ++ti) {
