@@ -19,6 +19,20 @@ TEST(Parallel, CoversEveryIndexOnceForAnyThreadCount) {
   }
 }
 
+TEST(Parallel, WakingTheWorkersChangesNoResult) {
+  for (int threads : {1, 2, 3}) {
+    ThreadLimit limit(threads);
+    for (int round = 0; round < 20; ++round) {
+      wakeWorkers();
+      std::vector<int> hits(4099, 0);
+      parallelFor(0, hits.size(), 16, [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) ++hits[i];
+      });
+      for (int h : hits) ASSERT_EQ(h, 1);
+    }
+  }
+}
+
 TEST(Parallel, SerialSwitchRunsOnCallingThreadInOrder) {
   std::vector<std::size_t> order;
   parallelFor(5, 50, 1, [&](std::size_t b, std::size_t e) {

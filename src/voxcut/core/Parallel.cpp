@@ -19,6 +19,10 @@ int threadSlot() {
   return i >= 0 ? i : 0;
 }
 
+void wakeWorkers() {
+  if (ThreadLimit::current() > 1) tbb::this_task_arena::enqueue([] {});
+}
+
 int ThreadLimit::current() {
   return static_cast<int>(
       tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));

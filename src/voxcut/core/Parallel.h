@@ -54,6 +54,14 @@ void parallelFor(std::size_t begin, std::size_t end, std::size_t grain, Body&& b
 [[nodiscard]] int threadSlots();
 [[nodiscard]] int threadSlot();
 
+/// Tells the scheduler that parallel work follows shortly. A worker that finds no work for
+/// some tens of microseconds goes to sleep, and waking it again takes as long or longer on a
+/// virtual machine; the next parallelFor then runs its first part on the caller alone. Called
+/// before a serial stretch that leads into parallel work, the wake-up overlaps that stretch.
+/// The call itself may take tens of microseconds (the system call that wakes the worker,
+/// which the next parallelFor would otherwise make). Does nothing when one thread is allowed.
+void wakeWorkers();
+
 /// Limits the worker threads for its lifetime (0 = leave the default). Not copyable.
 class ThreadLimit {
  public:

@@ -216,6 +216,7 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   // Culling first: hash of element boxes (from the nodes), elements under the sweep's OBB.
   // It is part of the intersection test's time.
   Timer timer;
+  if (threaded) wakeWorkers();  // the culling is serial, the position update is not
   b.deformation.updateElementBounds(b.elementBoxes, threaded);
   b.hash.build(b.elementBoxes, 0.0, threaded);
   std::vector<std::uint8_t> marked(b.elementBoxes.size(), 0);

@@ -492,8 +492,10 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
       for (const auto& w : workers)
         if (w) oct.openedCubes.insert(oct.openedCubes.end(), w->opened.begin(), w->opened.end());
     };
-    // The first sub-cube takes the split cube's slot, the others are appended in list order;
-    // then each split cube's cells are rewritten, in parallel (disjoint cells).
+    // The first sub-cube takes the split cube's slot, the others are appended in list order.
+    // The cells: a split cube's leaves and its opened level-1 cubes tile it (a split ends in
+    // one or the other), its cells hold its id, which its first leaf keeps; so only the other
+    // leaves' cells (their new ids) and the opened cubes' cells (none) are written.
     const auto storeSubCubes = [&] {
       std::vector<const CubeBox*> leafBegin(list.size()), leafEnd(list.size());
       for (const auto& w : workers)
@@ -502,12 +504,8 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
             leafBegin[i] = w->leaves.data() + b;
             leafEnd[i] = w->leaves.data() + e;
           }
-      std::vector<std::uint32_t> firstAppended(list.size());
-      std::vector<OctreeCube> oldCubes(list.size());
       for (std::size_t i = 0; i < list.size(); ++i) {
         const std::uint32_t id = list[i];
-        oldCubes[i] = oct.cubes[id];
-        firstAppended[i] = static_cast<std::uint32_t>(oct.cubes.size());
         if (leafBegin[i] == leafEnd[i]) {
           oct.cubes[id].deleted = true;
           continue;
@@ -518,24 +516,15 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
             oct.cubes[id] = sub;
             oct.newCubes.push_back(id);
           } else {
+            oct.setCubeCells(leaf->o, leaf->level, static_cast<std::int32_t>(oct.cubes.size()));
             oct.newCubes.push_back(static_cast<std::uint32_t>(oct.cubes.size()));
             oct.cubes.push_back(sub);
           }
         }
       }
-      parallelFor(
-          0, list.size(), 1,
-          [&](std::size_t b, std::size_t e) {
-            for (std::size_t i = b; i < e; ++i) {
-              oct.setCubeCells(oldCubes[i].origin, oldCubes[i].level, -1);
-              std::uint32_t next = firstAppended[i];
-              for (const CubeBox* leaf = leafBegin[i]; leaf != leafEnd[i]; ++leaf)
-                oct.setCubeCells(
-                    leaf->o, leaf->level,
-                    static_cast<std::int32_t>(leaf == leafBegin[i] ? list[i] : next++));
-            }
-          },
-          threaded);
+      for (const auto& w : workers)
+        if (w)
+          for (const Index3& o : w->opened) oct.setCubeCells(o, 1, -1);
     };
     parallelFor(
         0, 2, 1,
