@@ -41,7 +41,7 @@ std::optional<Hermite> testLink(const CutBody& b, const std::vector<BladeSweep>&
   const std::size_t near = hit->t < 0.5 ? v : w;
   const std::uint32_t e = b.deformation.owner(near);
   Vec3d xi = b.deformation.localCoordinates(near);
-  xi[a] += (near == v ? hit->t : hit->t - 1.0) / b.deformation.element(e).size();
+  xi[a] += (near == v ? hit->t : hit->t - 1.0) * b.deformation.element(e).inverseSize();
   Vec3d n = pullBackNormal(b.deformation, e, xi, hit->normal);
   const double len = n.norm();
   n = len > 0 ? Vec3d(n / len) : hit->normal;

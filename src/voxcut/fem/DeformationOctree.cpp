@@ -95,7 +95,7 @@ void DeformationOctree::updateHangingNodes() {
 Vec3d DeformationOctree::localCoordinates(std::size_t v) const {
   const VoxelEmbedding& em = embedding_[v];
   VOXCUT_ASSERT(em.element != kNoElement, "voxel is empty");
-  const double inv = 1.0 / static_cast<double>(elements_[em.element].size());
+  const double inv = elements_[em.element].inverseSize();
   return {(em.offset[0] + 0.5) * inv, (em.offset[1] + 0.5) * inv, (em.offset[2] + 0.5) * inv};
 }
 
@@ -188,7 +188,7 @@ Vec3d DeformationOctree::voxelPosition(std::size_t v) const {
 
 Vec3d DeformationOctree::voxelPosition(const VoxelEmbedding& em) const {
   VOXCUT_ASSERT(em.element != kNoElement, "voxel is empty");
-  const double inv = 1.0 / static_cast<double>(elements_[em.element].size());
+  const double inv = elements_[em.element].inverseSize();
   return pointInElement(em.element, {(em.offset[0] + 0.5) * inv, (em.offset[1] + 0.5) * inv,
                                      (em.offset[2] + 0.5) * inv});
 }
@@ -218,7 +218,7 @@ void DeformationOctree::forEachVoxelPosition(std::size_t n, EmbeddingAt&& embedd
             element = em.element;
             oy = em.offset[1];
             oz = em.offset[2];
-            inv = 1.0 / static_cast<double>(elements_[element].size());
+            inv = elements_[element].inverseSize();
             row = rowSegment(positions_, elements_[element].nodes, (oy + 0.5) * inv,
                              (oz + 0.5) * inv);
           }

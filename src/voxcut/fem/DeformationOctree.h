@@ -43,6 +43,17 @@ namespace voxcut {
 /// Marks a voxel without an owning element (an empty voxel).
 inline constexpr std::uint32_t kNoElement = 0xffffffffu;
 
+/// 2^-L for L in [0, 31).
+inline constexpr std::array<double, 31> kInverseSizes = [] {
+  std::array<double, 31> t{};
+  double x = 1.0;
+  for (double& v : t) {
+    v = x;
+    x *= 0.5;
+  }
+  return t;
+}();
+
 /// One hexahedral element of the deformation octree.
 struct OctreeElement {
   Index3 coord;   ///< integer coordinates at its level
@@ -52,6 +63,9 @@ struct OctreeElement {
 
   /// Edge length in voxels.
   [[nodiscard]] int size() const { return 1 << level; }
+  /// 1 / size(), exact (a power of two), from a table: a voxel's position needs it, and a
+  /// division there costs more than the rest of the arithmetic.
+  [[nodiscard]] double inverseSize() const { return kInverseSizes[static_cast<std::size_t>(level)]; }
   /// Grid coordinates of the first voxel it covers (also its corner node 0's node coordinates).
   [[nodiscard]] Index3 firstVoxel() const {
     return {coord.x << level, coord.y << level, coord.z << level};
