@@ -118,8 +118,9 @@ struct RowSegment {
   Vec3d delta;
 };
 
-RowSegment rowSegment(const std::vector<Vec3d>& p, const std::array<std::uint32_t, 8>& n, double ty,
-                      double tz) {
+[[gnu::always_inline]] inline RowSegment rowSegment(const std::vector<Vec3d>& p,
+                                                    const std::array<std::uint32_t, 8>& n,
+                                                    double ty, double tz) {
   auto face = [&](std::size_t c) {
     const Vec3d y0 = p[n[c]] + ty * (p[n[c + 2]] - p[n[c]]);
     const Vec3d y1 = p[n[c + 4]] + ty * (p[n[c + 6]] - p[n[c + 4]]);
@@ -182,15 +183,17 @@ bool DeformationOctree::trilinearCoordinates(std::uint32_t e, const Vec3d& p, Ve
          (t.array() <= 1.0 + kSlack).all();
 }
 
-Vec3d DeformationOctree::voxelPosition(std::size_t v) const {
-  return pointInElement(embedding_[v].element, localCoordinates(v));
-}
+Vec3d DeformationOctree::voxelPosition(std::size_t v) const { return voxelPosition(embedding_[v]); }
 
 Vec3d DeformationOctree::voxelPosition(const VoxelEmbedding& em) const {
+  // pointInElement at the voxel's trilinear coordinates, with the row segment inlined (the
+  // subdivision positions thousands of scattered voxels one by one).
   VOXCUT_ASSERT(em.element != kNoElement, "voxel is empty");
-  const double inv = elements_[em.element].inverseSize();
-  return pointInElement(em.element, {(em.offset[0] + 0.5) * inv, (em.offset[1] + 0.5) * inv,
-                                     (em.offset[2] + 0.5) * inv});
+  const OctreeElement& el = elements_[em.element];
+  const double inv = el.inverseSize();
+  const RowSegment r = rowSegment(positions_, el.nodes, (em.offset[1] + 0.5) * inv,
+                                  (em.offset[2] + 0.5) * inv);
+  return r.start + ((em.offset[0] + 0.5) * inv) * r.delta;
 }
 
 template <class EmbeddingAt, class Prefetch, class Want, class Write, class Skip>

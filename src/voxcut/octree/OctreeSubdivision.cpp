@@ -385,7 +385,7 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     // (1) mark the cubes around the newly cut links (raising a raised flag is harmless).
     affected.assign(oct.cubes.size(), 0);
     parallelFor(
-        0, pending.size(), 256,
+        0, pending.size(), 8192,
         [&](std::size_t b, std::size_t e) {
           for (std::size_t i = b; i < e; ++i) {
             // The cube map is large and the links scattered: fetch the cells of a link ahead.
@@ -428,12 +428,17 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
           },
           threaded);
     };
-    std::vector<LinkCut> roundCuts;
+    // This round's cuts go straight to the end of `cuts` (from roundBegin on).
+    const std::size_t roundBegin = cuts.size();
     auto mergeCounts = [&] {
+      std::size_t n = cuts.size();
+      for (const auto& w : workers)
+        if (w) n += w->cuts.size();
+      cuts.reserve(std::max(n, 2 * cuts.size()));
       for (const auto& w : workers) {
         if (!w) continue;
         stats.testedLinks += w->tested;
-        roundCuts.insert(roundCuts.end(), w->cuts.begin(), w->cuts.end());
+        cuts.insert(cuts.end(), w->cuts.begin(), w->cuts.end());
       }
     };
 
@@ -506,10 +511,10 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     //    order), and the sub-cubes stored (oct.cubes, oct.newCubes, oct.cellCube).
     const auto storeCuts = [&] {
       HermiteMap& hermite = grid.hermite();
-      for (std::size_t k = 0; k < roundCuts.size(); ++k) {
-        if (k + HermiteMap::kPrefetchAhead < roundCuts.size())
-          hermite.prefetch(roundCuts[k + HermiteMap::kPrefetchAhead].link);
-        roundCuts[k].previous = hermite.exchange(roundCuts[k].link, roundCuts[k].hermite);
+      for (std::size_t k = roundBegin; k < cuts.size(); ++k) {
+        if (k + HermiteMap::kPrefetchAhead < cuts.size())
+          hermite.prefetch(cuts[k + HermiteMap::kPrefetchAhead].link);
+        cuts[k].previous = hermite.exchange(cuts[k].link, cuts[k].hermite);
       }
     };
     const auto openCubes = [&] {
@@ -567,8 +572,7 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
           }
         },
         threaded);
-    stats.cutLinks += roundCuts.size();
-    cuts.insert(cuts.end(), roundCuts.begin(), roundCuts.end());
+    stats.cutLinks += cuts.size() - roundBegin;
   }
   stats.bookkeepingMs = total.ms() - stats.facesMs - stats.splitMs;
   return stats;
