@@ -456,18 +456,24 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
         Index3 o = oc.origin;
         o[f / 2] += (f & 1) * s;
         // A face shared whole with another affected cube of the same size is resolved once,
-        // by the cube listed first; its cuts border only cubes split in this round.
+        // by the cube listed first; its cuts border only cubes split in this round. A face
+        // that lies inside a face of a larger affected cube is left to that cube: its trace,
+        // followed from its own border, crosses this face wherever the blade does (a trace
+        // reaches the border of every face it crosses, short of the sweep's boundary).
         Index3 across = oc.origin;
         across[f / 2] += (f & 1) ? s : -1;
         bool shared = false;
         if (across[f / 2] >= 0 && across[f / 2] + 1 < d[f / 2]) {
           const std::int32_t other = oct.cellCube[grid.index(across)];
           // (A cube the boundary reaches into traces its faces itself, seeded.)
-          shared = other >= 0 && slot[static_cast<std::size_t>(other)] >= 0 &&
-                   oct.cubes[static_cast<std::size_t>(other)].level == oc.level && !seeded &&
-                   !isReached(static_cast<std::size_t>(slot[static_cast<std::size_t>(other)]));
-          if (shared && slot[static_cast<std::size_t>(other)] < static_cast<std::int32_t>(i))
-            continue;
+          if (other >= 0 && slot[static_cast<std::size_t>(other)] >= 0 && !seeded &&
+              !isReached(static_cast<std::size_t>(slot[static_cast<std::size_t>(other)]))) {
+            const int otherLevel = oct.cubes[static_cast<std::size_t>(other)].level;
+            if (otherLevel > oc.level) continue;
+            shared = otherLevel == oc.level;
+            if (shared && slot[static_cast<std::size_t>(other)] < static_cast<std::int32_t>(i))
+              continue;
+          }
         }
         w.recordOutward = !shared;
         w.traceSquare(o, f / 2, s, seeded ? &w.cubePoints : nullptr);
