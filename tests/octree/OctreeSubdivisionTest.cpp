@@ -33,11 +33,12 @@ std::optional<Hermite> planeTest(const VoxelGrid& g, const Vec3d& n, double d, s
 }
 
 // Cuts with the octree: active links first, then subdivision; returns the stats. `asked`
-// collects every link the subdivision handed to the link test; `openedCount`, if given, receives
-// how many level-1 cubes were split.
+// collects every link the subdivision handed to the link test; `openedCount` and `openedOut`,
+// if given, receive how many level-1 cubes were split and their origins.
 SubdivisionStats cutWithOctree(VoxelGrid& g, VoxelOctree& oct, const Vec3d& n, double d,
                                std::vector<std::uint64_t>& asked,
-                               std::size_t* openedCount = nullptr) {
+                               std::size_t* openedCount = nullptr,
+                               std::vector<Index3>* openedOut = nullptr) {
   std::vector<LinkCut> cuts;
   for (std::uint32_t v : oct.activeVoxels)
     for (int a = 0; a < 3; ++a)
@@ -60,6 +61,7 @@ SubdivisionStats cutWithOctree(VoxelGrid& g, VoxelOctree& oct, const Vec3d& n, d
   // activation: all 27 voxels and 54 links active.
   const std::vector<Index3> opened = oct.openedCubes;
   if (openedCount != nullptr) *openedCount = opened.size();
+  if (openedOut != nullptr) *openedOut = opened;
   for (const Index3& o : opened) EXPECT_EQ(oct.cellCube[g.index(o)], -1);
   activateNewCubeFrames(oct, g);
   EXPECT_TRUE(oct.openedCubes.empty());
@@ -156,13 +158,56 @@ TEST(OctreeSubdivision, PlanarCutsEqualTheBaselineLinkForLink) {
       ASSERT_EQ(g.hermite().sortedLinks(), base.hermite().sortedLinks());
       expectOctreeConsistent(g, oct);
       expectActiveTablesConsistent(g, oct);
-      // A link is handed to the link test at most twice (a face two cubes share in part is
-      // resolved by both), and far fewer links than the grid holds are asked about.
+      // A link is handed to the link test at most twice (a centre-line link lies in two
+      // mid-planes), and far fewer links than the grid holds are asked about.
       std::sort(asked.begin(), asked.end());
       for (std::size_t i = 2; i < asked.size(); ++i) ASSERT_FALSE(asked[i] == asked[i - 2]) << asked[i];
       EXPECT_LT(asked.size(), g.voxelCount() / 4);
       EXPECT_GE(s.testedLinks, asked.size());
     }
+  }
+}
+
+// A plane across the y axis crosses only links along y. In a level-1 cube it splits, the
+// subdivision tests the centre links along y (both mid-planes holding them, across x and z,
+// have cuts on their border) and not those along x or z (the mid-plane across y has none); the
+// cuts still equal a test of every link.
+TEST(OctreeSubdivision, LevelOneCubesTestOnlyTheCentreLinksACutCanCross) {
+  const VoxelGrid rest = model("liver", 64);
+  const double h = rest.voxelSize();
+  for (const double offset : {12.37, 20.5, 27.81}) {
+    const Vec3d n(0.0, 1.0, 0.0);
+    const double d = rest.origin().y() + offset * h;
+    VoxelGrid base = rest;
+    cutWithPlane(base, {n, d});
+    VoxelGrid g = rest;
+    VoxelOctree oct = buildVoxelOctree(g, OctreeParams::uniform(g.materialNames().size(), 4, 0));
+    std::vector<std::uint64_t> asked;
+    std::vector<Index3> opened;
+    cutWithOctree(g, oct, n, d, asked, nullptr, &opened);
+    ASSERT_FALSE(opened.empty());
+    std::sort(asked.begin(), asked.end());
+    const auto wasAsked = [&](const Index3& p, int a) {
+      return std::binary_search(asked.begin(), asked.end(), VoxelGrid::linkId(g.index(p), a));
+    };
+    std::size_t alongY = 0;
+    for (const Index3& o : opened) {
+      const Index3 c{o.x + 1, o.y + 1, o.z + 1};
+      for (int a = 0; a < 3; ++a) {
+        Index3 below = c;
+        --below[a];
+        const bool centreAsked = wasAsked(below, a) || wasAsked(c, a);
+        if (a != 1) {
+          EXPECT_FALSE(centreAsked) << "offset " << offset << " cube " << o.x << "," << o.y << "," << o.z;
+        } else {
+          alongY += centreAsked ? 1 : 0;
+        }
+      }
+    }
+    EXPECT_GT(alongY, 0u);
+    for (std::size_t v = 0; v < g.voxelCount(); ++v)
+      for (int a = 0; a < 3; ++a) ASSERT_EQ(g.connected(v, a), base.connected(v, a)) << offset;
+    ASSERT_EQ(g.hermite().sortedLinks(), base.hermite().sortedLinks());
   }
 }
 

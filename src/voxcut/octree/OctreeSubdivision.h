@@ -8,11 +8,15 @@
 /// as without the octree. On each face and mid-plane the blade's trace is followed from the
 /// cut links on its border, unit cell by unit cell (a cell's untested links are tested, the
 /// cells across its cut links come next): the tests grow with the length of the trace, a
-/// few per link it crosses, not with the area. Squares of 2 x 2 cells and level-1 cubes test
-/// their few inside links directly. The bunny's single-frame cut tests 8,996 links and cuts
-/// 2,199 of them (bisecting each face into squares tested 14,930). Beyond the paper: where the
-/// sweep's boundary lies inside the model, the cubes it reaches into are split too and their
-/// traces seeded along it (SweepBoundary), so the cut stays exact there as well.
+/// few per link it crosses, not with the area. Squares of 2 x 2 cells test their 4 inside
+/// links directly, level-1 cubes the pairs of centre links whose two mid-planes have a cut on
+/// their border. A face is traced once: by the first of two affected cubes of the same size
+/// that share it, by the larger of two that share part of it. The bunny's single-frame cut
+/// tests 5,934 links and cuts 2,199 of them (8,996 when level-1 cubes tested all 6 centre
+/// links and both cubes traced a face shared in part; bisecting each face into squares tested
+/// 14,930). Beyond the paper: where the sweep's boundary lies inside the model, the cubes it
+/// reaches into are split too and their traces seeded along it (SweepBoundary), so the cut
+/// stays exact there as well.
 
 #include <functional>
 #include <optional>
