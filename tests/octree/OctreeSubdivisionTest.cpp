@@ -33,11 +33,10 @@ std::optional<Hermite> planeTest(const VoxelGrid& g, const Vec3d& n, double d, s
 }
 
 // Cuts with the octree: active links first, then subdivision; returns the stats. `asked`
-// collects every link the subdivision handed to the link test; `openedCount` and `openedOut`,
-// if given, receive how many level-1 cubes were split and their origins.
+// collects every link the subdivision handed to the link test; `openedOut`, if given, receives
+// the origins of the level-1 cubes that were split.
 SubdivisionStats cutWithOctree(VoxelGrid& g, VoxelOctree& oct, const Vec3d& n, double d,
                                std::vector<std::uint64_t>& asked,
-                               std::size_t* openedCount = nullptr,
                                std::vector<Index3>* openedOut = nullptr) {
   std::vector<LinkCut> cuts;
   for (std::uint32_t v : oct.activeVoxels)
@@ -60,7 +59,6 @@ SubdivisionStats cutWithOctree(VoxelGrid& g, VoxelOctree& oct, const Vec3d& n, d
   // Split level-1 cubes are listed (their cells no longer covered) and opened with the frame
   // activation: all 27 voxels and 54 links active.
   const std::vector<Index3> opened = oct.openedCubes;
-  if (openedCount != nullptr) *openedCount = opened.size();
   if (openedOut != nullptr) *openedOut = opened;
   for (const Index3& o : opened) EXPECT_EQ(oct.cellCube[g.index(o)], -1);
   activateNewCubeFrames(oct, g);
@@ -148,10 +146,10 @@ TEST(OctreeSubdivision, PlanarCutsEqualTheBaselineLinkForLink) {
       VoxelOctree oct = buildVoxelOctree(g, OctreeParams::uniform(g.materialNames().size(), 4, 0));
       const std::size_t before = oct.activeVoxels.size();
       std::vector<std::uint64_t> asked;
-      std::size_t opened = 0;
+      std::vector<Index3> opened;
       const SubdivisionStats s = cutWithOctree(g, oct, n, d, asked, &opened);
       EXPECT_GT(s.rounds, 0);
-      EXPECT_GT(opened, 0u);
+      EXPECT_GT(opened.size(), 0u);
       EXPECT_GT(oct.activeVoxels.size(), before);
       for (std::size_t v = 0; v < g.voxelCount(); ++v)
         for (int a = 0; a < 3; ++a) ASSERT_EQ(g.connected(v, a), base.connected(v, a)) << name << " " << trial;
@@ -184,7 +182,7 @@ TEST(OctreeSubdivision, LevelOneCubesTestOnlyTheCentreLinksACutCanCross) {
     VoxelOctree oct = buildVoxelOctree(g, OctreeParams::uniform(g.materialNames().size(), 4, 0));
     std::vector<std::uint64_t> asked;
     std::vector<Index3> opened;
-    cutWithOctree(g, oct, n, d, asked, nullptr, &opened);
+    cutWithOctree(g, oct, n, d, asked, &opened);
     ASSERT_FALSE(opened.empty());
     std::sort(asked.begin(), asked.end());
     const auto wasAsked = [&](const Index3& p, int a) {

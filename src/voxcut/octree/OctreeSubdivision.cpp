@@ -156,12 +156,7 @@ struct Worker {
       };
     };
     cells.clear();
-    for (int i = 0; i < m; ++i) {
-      if (!linkConnected(grid, voxelAt(i, 0), u)) cells.push_back({i, 0});
-      if (!linkConnected(grid, voxelAt(i, m), u)) cells.push_back({i, m - 1});
-      if (!linkConnected(grid, voxelAt(0, i), w)) cells.push_back({0, i});
-      if (!linkConnected(grid, voxelAt(m, i), w)) cells.push_back({m - 1, i});
-    }
+    forEachBorderCut(o, f, m, [&](int i, int j) { cells.push_back({i, j}); });
     if (points != nullptr)
       for (const Vec3d& q : *points) {
         if (std::abs(q[f] - o[f]) > 1.0) continue;
@@ -211,19 +206,33 @@ struct Worker {
     }
   }
 
-  // Whether a link on the border of the mid-plane across axis f of the level-1 cube at o is
-  // cut: the 8 links of the cube's faces that lie in that plane, 4 along each of the other
-  // axes u and w (the cube's edges are not in it).
-  bool midPlaneBorderCut(const Index3& o, int f) const {
+  // Calls cell(i, j) for each cut link on the border of the square of side m at o in the plane
+  // normal to f, spanned by u = (f+1)%3 and w = (f+2)%3, with the square's unit cell (i, j) that
+  // the link borders.
+  template <class Cell>
+  void forEachBorderCut(const Index3& o, int f, int m, Cell&& cell) const {
     const int u = (f + 1) % 3, w = (f + 2) % 3;
+    const std::size_t base = grid.index(o), su = grid.stride(u), sw = grid.stride(w);
+    const auto voxelAt = [&](int i, int j) {
+      return base + static_cast<std::size_t>(i) * su + static_cast<std::size_t>(j) * sw;
+    };
+    for (int i = 0; i < m; ++i) {
+      if (!linkConnected(grid, voxelAt(i, 0), u)) cell(i, 0);
+      if (!linkConnected(grid, voxelAt(i, m), u)) cell(i, m - 1);
+      if (!linkConnected(grid, voxelAt(0, i), w)) cell(0, i);
+      if (!linkConnected(grid, voxelAt(m, i), w)) cell(m - 1, i);
+    }
+  }
+
+  // Whether a link on the border of the mid-plane across axis f of the level-1 cube at o is
+  // cut: the 8 links of the cube's faces that lie in that plane (the cube's edges are not in
+  // it).
+  bool midPlaneBorderCut(const Index3& o, int f) const {
     Index3 q = o;
     ++q[f];
-    const std::size_t base = grid.index(q), su = grid.stride(u), sw = grid.stride(w);
-    for (std::size_t i = 0; i < 2; ++i)
-      if (!linkConnected(grid, base + i * su, u) || !linkConnected(grid, base + i * su + 2 * sw, u) ||
-          !linkConnected(grid, base + i * sw, w) || !linkConnected(grid, base + 2 * su + i * sw, w))
-        return true;
-    return false;
+    bool cut = false;
+    forEachBorderCut(q, f, 2, [&](int, int) { cut = true; });
+    return cut;
   }
 
   // The sweep's boundary points (rest voxel coordinates) within `margin` of the box of side
@@ -264,11 +273,10 @@ struct Worker {
       // frame's cutting does not read them (the subdivision reads the link bits only).
       const Index3 c{cube.o.x + 1, cube.o.y + 1, cube.o.z + 1};
       const std::size_t centre = grid.index(c);
-      std::array<bool, 3> crossed{};  // per mid-plane (by its normal axis): a cut on its border
-      for (int f = 0; f < 3; ++f) crossed[static_cast<std::size_t>(f)] = !points.empty() || midPlaneBorderCut(cube.o, f);
+      bool crossed[3];  // per mid-plane (by its normal axis): a cut on its border
+      for (int f = 0; f < 3; ++f) crossed[f] = !points.empty() || midPlaneBorderCut(cube.o, f);
       for (int a = 0; a < 3; ++a) {
-        if (!crossed[static_cast<std::size_t>((a + 1) % 3)] || !crossed[static_cast<std::size_t>((a + 2) % 3)])
-          continue;
+        if (!crossed[(a + 1) % 3] || !crossed[(a + 2) % 3]) continue;
         testLink(centre - grid.stride(a), a, [&] {
           Index3 p = c;
           --p[a];
@@ -431,10 +439,6 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     // This round's cuts go straight to the end of `cuts` (from roundBegin on).
     const std::size_t roundBegin = cuts.size();
     auto mergeCounts = [&] {
-      std::size_t n = cuts.size();
-      for (const auto& w : workers)
-        if (w) n += w->cuts.size();
-      cuts.reserve(std::max(n, 2 * cuts.size()));
       for (const auto& w : workers) {
         if (!w) continue;
         stats.testedLinks += w->tested;
@@ -536,8 +540,13 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
       std::size_t leafCount = 0;
       for (const auto& w : workers)
         if (w) leafCount += w->leaves.size();
-      oct.cubes.reserve(oct.cubes.size() + leafCount);
-      oct.newCubes.reserve(oct.newCubes.size() + leafCount);
+      // Room for them at once, growing geometrically (a scene splits cubes frame after frame).
+      const auto makeRoom = [leafCount](auto& v) {
+        if (v.size() + leafCount > v.capacity())
+          v.reserve(std::max(v.size() + leafCount, 2 * v.capacity()));
+      };
+      makeRoom(oct.cubes);
+      makeRoom(oct.newCubes);
       for (const auto& w : workers)
         if (w)
           for (const auto& [i, b, e] : w->leafRanges) {

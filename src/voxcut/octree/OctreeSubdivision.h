@@ -63,7 +63,8 @@ class VoxelPositionCache {
     Vec3d position = Vec3d::Zero();
   };
   static std::size_t slot(std::size_t v) {
-    return static_cast<std::size_t>((static_cast<std::uint64_t>(v) * 0x9E3779B97F4A7C15ULL) >> (64 - kBits));
+    return static_cast<std::size_t>((static_cast<std::uint64_t>(v) * 0x9E3779B97F4A7C15ULL) >>
+                                    (64 - kBits));
   }
   std::vector<Slot> slots_ = std::vector<Slot>(std::size_t{1} << kBits);
 };

@@ -63,8 +63,8 @@ struct VoxelOctree {
   std::uint64_t activeStamp = 0;
   /// Voxels whose state bits were raised since the last rebuildActiveVoxels, each once (in
   /// any order; see markChanged): activateNewCubeFrames lists those of the new frames and
-  /// the opened level-1 cubes. Code that changes `state` otherwise must clear activeIndex, which makes the
-  /// next rebuild a full one.
+  /// the opened level-1 cubes. Code that changes `state` otherwise must clear activeIndex,
+  /// which makes the next rebuild a full one.
   std::vector<std::uint32_t> changed;
 
   /// Scratch of rebuildActiveVoxels (kept to reuse their memory).
@@ -128,9 +128,10 @@ void compactCubes(VoxelOctree& octree, bool threaded = true);
 /// last call (the protective frame of new cubes), and of the level-0 cubes of the level-1 cubes
 /// split since then (openedCubes: every voxel and link of such a cube).
 void activateNewCubeFrames(VoxelOctree& octree, const VoxelGrid& grid, bool threaded = true);
-/// Deferred update (c): rebuilds the sorted active voxel index array, its link table (activeNext) and the index map (activeIndex): from the
-/// previous tables and the `changed` voxels when those tables exist (work in proportion to
-/// the active voxels, not the grid), else from a scan of the grid. Clears `changed`.
+/// Deferred update (c): rebuilds the sorted active voxel index array, its link table
+/// (activeNext) and the index map (activeIndex): from the previous tables and the `changed`
+/// voxels when those tables exist (work in proportion to the active voxels, not the grid), else
+/// from a scan of the grid. Clears `changed`.
 void rebuildActiveVoxels(VoxelOctree& octree, bool threaded = true);
 
 /// Activates the links on the 12 edges of a cube and their voxels (atomic: callable from
