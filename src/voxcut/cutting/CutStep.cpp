@@ -11,22 +11,23 @@ namespace voxcut {
 namespace {
 
 // F^T n up to a positive factor, with F = dx/dX of element e at trilinear coordinates xi (rest
-// frame): column i of F is the derivative along xi_i, the bilinear blend (over the other two
-// coordinates) of the element's four edge vectors along axis i, divided by the element's size
-// (a positive factor, left out: the caller normalises).
+// frame). Column i of F is the derivative along xi_i of the trilinear map (divided by the
+// element's size, a positive factor left out: the caller normalises), so component i of F^T n
+// is that derivative of the scalar field x . n: the corners are projected on n first (8 dot
+// products), then differentiated like any trilinear field.
 Vec3d pullBackNormal(const DeformationOctree& d, std::uint32_t e, const Vec3d& xi, const Vec3d& n) {
   const auto& nodes = d.element(e).nodes;
-  const std::vector<Vec3d>& x = d.positions();
-  Vec3d out;
-  for (int i = 0; i < 3; ++i) {
-    const int u = i == 0 ? 1 : 0, w = i == 2 ? 1 : 2;  // the other two axes, u < w
-    const int bi = 1 << i, bu = 1 << u, bw = 1 << w;
-    auto edge = [&](int c) { return Vec3d(x[nodes[c | bi]] - x[nodes[c]]); };
-    const Vec3d lo = edge(0) + xi[u] * (edge(bu) - edge(0));
-    const Vec3d hi = edge(bw) + xi[u] * (edge(bu | bw) - edge(bw));
-    out[i] = (lo + xi[w] * (hi - lo)).dot(n);
-  }
-  return out;
+  const Vec3d* x = d.positions().data();
+  double q[8];
+  for (int c = 0; c < 8; ++c) q[c] = x[nodes[c]].dot(n);
+  // d/dxi_0: the x-differences blended over (xi_1, xi_2), and likewise for the other axes.
+  const auto lerp = [](double a, double b, double t) { return a + t * (b - a); };
+  const double dx00 = q[1] - q[0], dx10 = q[3] - q[2], dx01 = q[5] - q[4], dx11 = q[7] - q[6];
+  const double dy00 = q[2] - q[0], dy10 = q[3] - q[1], dy01 = q[6] - q[4], dy11 = q[7] - q[5];
+  const double dz00 = q[4] - q[0], dz10 = q[5] - q[1], dz01 = q[6] - q[2], dz11 = q[7] - q[3];
+  return {lerp(lerp(dx00, dx10, xi[1]), lerp(dx01, dx11, xi[1]), xi[2]),
+          lerp(lerp(dy00, dy10, xi[0]), lerp(dy01, dy11, xi[0]), xi[2]),
+          lerp(lerp(dz00, dz10, xi[0]), lerp(dz01, dz11, xi[0]), xi[1])};
 }
 
 // Blade test of link (v, a) whose ends are now at pv and pw; Hermite data in the rest frame.
