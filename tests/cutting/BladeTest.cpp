@@ -360,5 +360,63 @@ TEST(Blade, RandomRealCrossingsMatchLongDouble) {
   EXPECT_GT(compared, 90000);
 }
 
+// Flat sweeps (a blade moving within its own plane): intersectSegment takes a shorter way there
+// (BladeSweep::flat). On small integer coordinates, where segments run through corners, edges,
+// the diagonal and the plane itself, it must decide exactly as the triangles tested one by one.
+TEST(Blade, FlatSweepsDecideAsTheTrianglesOneByOne) {
+  std::mt19937_64 rng(23);
+  std::uniform_int_distribution<int> small(-3, 3);
+  int flat = 0, hits = 0, onPlane = 0;
+  for (int n = 0; n < 4000; ++n) {
+    // A blade in a coordinate plane or a plane through a lattice diagonal, moving within it;
+    // every fourth one goes to any pose in the plane (turning, or folding the sweep over its
+    // diagonal: then not flat).
+    const int kind = n % 3;
+    const auto inPlane = [&] {
+      Vec3d p(0.5 * small(rng), 0.5 * small(rng), 0.5 * small(rng));
+      if (kind == 0) p.z() = 0.5;                       // z = 1/2
+      if (kind == 1) p.y() = 0.0;                       // y = 0
+      if (kind == 2) p.z() = p.x();                     // x = z
+      return p;
+    };
+    const BladePose from{inPlane(), inPlane()};
+    BladePose to{from.a + Vec3d(1, 0, 1), from.b + Vec3d(1, 0, 1)};
+    if (kind == 1) to = {from.a + Vec3d(0.5, 0, 1.5), from.b + Vec3d(0.5, 0, 1.5)};
+    if (n % 4 == 0) to = {inPlane(), inPlane()};
+    const BladeSweep s = makeSweep(from, to, static_cast<std::uint64_t>(n));
+    if (!s.flat) continue;
+    ++flat;
+    for (int m = 0; m < 200; ++m) {
+      const Vec3d p0(0.5 * small(rng), 0.5 * small(rng), 0.5 * small(rng));
+      const Vec3d p1(0.5 * small(rng), 0.5 * small(rng), 0.5 * small(rng));
+      if (p0 == p1) continue;
+      const std::uint64_t id0 = static_cast<std::uint64_t>(m), id1 = 1000 + static_cast<std::uint64_t>(m);
+      const auto h0 = intersectTriangle(s, 0, p0, p1, id0, id1);
+      const auto h1 = intersectTriangle(s, 1, p0, p1, id0, id1);
+      const auto hit = intersectSegment(s, p0, p1, id0, id1);
+      ASSERT_EQ(hit.has_value(), h0.has_value() || h1.has_value()) << n << " " << m;
+      if (!hit) continue;
+      ++hits;
+      const int expected = h0 && (!h1 || h0->t <= h1->t) ? 0 : 1;
+      EXPECT_EQ(hit->triangle, expected) << n << " " << m;
+      onPlane += (std::abs(s.normals[0].dot(p0 - s.corners[0])) < 1e-12 ||
+                  std::abs(s.normals[0].dot(p1 - s.corners[0])) < 1e-12) ? 1 : 0;
+    }
+  }
+  EXPECT_GT(flat, 2000);
+  EXPECT_GT(hits, 20000);
+  EXPECT_GT(onPlane, 1000);  // ends on the plane: the general way
+}
+
+TEST(Blade, FlatOnlyWhenCoplanarWithTheTrianglesOnEitherSideOfTheDiagonal) {
+  const BladePose a{{0, 0, 0}, {1, 0, 0}};
+  EXPECT_TRUE(makeSweep(a, {{0, 0, 1}, {1, 0, 1}}, 0).flat);       // pushed within its plane
+  EXPECT_TRUE(makeSweep(a, {{0.5, 0, 1}, {2, 0, 2}}, 0).flat);     // turning within it
+  EXPECT_FALSE(makeSweep(a, {{0, 0, 1}, {1, 0.5, 1}}, 0).flat);    // twisted
+  EXPECT_FALSE(makeSweep(a, {{0, 0, 0}, {1, 0, 0}}, 0).flat);      // not moving
+  // c1 and c3 on the same side of the diagonal c0-c2: the triangles overlap.
+  EXPECT_FALSE(makeSweep(a, {{1.5, 0, 0.25}, {2, 0, 1}}, 0).flat);
+}
+
 }  // namespace
 }  // namespace voxcut

@@ -76,6 +76,20 @@ BladeSweep makeSweep(const BladePose& from, const BladePose& to,
     }
     n[t] = triangleNormal(p, q, r);
   }
+  // Flat: the four corners coplanar, and the triangles (c0, c1, c2), (c0, c2, c3) turning the
+  // same way in a coordinate plane where the first does not degenerate (a projection that
+  // keeps the plane's orientations, up to one sign for both), so c1 and c3 lie on either side
+  // of the diagonal c0-c2. All exact.
+  if (orient3d(s.corners[0], s.corners[1], s.corners[2], s.corners[3]) == 0) {
+    for (int i = 0; i < 3 && !s.flat; ++i) {
+      const int j = (i + 1) % 3;
+      const auto proj = [&](int k) { return Vec2d(s.corners[k][i], s.corners[k][j]); };
+      const int first = orient2d(proj(0), proj(1), proj(2));
+      if (first == 0) continue;
+      s.flat = orient2d(proj(0), proj(2), proj(3)) == first;
+      break;
+    }
+  }
   const Vec3d blade = (from.b - from.a).squaredNorm() > 0.0 ? Vec3d(from.b - from.a)
                                                              : Vec3d(to.b - to.a);
   for (int t = 0; t < 2; ++t) {
@@ -149,6 +163,47 @@ SweepHit hitOf(const BladeSweep& sweep, int triangle, const Vec3d& p0, const Vec
   return hit;
 }
 
+constexpr int kNoTriangle = -1;
+constexpr int kUndecided = -2;
+
+/// crosses() for both triangles of a flat sweep at once: the triangle the segment crosses,
+/// kNoTriangle, or kUndecided when an end lies exactly on the plane (the symbolic side of
+/// such an end may differ between the triangles: the caller tests them one by one). With both
+/// ends strictly off the common plane, both triangles see the same sides; the segment's line
+/// meets the plane at one point, on one side of the diagonal's line or on it, where the
+/// diagonal's orientation (perturbed if need be) is the same test, with opposite signs, for
+/// both triangles, so it lies in at most one of them. The tests made are those crosses()
+/// makes, each once (the diagonal's is shared), so the decisions are the same.
+int flatCrossing(const BladeSweep& sweep, const Vec3d& p0, const Vec3d& p1, std::uint64_t id0,
+                 std::uint64_t id1, bool near0, bool near1) {
+  const auto& c = sweep.corners;
+  const auto strictSide = [&](const Vec3d& p) {
+    const int f = sweep.planes[0].filter(p);
+    return f != 0 ? f : orient3d(c[0], c[1], c[2], p);
+  };
+  const int s0 = strictSide(p0);
+  if (s0 == 0) return kUndecided;
+  const int s1 = strictSide(p1);
+  if (s1 == 0) return kUndecided;
+  if (s0 == s1) return kNoTriangle;
+  const Vec3d u = p1 - p0;
+  const std::array<Vec3d, 4> w{c[0] - p0, c[1] - p0, c[2] - p0, c[3] - p0};
+  const SymbolicKey k0{kVoxelGroup, id0};
+  const SymbolicKey k1{kVoxelGroup, id1};
+  // orient3d(p0, p1, c_x, c_y), as crosses() computes it.
+  const auto edge = [&](int x, int y) {
+    const int f = orient3dFilter(u, w[x], w[y]);
+    return f != 0 ? f
+                  : orient3dSoS(p0, p1, c[x], c[y], k0, k1,
+                                SymbolicKey{kBladeGroup, sweep.ids[x]},
+                                SymbolicKey{kBladeGroup, sweep.ids[y]});
+  };
+  const int diagonal = edge(2, 0);  // triangle 0's edge c2 -> c0; triangle 1 runs c0 -> c2
+  if (near0 && edge(0, 1) == diagonal && edge(1, 2) == diagonal) return 0;
+  if (near1 && edge(2, 3) == -diagonal && edge(3, 0) == -diagonal) return 1;
+  return kNoTriangle;
+}
+
 }  // namespace
 
 std::optional<SweepHit> intersectTriangle(const BladeSweep& sweep, int triangle,
@@ -166,8 +221,16 @@ std::optional<SweepHit> intersectTriangle(const BladeSweep& sweep, int triangle,
 std::optional<SweepHit> intersectSegment(const BladeSweep& sweep, const Vec3d& p0,
                                          const Vec3d& p1, std::uint64_t id0, std::uint64_t id1) {
   VOXCUT_ASSERT(id0 != id1, "intersectSegment: the segment's ends need distinct ids");
-  const bool c0 = !boxesSeparated(sweep.bounds[0], p0, p1) && crosses(sweep, 0, p0, p1, id0, id1);
-  const bool c1 = !boxesSeparated(sweep.bounds[1], p0, p1) && crosses(sweep, 1, p0, p1, id0, id1);
+  const bool near0 = !boxesSeparated(sweep.bounds[0], p0, p1);
+  const bool near1 = !boxesSeparated(sweep.bounds[1], p0, p1);
+  if (!near0 && !near1) return std::nullopt;
+  if (sweep.flat) {
+    const int t = flatCrossing(sweep, p0, p1, id0, id1, near0, near1);
+    if (t == kNoTriangle) return std::nullopt;
+    if (t != kUndecided) return hitOf(sweep, t, p0, p1);
+  }
+  const bool c0 = near0 && crosses(sweep, 0, p0, p1, id0, id1);
+  const bool c1 = near1 && crosses(sweep, 1, p0, p1, id0, id1);
   if (!c0 && !c1) return std::nullopt;
   if (c0 != c1) return hitOf(sweep, c0 ? 0 : 1, p0, p1);
   const SweepHit h0 = hitOf(sweep, 0, p0, p1), h1 = hitOf(sweep, 1, p0, p1);

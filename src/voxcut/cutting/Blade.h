@@ -57,6 +57,11 @@ struct BladeSweep {
   /// Side (+1/-1) on which a voxel lying exactly on a triangle's plane counts (the same for
   /// every such voxel, see the tie-breaking rule); 0 for a degenerate triangle.
   std::array<int, 2> onPlaneSide{};
+  /// Whether the two triangles lie exactly in one plane, on either side of their shared
+  /// diagonal (a blade moving within its own plane, when rounding keeps the corners coplanar):
+  /// a segment whose ends lie strictly on either side of that plane crosses at most one of
+  /// them, which intersectSegment decides with fewer tests (the same decisions).
+  bool flat = false;
   std::uint64_t frame = 0;               ///< frame index of the start pose
 };
 
