@@ -53,10 +53,12 @@ struct Worker {
   std::vector<LinkCut> cuts;   // links this worker cut
   std::vector<CutLink> found;  // the same, as positions, for the sub-cube test
   std::size_t tested = 0;
-  // The faces phase's cuts on faces not shared whole with a cube split in the same round: only
-  // these can border a cube outside the round (next round's newly cut links).
+  // The faces phase's cuts on faces not shared whole with a cube split in the same round that
+  // border a cube outside the round (`listed`: the round's slot of each cube, -1 if none):
+  // next round's newly cut links.
   std::vector<std::uint64_t> outward;
   bool recordOutward = false;
+  const std::vector<std::int32_t>* listed = nullptr;
   std::vector<Index3> opened;   // level-1 cubes split (listed in octree.openedCubes)
   std::vector<CubeBox> leaves;  // sub-cubes kept, cube after cube
   std::vector<std::array<std::uint32_t, 3>> leafRanges;  // (cube slot, begin, end) in leaves
@@ -121,8 +123,20 @@ struct Worker {
     const std::optional<Hermite> hit = hooks.testLink(v, a, positions);
     if (!hit || !disconnect(grid, v, a)) return;
     cuts.push_back({VoxelGrid::linkId(v, a), *hit, std::nullopt});
-    found.push_back({p(), a});
-    if (recordOutward) outward.push_back(VoxelGrid::linkId(v, a));
+    const Index3 q = p();
+    found.push_back({q, a});
+    if (recordOutward && bordersUnlistedCube(q, a)) outward.push_back(VoxelGrid::linkId(v, a));
+  }
+
+  // Whether a cube outside this round's list borders link (q, a). The cubes of the list are
+  // split this round around every cut on their faces, so their sub-cubes have none on theirs.
+  [[nodiscard]] bool bordersUnlistedCube(const Index3& q, int a) const {
+    bool unlisted = false;
+    forEachCellAroundLink(grid.dims(), q, a, [&](const Index3& cell) {
+      const std::int32_t cube = oct.cellCube[grid.index(cell)];
+      unlisted = unlisted || (cube >= 0 && (*listed)[static_cast<std::size_t>(cube)] < 0);
+    });
+    return unlisted;
   }
 
   // The links inside the square of side m at `o` in the plane normal to f, spanned by axes
@@ -455,6 +469,7 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
       const OctreeCube& oc = oct.cubes[list[i]];
       const int s = 1 << oc.level;
       const bool seeded = isReached(i);
+      w.listed = &slot;
       if (seeded) Worker::pointsNear(boundary.points, oc.origin, s, 2.0, w.cubePoints);
       for (int f = 0; f < 6; ++f) {
         Index3 o = oc.origin;
@@ -488,7 +503,9 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     stats.facesMs += phase.ms();
     // Only these can touch cubes outside this round's list: the split cuts links strictly
     // inside the cubes it splits, and splits every sub-cube they border; a face shared whole by
-    // two cubes of this round is split on both sides.
+    // two cubes of this round is split on both sides, and of the other faces' cuts only those
+    // with an unlisted cube around them are kept (the single-frame cuts keep none: no second
+    // round).
     pending.clear();
     for (const auto& w : workers)
       if (w) pending.insert(pending.end(), w->outward.begin(), w->outward.end());
