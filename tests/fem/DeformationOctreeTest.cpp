@@ -212,23 +212,11 @@ TEST(DeformationOctree, VoxelPositionListMatchesSingleAndThreads) {
   ASSERT_EQ(one.size(), voxels.size());
   EXPECT_EQ(one, two);
   for (std::size_t i = 0; i < voxels.size(); ++i) ASSERT_EQ(one[i], oc.voxelPosition(voxels[i]));
-  std::vector<Vec3d> three;
   std::vector<std::uint32_t> owners;
-  oc.updateVoxelPositions(voxels, three, owners);
-  EXPECT_EQ(three, one);
-  ASSERT_EQ(owners.size(), voxels.size());
-  for (std::size_t i = 0; i < voxels.size(); ++i) ASSERT_EQ(owners[i], oc.owner(voxels[i]));
-  // With an element mask: the masked elements' voxels positioned bitwise the same, the others
-  // left as they were, every owner written.
+  for (const std::uint32_t v : voxels) owners.push_back(oc.owner(v));
   std::vector<std::uint8_t> mask(oc.elementCount(), 0);
   for (std::size_t e = 0; e < mask.size(); e += 3) mask[e] = 1;
   const Vec3d untouched(-7.0, 8.0, -9.0);
-  std::vector<Vec3d> four(voxels.size(), untouched);
-  std::vector<std::uint32_t> maskedOwners;
-  oc.updateVoxelPositions(voxels, four, maskedOwners, mask);
-  EXPECT_EQ(maskedOwners, owners);
-  for (std::size_t i = 0; i < voxels.size(); ++i)
-    ASSERT_EQ(four[i], mask[owners[i]] ? one[i] : untouched) << "voxel " << voxels[i];
   // From embeddings gathered in list order: the same positions (with a mask: only there),
   // and the mask per entry.
   std::vector<VoxelEmbedding> embeddings;

@@ -109,6 +109,24 @@ inline bool boxesSeparated(const Eigen::AlignedBox3d& box, const Vec3d& p0, cons
          std::max(p0.z(), p1.z()) < box.min().z() || std::min(p0.z(), p1.z()) > box.max().z();
 }
 
+/// The exact sign of orient3d(a, b, c, p) for triangle `triangle` = (a, b, c) of the sweep,
+/// filter first: 0 when p lies exactly on its plane.
+int planeSide(const BladeSweep& sweep, int triangle, const Vec3d& p) {
+  const int f = sweep.planes[triangle].filter(p);
+  if (f != 0) return f;
+  const auto& idx = BladeSweep::kTriangles[triangle];
+  return orient3d(sweep.corners[idx[0]], sweep.corners[idx[1]], sweep.corners[idx[2]], p);
+}
+
+/// orient3d(p0, p1, x, y), never 0 (perturbed where it is), from u = p1 - p0, wx = x - p0 and
+/// wy = y - p0, filter first.
+int lineEdgeSide(const Vec3d& p0, const Vec3d& p1, const Vec3d& x, const Vec3d& y,
+                 const Vec3d& u, const Vec3d& wx, const Vec3d& wy, const SymbolicKey& k0,
+                 const SymbolicKey& k1, const SymbolicKey& kx, const SymbolicKey& ky) {
+  const int f = orient3dFilter(u, wx, wy);
+  return f != 0 ? f : orient3dSoS(p0, p1, x, y, k0, k1, kx, ky);
+}
+
 /// The exact crossing decision of intersectTriangle (see Blade.h), filters first, for
 /// segments whose box meets the triangle's.
 bool crosses(const BladeSweep& sweep, int triangle, const Vec3d& p0, const Vec3d& p1,
@@ -125,9 +143,7 @@ bool crosses(const BladeSweep& sweep, int triangle, const Vec3d& p0, const Vec3d
 
   // The ends must lie strictly on opposite sides of the plane (never 0 under perturbation).
   const auto side = [&](const Vec3d& p, const SymbolicKey& kp) {
-    const int f = sweep.planes[triangle].filter(p);
-    if (f != 0) return f;
-    const int exact = orient3d(a, b, c, p);
+    const int exact = planeSide(sweep, triangle, p);
     if (exact != 0) return exact;
     const int onPlane = sweep.onPlaneSide[triangle];
     return onPlane != 0 ? onPlane : orient3dSoS(a, b, c, p, ka, kb, kc, kp);
@@ -139,8 +155,7 @@ bool crosses(const BladeSweep& sweep, int triangle, const Vec3d& p0, const Vec3d
   const Vec3d u = p1 - p0, wa = a - p0, wb = b - p0, wc = c - p0;
   const auto edge = [&](const Vec3d& wx, const Vec3d& wy, const Vec3d& x, const Vec3d& y,
                         const SymbolicKey& kx, const SymbolicKey& ky) {
-    const int f = orient3dFilter(u, wx, wy);
-    return f != 0 ? f : orient3dSoS(p0, p1, x, y, k0, k1, kx, ky);
+    return lineEdgeSide(p0, p1, x, y, u, wx, wy, k0, k1, kx, ky);
   };
   const int e0 = edge(wa, wb, a, b, ka, kb);
   return edge(wb, wc, b, c, kb, kc) == e0 && edge(wc, wa, c, a, kc, ka) == e0;
@@ -177,13 +192,9 @@ constexpr int kUndecided = -2;
 int flatCrossing(const BladeSweep& sweep, const Vec3d& p0, const Vec3d& p1, std::uint64_t id0,
                  std::uint64_t id1, bool near0, bool near1) {
   const auto& c = sweep.corners;
-  const auto strictSide = [&](const Vec3d& p) {
-    const int f = sweep.planes[0].filter(p);
-    return f != 0 ? f : orient3d(c[0], c[1], c[2], p);
-  };
-  const int s0 = strictSide(p0);
+  const int s0 = planeSide(sweep, 0, p0);
   if (s0 == 0) return kUndecided;
-  const int s1 = strictSide(p1);
+  const int s1 = planeSide(sweep, 0, p1);
   if (s1 == 0) return kUndecided;
   if (s0 == s1) return kNoTriangle;
   const Vec3d u = p1 - p0;
@@ -192,11 +203,9 @@ int flatCrossing(const BladeSweep& sweep, const Vec3d& p0, const Vec3d& p1, std:
   const SymbolicKey k1{kVoxelGroup, id1};
   // orient3d(p0, p1, c_x, c_y), as crosses() computes it.
   const auto edge = [&](int x, int y) {
-    const int f = orient3dFilter(u, w[x], w[y]);
-    return f != 0 ? f
-                  : orient3dSoS(p0, p1, c[x], c[y], k0, k1,
-                                SymbolicKey{kBladeGroup, sweep.ids[x]},
-                                SymbolicKey{kBladeGroup, sweep.ids[y]});
+    return lineEdgeSide(p0, p1, c[x], c[y], u, w[x], w[y], k0, k1,
+                        SymbolicKey{kBladeGroup, sweep.ids[x]},
+                        SymbolicKey{kBladeGroup, sweep.ids[y]});
   };
   const int diagonal = edge(2, 0);  // triangle 0's edge c2 -> c0; triangle 1 runs c0 -> c2
   if (near0 && edge(0, 1) == diagonal && edge(1, 2) == diagonal) return 0;

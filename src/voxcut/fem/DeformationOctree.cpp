@@ -231,17 +231,6 @@ void DeformationOctree::forEachVoxelPosition(std::size_t n, EmbeddingAt&& embedd
       threaded);
 }
 
-template <class Want, class Write, class Skip>
-void DeformationOctree::forEachListedVoxelPosition(const std::vector<std::uint32_t>& voxels,
-                                                   bool threaded, Want&& want, Write&& write,
-                                                   Skip&& skip) const {
-  // The voxels may be sparse (the octree's active ones): their embeddings are fetched ahead.
-  forEachVoxelPosition(
-      voxels.size(), [&](std::size_t i) -> const VoxelEmbedding& { return embedding_[voxels[i]]; },
-      [&](std::size_t i) { __builtin_prefetch(&embedding_[voxels[i]]); }, threaded,
-      std::forward<Want>(want), std::forward<Write>(write), std::forward<Skip>(skip));
-}
-
 void DeformationOctree::gatherEmbeddings(const std::vector<std::uint32_t>& voxels,
                                          std::vector<VoxelEmbedding>& out, bool threaded) const {
   out.resize(voxels.size());
@@ -278,40 +267,13 @@ void DeformationOctree::updateVoxelPositions(const std::vector<VoxelEmbedding>& 
 void DeformationOctree::updateVoxelPositions(const std::vector<std::uint32_t>& voxels,
                                              std::vector<Vec3d>& out, bool threaded) const {
   out.resize(voxels.size());
-  forEachListedVoxelPosition(
-      voxels, threaded, [](std::uint32_t) { return true; },
+  // The voxels may be sparse (the octree's active ones): their embeddings are fetched ahead.
+  forEachVoxelPosition(
+      voxels.size(), [&](std::size_t i) -> const VoxelEmbedding& { return embedding_[voxels[i]]; },
+      [&](std::size_t i) { __builtin_prefetch(&embedding_[voxels[i]]); }, threaded,
+      [](std::uint32_t) { return true; },
       [&](std::size_t i, std::uint32_t, const Vec3d& p) { out[i] = p; },
       [](std::size_t, std::uint32_t) {});
-}
-
-void DeformationOctree::updateVoxelPositions(const std::vector<std::uint32_t>& voxels,
-                                             std::vector<Vec3d>& out, std::vector<std::uint32_t>& owners,
-                                             bool threaded) const {
-  out.resize(voxels.size());
-  owners.resize(voxels.size());
-  forEachListedVoxelPosition(
-      voxels, threaded, [](std::uint32_t) { return true; },
-      [&](std::size_t i, std::uint32_t e, const Vec3d& p) {
-        out[i] = p;
-        owners[i] = e;
-      },
-      [](std::size_t, std::uint32_t) {});
-}
-
-void DeformationOctree::updateVoxelPositions(const std::vector<std::uint32_t>& voxels,
-                                             std::vector<Vec3d>& out, std::vector<std::uint32_t>& owners,
-                                             const std::vector<std::uint8_t>& elementMask,
-                                             bool threaded) const {
-  VOXCUT_ASSERT(elementMask.size() == elements_.size(), "one mask byte per element");
-  out.resize(voxels.size());
-  owners.resize(voxels.size());
-  forEachListedVoxelPosition(
-      voxels, threaded, [&](std::uint32_t e) { return elementMask[e] != 0; },
-      [&](std::size_t i, std::uint32_t e, const Vec3d& p) {
-        out[i] = p;
-        owners[i] = e;
-      },
-      [&](std::size_t i, std::uint32_t e) { owners[i] = e; });
 }
 
 Eigen::AlignedBox3d DeformationOctree::elementBounds(std::uint32_t e) const {

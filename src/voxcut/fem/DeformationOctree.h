@@ -158,15 +158,6 @@ class DeformationOctree {
   /// listed voxel must be occupied. Deterministic for any thread count.
   void updateVoxelPositions(const std::vector<std::uint32_t>& voxels, std::vector<Vec3d>& out,
                             bool threaded = true) const;
-  /// As updateVoxelPositions, and owners[i] = owner(voxels[i]) (resized too).
-  void updateVoxelPositions(const std::vector<std::uint32_t>& voxels, std::vector<Vec3d>& out,
-                            std::vector<std::uint32_t>& owners, bool threaded = true) const;
-  /// As the version with owners, but out[i] is written only where elementMask[owners[i]] is
-  /// non-zero (one byte per element); the other entries of `out` keep what they held (for a
-  /// blade that reaches a few elements only). `out` and `owners` are resized.
-  void updateVoxelPositions(const std::vector<std::uint32_t>& voxels, std::vector<Vec3d>& out,
-                            std::vector<std::uint32_t>& owners,
-                            const std::vector<std::uint8_t>& elementMask, bool threaded = true) const;
 
   /// Stamp of the voxels' embeddings (see core/Stamp.h): a new one whenever a topology edit
   /// may change any voxel's embedding or the elements. Embeddings copied elsewhere (say, in
@@ -233,17 +224,12 @@ class DeformationOctree {
   friend class TopologyEditor;
   void rebuildCubeIndex();
 
-  /// Calls write(i, element, position) for each listed voxel whose element passes
+  /// Over n entries, entry i having the embedding embeddingAt(i) (fetched ahead through
+  /// prefetch(i)): calls write(i, element, position) for each entry whose element passes
   /// want(element), and skip(i, element) for the others.
-  /// (Over n entries, entry i having the embedding embeddingAt(i), fetched ahead through
-  /// prefetch(i).)
   template <class EmbeddingAt, class Prefetch, class Want, class Write, class Skip>
   void forEachVoxelPosition(std::size_t n, EmbeddingAt&& embeddingAt, Prefetch&& prefetch,
                             bool threaded, Want&& want, Write&& write, Skip&& skip) const;
-  /// forEachVoxelPosition over the listed grid voxels.
-  template <class Want, class Write, class Skip>
-  void forEachListedVoxelPosition(const std::vector<std::uint32_t>& voxels, bool threaded,
-                                  Want&& want, Write&& write, Skip&& skip) const;
 
   Index3 dims_;
   Vec3d origin_ = Vec3d::Zero();

@@ -29,6 +29,17 @@ bool disconnect(VoxelGrid& grid, std::size_t v, int a) {
               .fetch_and(static_cast<std::uint8_t>(~bit), std::memory_order_relaxed) &
           bit) != 0;
 }
+// Calls fn(cube) for the cube (level >= 1) over each of the unit cells that link (voxel, a)
+// borders, where one is stored.
+template <class Fn>
+void forEachCubeAroundLink(const VoxelOctree& oct, const VoxelGrid& grid, const Index3& voxel,
+                           int a, Fn&& fn) {
+  forEachCellAroundLink(grid.dims(), voxel, a, [&](const Index3& cell) {
+    const std::int32_t cube = oct.cellCube[grid.index(cell)];
+    if (cube >= 0) fn(static_cast<std::size_t>(cube));
+  });
+}
+
 struct CubeBox {
   Index3 o;
   int level;
@@ -132,10 +143,8 @@ struct Worker {
   // split this round around every cut on their faces, so their sub-cubes have none on theirs.
   [[nodiscard]] bool bordersUnlistedCube(const Index3& q, int a) const {
     bool unlisted = false;
-    forEachCellAroundLink(grid.dims(), q, a, [&](const Index3& cell) {
-      const std::int32_t cube = oct.cellCube[grid.index(cell)];
-      unlisted = unlisted || (cube >= 0 && (*listed)[static_cast<std::size_t>(cube)] < 0);
-    });
+    forEachCubeAroundLink(oct, grid, q, a,
+                          [&](std::size_t cube) { unlisted = unlisted || (*listed)[cube] < 0; });
     return unlisted;
   }
 
@@ -380,10 +389,7 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
   // The cubes (level >= 1) around link (v, a), through the 4 unit cells it borders.
   auto cubesAround = [&](std::uint64_t link, auto&& fn) {
     const std::size_t v = static_cast<std::size_t>(link / 3);
-    forEachCellAroundLink(d, grid.coord(v), static_cast<int>(link % 3), [&](const Index3& cell) {
-      const std::int32_t cube = oct.cellCube[grid.index(cell)];
-      if (cube >= 0) fn(static_cast<std::size_t>(cube));
-    });
+    forEachCubeAroundLink(oct, grid, grid.coord(v), static_cast<int>(link % 3), fn);
   };
   auto prefetchCellsAround = [&](std::uint64_t link) {
     const auto v = static_cast<std::size_t>(link / 3);
