@@ -304,13 +304,19 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
     r.testedLinks += tested[c];
     r.cuts.insert(r.cuts.end(), found[c].begin(), found[c].end());
   }
-  for (std::size_t k = 0; k < r.cuts.size(); ++k) {
-    if (k + HermiteMap::kPrefetchAhead < r.cuts.size())
-      g.hermite().prefetch(r.cuts[k + HermiteMap::kPrefetchAhead].link);
-    LinkCut& lc = r.cuts[k];
+  // The crossed links are disconnected and get their Hermite data; with the octree, the
+  // subdivision sets the data beside its first phase (it reads only the link bits), so the
+  // data is not set here when it runs.
+  for (const LinkCut& lc : r.cuts)
     g.setConnected(static_cast<std::size_t>(lc.link / 3), static_cast<int>(lc.link % 3), false);
-    lc.previous = g.hermite().exchange(lc.link, lc.hermite);
-  }
+  const auto storeHermite = [&] {
+    for (std::size_t k = 0; k < r.cuts.size(); ++k) {
+      if (k + HermiteMap::kPrefetchAhead < r.cuts.size())
+        g.hermite().prefetch(r.cuts[k + HermiteMap::kPrefetchAhead].link);
+      r.cuts[k].previous = g.hermite().exchange(r.cuts[k].link, r.cuts[k].hermite);
+    }
+  };
+  if (!b.useOctree) storeHermite();
   r.intersectionMs = cullMs + timer.ms();
 
   // Octree subdivision around the new cuts and in the cubes that the sweeps' boundary reaches
@@ -322,7 +328,7 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
     hooks.testLink = [&](std::size_t v, int a, VoxelPositionCache& cache) {
       return testCubeLink(b, sweeps, v, a, cache);
     };
-    r.subdivision = subdivideCutCubes(b.activity, g, r.cuts, hooks, threaded, boundary);
+    r.subdivision = subdivideCutCubes(b.activity, g, r.cuts, hooks, threaded, boundary, false);
     r.subdivisionMs = timer.ms();
     timer.restart();
     activateNewCubeFrames(b.activity, g, threaded);

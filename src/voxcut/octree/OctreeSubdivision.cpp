@@ -6,6 +6,7 @@
 #include <cmath>
 #include <memory>
 #include <mutex>
+#include <type_traits>
 
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
@@ -15,20 +16,11 @@ namespace voxcut {
 namespace {
 
 // Link bits are shared by neighbouring cubes' tasks (one byte holds a voxel's three links), so
-// in this phase every access goes through atomics.
-bool linkConnected(const VoxelGrid& grid, std::size_t v, int a) {
-  auto* bytes = const_cast<VoxelGrid&>(grid).linkData();
-  return (std::atomic_ref<std::uint8_t>(bytes[v]).load(std::memory_order_relaxed) >> a) & 1u;
-}
-// Disconnects link (v, a); says whether this call did (it was connected): two tasks that
-// resolve a face they share may both find one of its links crossed, and only the one that
-// disconnects it records the cut.
-bool disconnect(VoxelGrid& grid, std::size_t v, int a) {
-  const auto bit = static_cast<std::uint8_t>(1u << a);
-  return (std::atomic_ref<std::uint8_t>(grid.linkData()[v])
-              .fetch_and(static_cast<std::uint8_t>(~bit), std::memory_order_relaxed) &
-          bit) != 0;
-}
+// in this phase every access goes through atomics. disconnect says whether this call did (the
+// link was connected): two tasks that resolve a face they share may both find one of its links
+// crossed, and only the one that disconnects it records the cut.
+bool linkConnected(const VoxelGrid& grid, std::size_t v, int a) { return grid.connectedShared(v, a); }
+bool disconnect(VoxelGrid& grid, std::size_t v, int a) { return grid.disconnectShared(v, a); }
 // Calls fn(cube) for the cube (level >= 1) over each of the unit cells that link (voxel, a)
 // borders, where one is stored.
 template <class Fn>
@@ -51,43 +43,52 @@ struct CutLink {
   int a;
 };
 
-// A thread's worker: its findings in the current phase, and scratch memory reused by every
-// task it runs in one subdivision run (the position cache stays valid for the whole run:
-// positions do not change during it). One task runs on a thread at a time, so a worker is
-// never used by two at once; whatever the workers find is merged in an order-independent
-// way (each cut is recorded by one task, counts are summed, leaves kept per cube).
-struct Worker {
-  VoxelOctree& oct;
-  VoxelGrid& grid;
-  const SubdivisionHooks& hooks;
+// The memory of a worker (below) that outlives a subdivision run: its vectors keep their
+// capacity from one run (frame) to the next, so a frame does not grow them from nothing.
+struct WorkerMemory {
   // Findings, cleared at the start of each phase.
-  std::vector<LinkCut> cuts;   // links this worker cut
+  std::vector<LinkCut> cuts;   // links this worker cut this round
   std::vector<CutLink> found;  // the same, as positions, for the sub-cube test
-  std::size_t tested = 0;
   // The faces phase's cuts on faces not shared whole with a cube split in the same round that
-  // border a cube outside the round (`listed`: the round's slot of each cube, -1 if none):
-  // next round's newly cut links.
+  // border a cube outside the round: next round's newly cut links.
   std::vector<std::uint64_t> outward;
-  bool recordOutward = false;
-  const std::vector<std::int32_t>* listed = nullptr;
   std::vector<Index3> opened;   // level-1 cubes split (listed in octree.openedCubes)
   std::vector<CubeBox> leaves;  // sub-cubes kept, cube after cube
   std::vector<std::array<std::uint32_t, 3>> leafRanges;  // (cube slot, begin, end) in leaves
   // Scratch.
   std::vector<std::pair<int, int>> cells;       // traceSquare: cells to visit
   std::vector<std::uint8_t> visited, examined;  // traceSquare: per cell, per link
-  VoxelPositionCache positions;                 // for the link test
   // Per level: the cut links on each of the 8 sub-cubes' boundaries, and the boundary points
   // near the sub-cube being split (reused between calls).
   std::vector<std::array<std::vector<CutLink>, 8>> childCuts;
   std::vector<std::vector<Vec3d>> childPoints;
   std::vector<Vec3d> cubePoints;  // the boundary points near the cube a task resolves
   std::vector<CutLink> boundary;  // the cut links on a split cube's faces
+};
 
-  Worker(VoxelOctree& o, VoxelGrid& g, const SubdivisionHooks& h) : oct(o), grid(g), hooks(h) {}
+// A thread's worker: its findings in the current phase, and scratch memory reused by every
+// task it runs in one subdivision run (the position cache stays valid for the whole run:
+// positions do not change during it). One task runs on a thread at a time, so a worker is
+// never used by two at once; whatever the workers find is merged in an order-independent
+// way (each cut is recorded by one task, counts are summed, leaves kept per cube).
+struct Worker : WorkerMemory {
+  VoxelOctree& oct;
+  VoxelGrid& grid;
+  const SubdivisionHooks& hooks;
+  std::size_t tested = 0;
+  bool recordOutward = false;
+  // The round's slot of each cube, -1 if none (for the outward cuts).
+  const std::vector<std::int32_t>* listed = nullptr;
+  VoxelPositionCache positions;  // for the link test
 
-  void clearFindings() {
+  Worker(VoxelOctree& o, VoxelGrid& g, const SubdivisionHooks& h, WorkerMemory&& memory)
+      : WorkerMemory(std::move(memory)), oct(o), grid(g), hooks(h) {
     cuts.clear();
+    clearFindings();
+  }
+
+  // Per phase; the cuts are kept for the whole round (stored at its end).
+  void clearFindings() {
     outward.clear();
     found.clear();
     tested = 0;
@@ -380,11 +381,12 @@ struct Worker {
 
 SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vector<LinkCut>& cuts,
                                    const SubdivisionHooks& hooks, bool threaded,
-                                   const SweepBoundary& boundary) {
+                                   const SweepBoundary& boundary, bool givenStored) {
   SubdivisionStats stats;
   const Index3 d = grid.dims();
   std::vector<std::uint64_t> pending;
   for (const LinkCut& c : cuts) pending.push_back(c.link);
+  std::size_t givenUnstored = givenStored ? 0 : cuts.size();  // cuts[0, this) lack their data
   std::vector<std::uint8_t> affected;
   // The cubes (level >= 1) around link (v, a), through the 4 unit cells it borders.
   auto cubesAround = [&](std::uint64_t link, auto&& fn) {
@@ -401,6 +403,12 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     if (v >= sw) __builtin_prefetch(cells + (v - sw));
     if (v >= su + sw) __builtin_prefetch(cells + (v - su - sw));
   };
+  // The workers' memory is kept per calling thread between runs (a run's workers are indexed
+  // by the thread slots of its parallel loops, unique among the threads running at once).
+  // (A reference: in a task on another thread, the name would mean that thread's own.)
+  thread_local std::vector<WorkerMemory> keptHere;
+  std::vector<WorkerMemory>& kept = keptHere;
+  kept.resize(std::max(kept.size(), static_cast<std::size_t>(threadSlots())));
   std::vector<std::unique_ptr<Worker>> workers(static_cast<std::size_t>(threadSlots()));
   // Cubes the sweep's boundary reaches into (the first round only; see the header).
   std::vector<std::uint8_t> reached(oct.cubes.size(), 0);
@@ -408,12 +416,24 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     VOXCUT_ASSERT(c < oct.cubes.size() && !oct.cubes[c].deleted, "boundary: not a live cube");
     reached[c] = 1;
   }
+  VOXCUT_ASSERT(oct.unmappedCubes.empty(),
+                "the deferred updates of the last subdivision have not run (activateNewCubeFrames)");
+  // Hermite data for cuts[b, e) (each cut was recorded once, by the task that disconnected it;
+  // the table's contents do not depend on the order). Runs beside other work that does not
+  // touch the table.
+  const auto storeCuts = [&](std::size_t b, std::size_t e) {
+    HermiteMap& hermite = grid.hermite();
+    for (std::size_t k = b; k < e; ++k) {
+      if (k + HermiteMap::kPrefetchAhead < e) hermite.prefetch(cuts[k + HermiteMap::kPrefetchAhead].link);
+      cuts[k].previous = hermite.exchange(cuts[k].link, cuts[k].hermite);
+    }
+  };
   Timer total;
   while (!pending.empty() || (stats.rounds == 0 && !boundary.cubes.empty())) {
     // (1) mark the cubes around the newly cut links (raising a raised flag is harmless).
     affected.assign(oct.cubes.size(), 0);
     parallelFor(
-        0, pending.size(), 8192,
+        0, pending.size(), 256,
         [&](std::size_t b, std::size_t e) {
           for (std::size_t i = b; i < e; ++i) {
             // The cube map is large and the links scattered: fetch the cells of a link ahead.
@@ -443,29 +463,41 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     if (firstRound) stats.boundaryCubes = boundary.cubes.size();
 
     // Runs fn(worker, i) for every listed cube i, in parallel, each task with its thread's
-    // worker, whose findings start empty.
-    auto forEachCube = [&](auto&& fn) {
+    // worker, whose findings of the phase start empty; `side`, if set, runs as one more task
+    // (first: the calling thread starts it while the others take cubes).
+    auto forEachCube = [&](auto&& fn, auto&& side) {
       for (auto& w : workers)
         if (w) w->clearFindings();
+      constexpr bool hasSide = !std::is_same_v<std::decay_t<decltype(side)>, std::nullptr_t>;
+      const std::size_t first = hasSide ? 1 : 0;
       parallelFor(
-          0, list.size(), 1,
+          0, list.size() + first, 1,
           [&](std::size_t b, std::size_t e) {
+            if constexpr (hasSide)
+              if (b == 0) {
+                side();
+                ++b;
+              }
+            if (b == e) return;
             std::unique_ptr<Worker>& w = workers[static_cast<std::size_t>(threadSlot())];
-            if (!w) w = std::make_unique<Worker>(oct, grid, hooks);
-            for (std::size_t i = b; i < e; ++i) fn(*w, i);
+            if (!w)
+              w = std::make_unique<Worker>(oct, grid, hooks,
+                                           std::move(kept[static_cast<std::size_t>(threadSlot())]));
+            for (std::size_t i = b; i < e; ++i) fn(*w, i - first);
           },
           threaded);
     };
-    // This round's cuts go straight to the end of `cuts` (from roundBegin on).
+    // After each phase: the tested links counted, the cuts appended to `cuts` (from roundBegin
+    // on, the faces phase's up to facesEnd).
     const std::size_t roundBegin = cuts.size();
-    auto mergeCounts = [&] {
+    auto mergeFindings = [&] {
       for (const auto& w : workers) {
         if (!w) continue;
         stats.testedLinks += w->tested;
         cuts.insert(cuts.end(), w->cuts.begin(), w->cuts.end());
+        w->cuts.clear();
       }
     };
-
     // (2)-(4) the faces of the affected cubes: their voxels are positioned and their links
     // tested along the blade's trace (a face that two affected cubes of different sizes share
     // in part is resolved by both, with the same results). A face's border is the cube's
@@ -504,8 +536,12 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
         w.traceSquare(o, f / 2, s, seeded ? &w.cubePoints : nullptr);
         w.recordOutward = false;
       }
+    }, [&] {
+      storeCuts(0, givenUnstored);
+      givenUnstored = 0;
     });
-    mergeCounts();
+    mergeFindings();
+    const std::size_t facesEnd = cuts.size();
     stats.facesMs += phase.ms();
     // Only these can touch cubes outside this round's list: the split cuts links strictly
     // inside the cubes it splits, and splits every sub-cube they border; a face shared whole by
@@ -516,7 +552,8 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     for (const auto& w : workers)
       if (w) pending.insert(pending.end(), w->outward.begin(), w->outward.end());
 
-    // (5) split every affected cube, in parallel: their insides are disjoint.
+    // (5) split every affected cube, in parallel: their insides are disjoint; the faces
+    // phase's cuts get their Hermite data meanwhile (the split does not read it).
     phase.restart();
     forEachCube([&](Worker& w, std::size_t i) {
       const OctreeCube& oc = oct.cubes[list[i]];
@@ -534,31 +571,22 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
       w.split(cube, w.boundary, w.cubePoints, cutOnBoundary);
       w.leafRanges.push_back(
           {static_cast<std::uint32_t>(i), begin, static_cast<std::uint32_t>(w.leaves.size())});
-    });
+    }, [&] { storeCuts(roundBegin, facesEnd); });
     stats.splitMs += phase.ms();
-    mergeCounts();
-    // Two independent jobs, run side by side (each writes its own data):
-    //  - this round's cuts get their Hermite data (each was recorded once, by the task that
-    //    disconnected it; the table's contents do not depend on the order);
-    //  - the split level-1 cubes listed for the frame activation (oct.openedCubes, in any
-    //    order), and the sub-cubes stored (oct.cubes, oct.newCubes, oct.cellCube).
-    const auto storeCuts = [&] {
-      HermiteMap& hermite = grid.hermite();
-      for (std::size_t k = roundBegin; k < cuts.size(); ++k) {
-        if (k + HermiteMap::kPrefetchAhead < cuts.size())
-          hermite.prefetch(cuts[k + HermiteMap::kPrefetchAhead].link);
-        cuts[k].previous = hermite.exchange(cuts[k].link, cuts[k].hermite);
-      }
-    };
-    const auto openCubes = [&] {
+    mergeFindings();
+    // The split level-1 cubes are listed for the frame activation (oct.openedCubes, in any
+    // order) and the sub-cubes stored (oct.cubes, oct.newCubes): the first sub-cube takes the
+    // split cube's slot, the others are appended in list order.
+    //
+    // The cube map (oct.cellCube): a split cube's leaves and its opened level-1 cubes tile it (a
+    // split ends in one or the other) and its cells hold its id, which its first leaf keeps; so
+    // only the other leaves' cells (their new ids) and the opened cubes' cells (none) change.
+    // Only the next round's marking reads the map in this frame: with none to follow, the
+    // writes are left to deferred update (b) (activateNewCubeFrames), like the frames.
+    const bool mapNow = !pending.empty();
+    const auto storeSubCubes = [&] {
       for (const auto& w : workers)
         if (w) oct.openedCubes.insert(oct.openedCubes.end(), w->opened.begin(), w->opened.end());
-    };
-    // The first sub-cube takes the split cube's slot, the others are appended in list order.
-    // The cells: a split cube's leaves and its opened level-1 cubes tile it (a split ends in
-    // one or the other), its cells hold its id, which its first leaf keeps; so only the other
-    // leaves' cells (their new ids) and the opened cubes' cells (none) are written.
-    const auto storeSubCubes = [&] {
       std::vector<const CubeBox*> leafBegin(list.size()), leafEnd(list.size());
       std::size_t leafCount = 0;
       for (const auto& w : workers)
@@ -570,6 +598,7 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
       };
       makeRoom(oct.cubes);
       makeRoom(oct.newCubes);
+      if (!mapNow) makeRoom(oct.unmappedCubes);
       for (const auto& w : workers)
         if (w)
           for (const auto& [i, b, e] : w->leafRanges) {
@@ -587,31 +616,37 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
           if (leaf == leafBegin[i]) {
             oct.cubes[id] = sub;
             oct.newCubes.push_back(id);
-          } else {
-            oct.setCubeCells(leaf->o, leaf->level, static_cast<std::int32_t>(oct.cubes.size()));
-            oct.newCubes.push_back(static_cast<std::uint32_t>(oct.cubes.size()));
-            oct.cubes.push_back(sub);
+            continue;
           }
+          const auto newId = static_cast<std::uint32_t>(oct.cubes.size());
+          if (mapNow)
+            oct.setCubeCells(leaf->o, leaf->level, static_cast<std::int32_t>(newId));
+          else
+            oct.unmappedCubes.push_back(newId);
+          oct.newCubes.push_back(newId);
+          oct.cubes.push_back(sub);
         }
       }
-      for (const auto& w : workers)
-        if (w)
-          for (const Index3& o : w->opened) oct.setCubeCells(o, 1, -1);
+      if (mapNow)
+        for (const auto& w : workers)
+          if (w)
+            for (const Index3& o : w->opened) oct.setCubeCells(o, 1, -1);
     };
+    // The split's cuts get their Hermite data beside the sub-cubes' store.
     parallelFor(
         0, 2, 1,
         [&](std::size_t b, std::size_t e) {
           for (std::size_t job = b; job < e; ++job) {
-            if (job == 0) storeCuts();
-            if (job == 1) {
-              openCubes();
-              storeSubCubes();
-            }
+            if (job == 0) storeCuts(facesEnd, cuts.size());
+            if (job == 1) storeSubCubes();
           }
         },
         threaded);
     stats.cutLinks += cuts.size() - roundBegin;
   }
+  if (givenUnstored > 0) storeCuts(0, givenUnstored);  // no round ran
+  for (std::size_t k = 0; k < workers.size(); ++k)
+    if (workers[k]) kept[k] = std::move(static_cast<WorkerMemory&>(*workers[k]));
   stats.bookkeepingMs = total.ms() - stats.facesMs - stats.splitMs;
   return stats;
 }

@@ -100,7 +100,8 @@ struct SubdivisionStats {
 };
 
 /// Runs sub-steps (1)-(6). `cuts` holds the links cut so far this frame (already disconnected
-/// in `grid`, Hermite data set); the links this step cuts are disconnected, given Hermite data
+/// in `grid`; their Hermite data set, unless `givenStored` is false: then this step sets it,
+/// beside its first phase, which does not read it); the links this step cuts are disconnected, given Hermite data
 /// and appended, each once, in an order that depends on the schedule (sort them for a
 /// deterministic order). Cubes are split in place: a split cube keeps its slot for its first
 /// remaining sub-cube, new sub-cubes are appended and listed in octree.newCubes, level-1
@@ -118,6 +119,6 @@ struct SubdivisionStats {
 /// cells where the boundary's points cross the plane.
 SubdivisionStats subdivideCutCubes(VoxelOctree& octree, VoxelGrid& grid, std::vector<LinkCut>& cuts,
                                    const SubdivisionHooks& hooks, bool threaded = true,
-                                   const SweepBoundary& boundary = {});
+                                   const SweepBoundary& boundary = {}, bool givenStored = true);
 
 }  // namespace voxcut

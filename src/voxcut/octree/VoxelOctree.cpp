@@ -278,6 +278,7 @@ VoxelOctree allActive(const VoxelGrid& grid, bool threaded) {
 }
 
 void compactCubes(VoxelOctree& oct, bool threaded) {
+  VOXCUT_ASSERT(oct.unmappedCubes.empty(), "compaction before the cube map is written (activateNewCubeFrames)");
   // Each deleted slot, in ascending order, takes the last live cube; only the moved cubes'
   // cells are rewritten (a deleted cube covers no cell any more).
   const std::size_t before = oct.cubes.size();
@@ -312,6 +313,16 @@ void compactCubes(VoxelOctree& oct, bool threaded) {
 }
 
 void activateNewCubeFrames(VoxelOctree& oct, const VoxelGrid& grid, bool threaded) {
+  // The cube map: these cubes do not overlap one another.
+  parallelFor(0, oct.unmappedCubes.size(), 16, [&](std::size_t c0, std::size_t c1) {
+    for (std::size_t i = c0; i < c1; ++i) {
+      const std::uint32_t id = oct.unmappedCubes[i];
+      const OctreeCube& cube = oct.cubes[id];
+      VOXCUT_ASSERT(!cube.deleted, "an unmapped cube was split before its cells were written");
+      oct.setCubeCells(cube.origin, cube.level, static_cast<std::int32_t>(id));
+    }
+  }, threaded);
+  oct.unmappedCubes.clear();
   parallelFor(0, oct.newCubes.size(), 16, [&](std::size_t c0, std::size_t c1) {
     for (std::size_t i = c0; i < c1; ++i) {
       const OctreeCube& cube = oct.cubes[oct.newCubes[i]];
@@ -329,9 +340,10 @@ void activateNewCubeFrames(VoxelOctree& oct, const VoxelGrid& grid, bool threade
     });
   }
   oct.newCubes.clear();
-  // Split level-1 cubes: all 27 voxels and their 54 links inside the cube. Serial: the cubes
-  // share face voxels, and markChanged lists each voxel once.
-  for (const Index3& o : oct.openedCubes)
+  // Split level-1 cubes: all 27 voxels and their 54 links inside the cube, and no cube over
+  // their cells. Serial: the cubes share face voxels, and markChanged lists each voxel once.
+  for (const Index3& o : oct.openedCubes) {
+    oct.setCubeCells(o, 1, -1);
     for (int z = 0; z <= 2; ++z)
       for (int y = 0; y <= 2; ++y)
         for (int x = 0; x <= 2; ++x) {
@@ -343,6 +355,7 @@ void activateNewCubeFrames(VoxelOctree& oct, const VoxelGrid& grid, bool threade
           oct.state[v] |= bits;
           oct.markChanged(v);
         }
+  }
   oct.openedCubes.clear();
 }
 

@@ -82,6 +82,9 @@ struct VoxelOctree {
     changed.push_back(static_cast<std::uint32_t>(v));
   }
   std::vector<std::uint32_t> newCubes;      ///< cubes created since the last frame activation
+  /// Of those, the ones whose cells in cellCube still hold the id of the cube they were split
+  /// from (the subdivision's last round leaves the map to activateNewCubeFrames).
+  std::vector<std::uint32_t> unmappedCubes;
   /// Origins of the level-1 cubes split since the last frame activation (paper (5-3)): their
   /// 8 level-0 sub-cubes are not stored, and activateNewCubeFrames activates their frames,
   /// which are all 27 voxels and 54 links of the cube.
@@ -126,7 +129,8 @@ int forEachCellAroundLink(const Index3& dims, const Index3& voxel, int a, Fn&& f
 void compactCubes(VoxelOctree& octree, bool threaded = true);
 /// Deferred update (b): activates the voxels and links on the edges of cubes created since the
 /// last call (the protective frame of new cubes), and of the level-0 cubes of the level-1 cubes
-/// split since then (openedCubes: every voxel and link of such a cube).
+/// split since then (openedCubes: every voxel and link of such a cube). Brings the cube map
+/// up to date with them: the cells of unmappedCubes get their ids, those of openedCubes none.
 void activateNewCubeFrames(VoxelOctree& octree, const VoxelGrid& grid, bool threaded = true);
 /// Deferred update (c): rebuilds the sorted active voxel index array, its link table
 /// (activeNext) and the index map (activeIndex): from the previous tables and the `changed`

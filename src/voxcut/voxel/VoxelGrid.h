@@ -8,6 +8,7 @@
 /// voxel v's centre is at origin + voxelSize * (x, y, z) in the rest frame (metres).
 /// Memory: 2 bytes per voxel plus 24 bytes per Hermite entry (about 0.7 of the load factor).
 
+#include <atomic>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -80,6 +81,21 @@ class VoxelGrid {
       links_[v] = static_cast<std::uint8_t>(links_[v] | (1u << a));
     else
       links_[v] = static_cast<std::uint8_t>(links_[v] & ~(1u << a));
+  }
+  /// connected() and a disconnection for threads that share the link bytes (one byte holds a
+  /// voxel's three links, so neighbouring links share it): atomic, relaxed. The disconnection
+  /// says whether this call found the link connected.
+  [[nodiscard]] bool connectedShared(std::size_t v, int a) const {
+    return (std::atomic_ref<std::uint8_t>(const_cast<std::uint8_t&>(links_[v]))
+                .load(std::memory_order_relaxed) >>
+            a) &
+           1u;
+  }
+  bool disconnectShared(std::size_t v, int a) {
+    const auto bit = static_cast<std::uint8_t>(1u << a);
+    return (std::atomic_ref<std::uint8_t>(links_[v]).fetch_and(static_cast<std::uint8_t>(~bit),
+                                                               std::memory_order_relaxed) &
+            bit) != 0;
   }
   /// Whether voxel v has a neighbour along +a inside the grid.
   [[nodiscard]] bool hasLink(std::size_t v, int a) const { return coord(v)[a] + 1 < dims_[a]; }
