@@ -56,13 +56,17 @@ SubdivisionStats cutWithOctree(VoxelGrid& g, VoxelOctree& oct, const Vec3d& n, d
     return planeTest(g, n, d, v, a);
   };
   const SubdivisionStats s = subdivideCutCubes(oct, g, cuts, hooks);
-  // Split level-1 cubes are listed (their cells no longer covered) and opened with the frame
-  // activation: all 27 voxels and 54 links active.
+  // Split level-1 cubes are listed and opened with the frame activation: all 27 voxels and
+  // 54 links active, their cells no longer covered (the last round leaves the cube map to
+  // the frame activation).
   const std::vector<Index3> opened = oct.openedCubes;
   if (openedOut != nullptr) *openedOut = opened;
-  for (const Index3& o : opened) EXPECT_EQ(oct.cellCube[g.index(o)], -1);
   activateNewCubeFrames(oct, g);
   EXPECT_TRUE(oct.openedCubes.empty());
+  EXPECT_TRUE(oct.unmappedCubes.empty());
+  for (const Index3& o : opened)
+    for (int k = 0; k < 8; ++k)
+      EXPECT_EQ(oct.cellCube[g.index(o.x + (k & 1), o.y + ((k >> 1) & 1), o.z + (k >> 2))], -1);
   for (const Index3& o : opened)
     for (int z = 0; z <= 2; ++z)
       for (int y = 0; y <= 2; ++y)
@@ -375,6 +379,61 @@ TEST(OctreeSubdivision, SweepInsideACubeIsFoundFromItsBoundary) {
     EXPECT_GT(s.testedLinks, 0u);
     EXPECT_EQ(oct.cubesPerLevel(), before);
   }
+}
+
+// A cut on a face that borders a cube outside the round starts the next round. Here the
+// sweep's boundary reaches into cube A only (SweepBoundary: one point on its +x face), and a
+// plane crosses that face: the seeded trace cuts links on the face A shares with cube B, which
+// has no cut around it and is not listed, so B is split in a second round. The first round
+// writes the cube map at once (the second round's marking reads it), the last leaves it to the
+// frame activation; the octree is consistent after the deferred updates either way.
+TEST(OctreeSubdivision, ACutOnAFaceOfACubeOutsideTheRoundStartsTheNext) {
+  VoxelGrid g = model("bunny", 64);
+  VoxelOctree oct = buildVoxelOctree(g, OctreeParams::uniform(g.materialNames().size(), 4, 0));
+  // A: a cube of level >= 2 with a cube B of its level or above over the cell across its +x
+  // face, at the face's centre.
+  std::uint32_t a = 0;
+  bool found = false;
+  for (std::uint32_t c = 0; c < oct.cubes.size() && !found; ++c) {
+    const OctreeCube& cube = oct.cubes[c];
+    const int s = 1 << cube.level;
+    if (cube.level < 2 || cube.origin.x + s + 1 >= g.dims().x) continue;
+    const std::int32_t other =
+        oct.cellCube[g.index(cube.origin.x + s, cube.origin.y + s / 2, cube.origin.z + s / 2)];
+    if (other < 0 || oct.cubes[static_cast<std::size_t>(other)].level < cube.level) continue;
+    a = c;
+    found = true;
+  }
+  ASSERT_TRUE(found);
+  const OctreeCube A = oct.cubes[a];
+  const int s = 1 << A.level;
+  const int yc = A.origin.y + s / 2;
+  // The plane y = yc + 1/2 (in voxels) crosses every link along y from row yc.
+  const Vec3d n(0, 1, 0);
+  const double d = g.position(g.index(A.origin.x, yc, A.origin.z)).y() + 0.5 * g.voxelSize();
+  SweepBoundary boundary;
+  boundary.cubes = {a};
+  boundary.points = {Vec3d(A.origin.x + s, yc + 0.5, A.origin.z + s / 2 + 0.25)};
+  SubdivisionHooks hooks;
+  hooks.testLink = [&](std::size_t v, int ax, VoxelPositionCache&) { return planeTest(g, n, d, v, ax); };
+  std::vector<LinkCut> cuts;
+  const SubdivisionStats st = subdivideCutCubes(oct, g, cuts, hooks, true, boundary);
+  // A, then B alone: around the cuts on their shared face, A's side holds no cube after the
+  // first round (level-1 cubes opened, or none), which the second round's marking reads from
+  // the cube map.
+  EXPECT_EQ(st.rounds, 2u);
+  EXPECT_EQ(st.affectedCubes, 2u);
+  EXPECT_FALSE(oct.unmappedCubes.empty());  // B's sub-cubes, mapped by the frame activation
+  for (const LinkCut& c : cuts) {
+    ASSERT_FALSE(g.connected(static_cast<std::size_t>(c.link / 3), static_cast<int>(c.link % 3)));
+    ASSERT_NE(g.hermite().find(c.link), nullptr);
+  }
+  activateNewCubeFrames(oct, g);
+  EXPECT_TRUE(oct.unmappedCubes.empty());
+  compactCubes(oct);
+  rebuildActiveVoxels(oct);
+  expectOctreeConsistent(g, oct);
+  expectActiveTablesConsistent(g, oct);
 }
 
 TEST(OctreeSubdivision, NothingHappensWithoutCuts) {
