@@ -270,10 +270,18 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   constexpr std::size_t kChunk = 1024;
   std::vector<std::vector<LinkCut>> found((active.size() + kChunk - 1) / kChunk);
   std::vector<std::size_t> tested(found.size(), 0);
-  parallelFor(0, found.size(), 1, [&](std::size_t c0, std::size_t c1) {
+  // With the octree, the sweeps' boundary (for the subdivision) is found meanwhile, as one
+  // more task, the first: it reads none of what the test writes.
+  SweepBoundary boundary;
+  const std::size_t side = b.useOctree ? 1 : 0;
+  parallelFor(0, found.size() + side, 1, [&](std::size_t j0, std::size_t j1) {
+    if (j0 < side) {
+      boundary = sweepBoundary(b, sweeps);
+      ++j0;
+    }
     std::array<std::uint32_t, 3 * kChunk> candidates;  // entry * 4 + axis
     std::array<std::uint32_t, 3 * kChunk> farEnds;     // the entry across
-    for (std::size_t c = c0; c < c1; ++c) {
+    for (std::size_t c = j0 - side; c < j1 - side; ++c) {
       std::size_t count = 0;
       const std::size_t end = std::min(active.size(), (c + 1) * kChunk);
       for (std::size_t i = c * kChunk; i < end; ++i) {
@@ -320,9 +328,8 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   r.intersectionMs = cullMs + timer.ms();
 
   // Octree subdivision around the new cuts and in the cubes that the sweeps' boundary reaches
-  // into (nothing to subdivide or update without either); finding the boundary is part of it.
+  // into (nothing to subdivide or update without either).
   timer.restart();
-  const SweepBoundary boundary = b.useOctree ? sweepBoundary(b, sweeps) : SweepBoundary{};
   if (b.useOctree && (!r.cuts.empty() || !boundary.cubes.empty())) {
     SubdivisionHooks hooks;
     hooks.testLink = [&](std::size_t v, int a, VoxelPositionCache& cache) {
