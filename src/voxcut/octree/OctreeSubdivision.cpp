@@ -6,7 +6,6 @@
 #include <cmath>
 #include <memory>
 #include <mutex>
-#include <tuple>
 #include <type_traits>
 
 #include "voxcut/core/Error.h"
@@ -449,19 +448,19 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     if (stats.rounds == 0)
       for (const std::uint32_t c : boundary.cubes)
         if (affected[c] == 0) affected[c] = 2;
-    std::vector<std::uint32_t> list;
+    // In space order (z, y, x of the origins, by their voxel index): the parallel loops hand
+    // each thread runs of neighbouring cubes, which share face voxels and links.
+    std::vector<std::pair<std::size_t, std::uint32_t>> order;
     for (std::size_t c = 0; c < affected.size(); ++c)
-      if (affected[c]) list.push_back(static_cast<std::uint32_t>(c));
-    if (list.empty()) break;
-    // In space order (z, y, x of the origins): the parallel loops hand each thread runs of
-    // neighbouring cubes, which share face voxels and links.
-    std::sort(list.begin(), list.end(), [&](std::uint32_t x, std::uint32_t y) {
-      const Index3& p = oct.cubes[x].origin;
-      const Index3& q = oct.cubes[y].origin;
-      return std::tie(p.z, p.y, p.x) < std::tie(q.z, q.y, q.x);
-    });
+      if (affected[c]) order.emplace_back(grid.index(oct.cubes[c].origin), static_cast<std::uint32_t>(c));
+    if (order.empty()) break;
+    std::sort(order.begin(), order.end());
+    std::vector<std::uint32_t> list(order.size());
     std::vector<std::int32_t> slot(oct.cubes.size(), -1);
-    for (std::size_t i = 0; i < list.size(); ++i) slot[list[i]] = static_cast<std::int32_t>(i);
+    for (std::size_t i = 0; i < order.size(); ++i) {
+      list[i] = order[i].second;
+      slot[list[i]] = static_cast<std::int32_t>(i);
+    }
     const bool firstRound = stats.rounds == 0;
     const auto isReached = [&](std::size_t i) { return firstRound && reached[list[i]] != 0; };
     ++stats.rounds;
