@@ -274,6 +274,9 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   // more task, the first: it reads none of what the test writes.
   SweepBoundary boundary;
   const std::size_t side = b.useOctree ? 1 : 0;
+  // With the octree, sub-step (1) of the subdivision for these cuts: each chunk marks the cubes
+  // around its cuts once it has tested its links (their cells fetched as the cuts are found).
+  std::vector<std::uint8_t> cubeMarks(b.useOctree ? b.activity.cubes.size() : 0, 0);
   parallelFor(0, found.size() + side, 1, [&](std::size_t j0, std::size_t j1) {
     if (j0 < side) {
       boundary = sweepBoundary(b, sweeps);
@@ -302,9 +305,13 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
         const std::uint32_t j = farEnds[k];
         ++tested[c];
         if (const auto h = testLink(b, sweeps, v, a, positionOf(i, inMarked[i] != 0),
-                                    positionOf(j, inMarked[j] != 0)))
+                                    positionOf(j, inMarked[j] != 0))) {
           found[c].push_back({VoxelGrid::linkId(v, a), *h, std::nullopt});
+          if (side) prefetchCubesAroundLink(b.activity, g, found[c].back().link);
+        }
       }
+      if (side)
+        for (const LinkCut& lc : found[c]) markCubesAroundLink(b.activity, g, lc.link, cubeMarks);
     }
   }, threaded);
 
@@ -335,7 +342,8 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
     hooks.testLink = [&](std::size_t v, int a, VoxelPositionCache& cache) {
       return testCubeLink(b, sweeps, v, a, cache);
     };
-    r.subdivision = subdivideCutCubes(b.activity, g, r.cuts, hooks, threaded, boundary, false);
+    r.subdivision =
+        subdivideCutCubes(b.activity, g, r.cuts, hooks, threaded, boundary, false, &cubeMarks);
     r.subdivisionMs = timer.ms();
     timer.restart();
     activateNewCubeFrames(b.activity, g, threaded);

@@ -379,30 +379,35 @@ struct Worker : WorkerMemory {
 
 }  // namespace
 
+void markCubesAroundLink(const VoxelOctree& oct, const VoxelGrid& grid, std::uint64_t link,
+                         std::vector<std::uint8_t>& marked) {
+  const auto v = static_cast<std::size_t>(link / 3);
+  forEachCubeAroundLink(oct, grid, grid.coord(v), static_cast<int>(link % 3), [&](std::size_t cube) {
+    std::atomic_ref<std::uint8_t>(marked[cube]).store(1, std::memory_order_relaxed);
+  });
+}
+
+void prefetchCubesAroundLink(const VoxelOctree& oct, const VoxelGrid& grid, std::uint64_t link) {
+  const auto v = static_cast<std::size_t>(link / 3);
+  const int a = static_cast<int>(link % 3);
+  const std::size_t su = grid.stride((a + 1) % 3), sw = grid.stride((a + 2) % 3);
+  const std::int32_t* cells = oct.cellCube.data();
+  __builtin_prefetch(cells + v);
+  if (v >= su) __builtin_prefetch(cells + (v - su));
+  if (v >= sw) __builtin_prefetch(cells + (v - sw));
+  if (v >= su + sw) __builtin_prefetch(cells + (v - su - sw));
+}
+
 SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vector<LinkCut>& cuts,
                                    const SubdivisionHooks& hooks, bool threaded,
-                                   const SweepBoundary& boundary, bool givenStored) {
+                                   const SweepBoundary& boundary, bool givenStored,
+                                   std::vector<std::uint8_t>* givenMarked) {
   SubdivisionStats stats;
   const Index3 d = grid.dims();
   std::vector<std::uint64_t> pending;
   for (const LinkCut& c : cuts) pending.push_back(c.link);
   std::size_t givenUnstored = givenStored ? 0 : cuts.size();  // cuts[0, this) lack their data
   std::vector<std::uint8_t> affected;
-  // The cubes (level >= 1) around link (v, a), through the 4 unit cells it borders.
-  auto cubesAround = [&](std::uint64_t link, auto&& fn) {
-    const std::size_t v = static_cast<std::size_t>(link / 3);
-    forEachCubeAroundLink(oct, grid, grid.coord(v), static_cast<int>(link % 3), fn);
-  };
-  auto prefetchCellsAround = [&](std::uint64_t link) {
-    const auto v = static_cast<std::size_t>(link / 3);
-    const int a = static_cast<int>(link % 3);
-    const std::size_t su = grid.stride((a + 1) % 3), sw = grid.stride((a + 2) % 3);
-    const std::int32_t* cells = oct.cellCube.data();
-    __builtin_prefetch(cells + v);
-    if (v >= su) __builtin_prefetch(cells + (v - su));
-    if (v >= sw) __builtin_prefetch(cells + (v - sw));
-    if (v >= su + sw) __builtin_prefetch(cells + (v - su - sw));
-  };
   // The workers' memory is kept per calling thread between runs (a run's workers are indexed
   // by the thread slots of its parallel loops, unique among the threads running at once).
   // (A reference: in a task on another thread, the name would mean that thread's own.)
@@ -430,20 +435,23 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
   };
   Timer total;
   while (!pending.empty() || (stats.rounds == 0 && !boundary.cubes.empty())) {
-    // (1) mark the cubes around the newly cut links (raising a raised flag is harmless).
-    affected.assign(oct.cubes.size(), 0);
-    parallelFor(
-        0, pending.size(), 256,
-        [&](std::size_t b, std::size_t e) {
-          for (std::size_t i = b; i < e; ++i) {
-            // The cube map is large and the links scattered: fetch the cells of a link ahead.
-            if (i + 16 < e) prefetchCellsAround(pending[i + 16]);
-            cubesAround(pending[i], [&](std::size_t cube) {
-              std::atomic_ref<std::uint8_t>(affected[cube]).store(1, std::memory_order_relaxed);
-            });
-          }
-        },
-        threaded);
+    // (1) mark the cubes around the newly cut links (raising a raised flag is harmless); the
+    // caller may have marked those of the given cuts.
+    if (stats.rounds == 0 && givenMarked != nullptr) {
+      VOXCUT_ASSERT(givenMarked->size() == oct.cubes.size(), "one mark per cube");
+      affected = std::move(*givenMarked);
+    } else {
+      affected.assign(oct.cubes.size(), 0);
+      parallelFor(
+          0, pending.size(), 256,
+          [&](std::size_t b, std::size_t e) {
+            for (std::size_t i = b; i < e; ++i) {
+              if (i + 16 < e) prefetchCubesAroundLink(oct, grid, pending[i + 16]);
+              markCubesAroundLink(oct, grid, pending[i], affected);
+            }
+          },
+          threaded);
+    }
     // 1: a cut link around it; 2: only the sweep's boundary reaches into it.
     if (stats.rounds == 0)
       for (const std::uint32_t c : boundary.cubes)

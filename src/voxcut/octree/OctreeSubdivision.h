@@ -99,9 +99,19 @@ struct SubdivisionStats {
   double bookkeepingMs = 0;       ///< the rest: marking, gathering, storing the sub-cubes
 };
 
+/// Sub-step (1) for one newly cut link: raises marked[cube] (to 1) for each cube (level >= 1)
+/// around the link (one byte per cube of octree.cubes), atomically: callable from several
+/// threads at once. prefetchCubesAroundLink asks the processor for the cube map's cells it will
+/// read (the map is large and cut links are scattered).
+void markCubesAroundLink(const VoxelOctree& octree, const VoxelGrid& grid, std::uint64_t link,
+                         std::vector<std::uint8_t>& marked);
+void prefetchCubesAroundLink(const VoxelOctree& octree, const VoxelGrid& grid, std::uint64_t link);
+
 /// Runs sub-steps (1)-(6). `cuts` holds the links cut so far this frame (already disconnected
 /// in `grid`; their Hermite data set, unless `givenStored` is false: then this step sets it,
-/// beside its first phase, which does not read it); the links this step cuts are disconnected, given Hermite data
+/// beside its first phase, which does not read it; `givenMarked`, if set, holds the cubes
+/// around them marked with markCubesAroundLink already, and is taken over); the links this
+/// step cuts are disconnected, given Hermite data
 /// and appended, each once, in an order that depends on the schedule (sort them for a
 /// deterministic order). Cubes are split in place: a split cube keeps its slot for its first
 /// remaining sub-cube, new sub-cubes are appended and listed in octree.newCubes, level-1
@@ -119,6 +129,7 @@ struct SubdivisionStats {
 /// cells where the boundary's points cross the plane.
 SubdivisionStats subdivideCutCubes(VoxelOctree& octree, VoxelGrid& grid, std::vector<LinkCut>& cuts,
                                    const SubdivisionHooks& hooks, bool threaded = true,
-                                   const SweepBoundary& boundary = {}, bool givenStored = true);
+                                   const SweepBoundary& boundary = {}, bool givenStored = true,
+                                   std::vector<std::uint8_t>* givenMarked = nullptr);
 
 }  // namespace voxcut
