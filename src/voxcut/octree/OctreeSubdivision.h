@@ -111,13 +111,14 @@ void prefetchCubesAroundLink(const VoxelOctree& octree, const VoxelGrid& grid, s
 /// in `grid`; their Hermite data set, unless `givenStored` is false: then this step sets it,
 /// beside its first phase, which does not read it; `givenMarked`, if set, holds the cubes
 /// around them marked with markCubesAroundLink already, and is taken over); the links this
-/// step cuts are disconnected, given Hermite data
-/// and appended, each once, in an order that depends on the schedule (sort them for a
-/// deterministic order). Cubes are split in place: a split cube keeps its slot for its first
-/// remaining sub-cube, new sub-cubes are appended and listed in octree.newCubes, level-1
-/// cubes that split are marked deleted and listed in octree.openedCubes (their 27 voxels and
-/// 54 links are activated by activateNewCubeFrames). The deferred updates (compactCubes,
-/// activateNewCubeFrames, rebuildActiveVoxels) are left to the caller.
+/// step cuts are disconnected, given Hermite data and appended, each once, in an order that
+/// depends on the schedule (sort them for a deterministic order). Cubes are split in place: a
+/// split cube keeps its slot for its first remaining sub-cube, new sub-cubes are appended and
+/// listed in octree.newCubes, level-1 cubes that split are marked deleted and listed in
+/// octree.openedCubes (their 27 voxels and 54 links are activated by activateNewCubeFrames).
+/// The deferred updates (activateNewCubeFrames, then compactCubes, rebuildActiveVoxels) are
+/// left to the caller, and must run before the next call: the last round leaves the cube map
+/// of its sub-cubes (octree.unmappedCubes) and opened cubes to activateNewCubeFrames.
 /// Otherwise deterministic for any thread count: the cut set, the grid, the octree (up to the
 /// order of openedCubes) and the counts.
 ///
