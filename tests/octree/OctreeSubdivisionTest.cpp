@@ -436,6 +436,38 @@ TEST(OctreeSubdivision, ACutOnAFaceOfACubeOutsideTheRoundStartsTheNext) {
   expectActiveTablesConsistent(g, oct);
 }
 
+// Given cuts whose Hermite data the subdivision is to set (givenStored false) get it even when
+// no cube lies around them and no round runs.
+TEST(OctreeSubdivision, GivenCutsGetTheirDataWithoutARound) {
+  VoxelGrid g = model("bunny", 48);
+  VoxelOctree oct = buildVoxelOctree(g, OctreeParams::uniform(1, 3, 0));
+  std::vector<LinkCut> cuts;
+  for (std::uint32_t v : oct.activeVoxels) {
+    for (int a = 0; a < 3 && cuts.empty(); ++a) {
+      if (!oct.linkActive(v, a) || !g.connected(v, a) || g.hermite().find(VoxelGrid::linkId(v, a)))
+        continue;
+      int cubes = 0;
+      forEachCellAroundLink(g.dims(), g.coord(v), a,
+                            [&](const Index3& c) { cubes += oct.cellCube[g.index(c)] >= 0; });
+      if (cubes == 0) cuts.push_back({VoxelGrid::linkId(v, a), Hermite{0.25f, {1.f, 0.f, 0.f}}, std::nullopt});
+    }
+    if (!cuts.empty()) break;
+  }
+  ASSERT_EQ(cuts.size(), 1u);
+  g.setConnected(static_cast<std::size_t>(cuts[0].link / 3), static_cast<int>(cuts[0].link % 3), false);
+  SubdivisionHooks hooks;
+  hooks.testLink = [](std::size_t, int, VoxelPositionCache&) -> std::optional<Hermite> {
+    ADD_FAILURE();
+    return std::nullopt;
+  };
+  const SubdivisionStats s = subdivideCutCubes(oct, g, cuts, hooks, true, {}, false);
+  EXPECT_EQ(s.rounds, 0);
+  const Hermite* h = g.hermite().find(cuts[0].link);
+  ASSERT_NE(h, nullptr);
+  EXPECT_EQ(h->t, 0.25f);
+  EXPECT_FALSE(cuts[0].previous.has_value());
+}
+
 TEST(OctreeSubdivision, NothingHappensWithoutCuts) {
   VoxelGrid g = model("bunny", 48);
   VoxelOctree oct = buildVoxelOctree(g, OctreeParams::uniform(1, 3, 0));
