@@ -324,14 +324,7 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   // data is not set here when it runs.
   for (const LinkCut& lc : r.cuts)
     g.setConnected(static_cast<std::size_t>(lc.link / 3), static_cast<int>(lc.link % 3), false);
-  const auto storeHermite = [&] {
-    for (std::size_t k = 0; k < r.cuts.size(); ++k) {
-      if (k + HermiteMap::kPrefetchAhead < r.cuts.size())
-        g.hermite().prefetch(r.cuts[k + HermiteMap::kPrefetchAhead].link);
-      r.cuts[k].previous = g.hermite().exchange(r.cuts[k].link, r.cuts[k].hermite);
-    }
-  };
-  if (!b.useOctree) storeHermite();
+  if (!b.useOctree) storeHermite(g.hermite(), r.cuts.data(), r.cuts.data() + r.cuts.size());
   r.intersectionMs = cullMs + timer.ms();
 
   // Octree subdivision around the new cuts and in the cubes that the sweeps' boundary reaches

@@ -16,11 +16,7 @@ namespace voxcut {
 namespace {
 
 // Link bits are shared by neighbouring cubes' tasks (one byte holds a voxel's three links), so
-// in this phase every access goes through atomics. disconnect says whether this call did (the
-// link was connected): two tasks that resolve a face they share may both find one of its links
-// crossed, and only the one that disconnects it records the cut.
-bool linkConnected(const VoxelGrid& grid, std::size_t v, int a) { return grid.connectedShared(v, a); }
-bool disconnect(VoxelGrid& grid, std::size_t v, int a) { return grid.disconnectShared(v, a); }
+// in this phase every access goes through VoxelGrid's atomic connectedShared/disconnectShared.
 // Calls fn(cube) for the cube (level >= 1) over each of the unit cells that link (voxel, a)
 // borders, where one is stored.
 template <class Fn>
@@ -115,7 +111,7 @@ struct Worker : WorkerMemory {
           std::size_t v = grid.index(p);
           const std::size_t step = grid.stride(a);
           for (int k = 0; k < s; ++k, v += step)
-            if (!linkConnected(grid, v, a)) {
+            if (!grid.connectedShared(v, a)) {
               Index3 q = p;
               q[a] += k;
               boundary.push_back({q, a});
@@ -131,9 +127,11 @@ struct Worker : WorkerMemory {
   template <class Point>
   void testLink(std::size_t v, int a, Point&& p) {
     ++tested;
-    if (!linkConnected(grid, v, a)) return;
+    if (!grid.connectedShared(v, a)) return;
     const std::optional<Hermite> hit = hooks.testLink(v, a, positions);
-    if (!hit || !disconnect(grid, v, a)) return;
+    // Two tasks that resolve a face they share may both find one of its links crossed: only
+    // the one that disconnects it (disconnectShared says so) records the cut.
+    if (!hit || !grid.disconnectShared(v, a)) return;
     cuts.push_back({VoxelGrid::linkId(v, a), *hit, std::nullopt});
     const Index3 q = p();
     found.push_back({q, a});
@@ -215,7 +213,7 @@ struct Worker : WorkerMemory {
         examined[slot] = 1;
         testLink(v, axis, pointAt(i, j));
       }
-      return !linkConnected(grid, v, axis);
+      return !grid.connectedShared(v, axis);
     };
     while (!cells.empty()) {
       const auto [i, j] = cells.back();
@@ -241,10 +239,10 @@ struct Worker : WorkerMemory {
       return base + static_cast<std::size_t>(i) * su + static_cast<std::size_t>(j) * sw;
     };
     for (int i = 0; i < m; ++i) {
-      if (!linkConnected(grid, voxelAt(i, 0), u)) cell(i, 0);
-      if (!linkConnected(grid, voxelAt(i, m), u)) cell(i, m - 1);
-      if (!linkConnected(grid, voxelAt(0, i), w)) cell(0, i);
-      if (!linkConnected(grid, voxelAt(m, i), w)) cell(m - 1, i);
+      if (!grid.connectedShared(voxelAt(i, 0), u)) cell(i, 0);
+      if (!grid.connectedShared(voxelAt(i, m), u)) cell(i, m - 1);
+      if (!grid.connectedShared(voxelAt(0, i), w)) cell(0, i);
+      if (!grid.connectedShared(voxelAt(m, i), w)) cell(m - 1, i);
     }
   }
 
@@ -379,6 +377,14 @@ struct Worker : WorkerMemory {
 
 }  // namespace
 
+void storeHermite(HermiteMap& hermite, LinkCut* first, LinkCut* last) {
+  for (LinkCut* c = first; c != last; ++c) {
+    if (last - c > static_cast<std::ptrdiff_t>(HermiteMap::kPrefetchAhead))
+      hermite.prefetch(c[HermiteMap::kPrefetchAhead].link);
+    c->previous = hermite.exchange(c->link, c->hermite);
+  }
+}
+
 void markCubesAroundLink(const VoxelOctree& oct, const VoxelGrid& grid, std::uint64_t link,
                          std::vector<std::uint8_t>& marked) {
   const auto v = static_cast<std::size_t>(link / 3);
@@ -427,11 +433,7 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
   // the table's contents do not depend on the order). Runs beside other work that does not
   // touch the table.
   const auto storeCuts = [&](std::size_t b, std::size_t e) {
-    HermiteMap& hermite = grid.hermite();
-    for (std::size_t k = b; k < e; ++k) {
-      if (k + HermiteMap::kPrefetchAhead < e) hermite.prefetch(cuts[k + HermiteMap::kPrefetchAhead].link);
-      cuts[k].previous = hermite.exchange(cuts[k].link, cuts[k].hermite);
-    }
+    storeHermite(grid.hermite(), cuts.data() + b, cuts.data() + e);
   };
   Timer total;
   while (!pending.empty() || (stats.rounds == 0 && !boundary.cubes.empty())) {

@@ -36,6 +36,10 @@ struct LinkCut {
   std::optional<Hermite> previous;
 };
 
+/// Sets the Hermite data of the cuts [first, last) in `hermite`, each LinkCut::previous taking
+/// the entry it replaced (the table's slots fetched ahead: they are scattered).
+void storeHermite(HermiteMap& hermite, LinkCut* first, LinkCut* last);
+
 /// Voxel positions the link test computed, kept for the next calls of the same task (the
 /// trace following meets a voxel from up to four links of a face, and from two mid-planes):
 /// a direct-mapped table by voxel index, so a lookup is one probe and a clash overwrites.
