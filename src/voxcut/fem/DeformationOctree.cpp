@@ -108,32 +108,8 @@ std::array<double, 8> DeformationOctree::weights(std::size_t v) const {
   return w;
 }
 
-namespace {
-
-/// The segment of element e at trilinear (ty, tz): its ends on the x = 0 and x = 1 faces
-/// (bilinear in y, then z). pointInElement and updateVoxelPositions both go through it, so a
-/// voxel's position is bitwise the same whichever computes it.
-struct RowSegment {
-  Vec3d start;
-  Vec3d delta;
-};
-
-[[gnu::always_inline]] inline RowSegment rowSegment(const std::vector<Vec3d>& p,
-                                                    const std::array<std::uint32_t, 8>& n,
-                                                    double ty, double tz) {
-  auto face = [&](std::size_t c) {
-    const Vec3d y0 = p[n[c]] + ty * (p[n[c + 2]] - p[n[c]]);
-    const Vec3d y1 = p[n[c + 4]] + ty * (p[n[c + 6]] - p[n[c + 4]]);
-    return Vec3d(y0 + tz * (y1 - y0));
-  };
-  const Vec3d a = face(0);
-  return {a, face(1) - a};
-}
-
-}  // namespace
-
 Vec3d DeformationOctree::pointInElement(std::uint32_t e, const Vec3d& t) const {
-  const RowSegment r = rowSegment(positions_, elements_[e].nodes, t.y(), t.z());
+  const detail::RowSegment r = detail::rowSegment(positions_, elements_[e].nodes, t.y(), t.z());
   return r.start + t.x() * r.delta;
 }
 
@@ -183,19 +159,6 @@ bool DeformationOctree::trilinearCoordinates(std::uint32_t e, const Vec3d& p, Ve
          (t.array() <= 1.0 + kSlack).all();
 }
 
-Vec3d DeformationOctree::voxelPosition(std::size_t v) const { return voxelPosition(embedding_[v]); }
-
-Vec3d DeformationOctree::voxelPosition(const VoxelEmbedding& em) const {
-  // pointInElement at the voxel's trilinear coordinates, with the row segment inlined (the
-  // subdivision positions thousands of scattered voxels one by one).
-  VOXCUT_ASSERT(em.element != kNoElement, "voxel is empty");
-  const OctreeElement& el = elements_[em.element];
-  const double inv = el.inverseSize();
-  const RowSegment r = rowSegment(positions_, el.nodes, (em.offset[1] + 0.5) * inv,
-                                  (em.offset[2] + 0.5) * inv);
-  return r.start + ((em.offset[0] + 0.5) * inv) * r.delta;
-}
-
 template <class EmbeddingAt, class Prefetch, class Want, class Write, class Skip>
 void DeformationOctree::forEachVoxelPosition(std::size_t n, EmbeddingAt&& embeddingAt,
                                              Prefetch&& prefetch, bool threaded, Want&& want,
@@ -208,7 +171,7 @@ void DeformationOctree::forEachVoxelPosition(std::size_t n, EmbeddingAt&& embedd
         std::uint32_t element = kNoElement;
         std::uint8_t oy = 0, oz = 0;
         double inv = 1.0;
-        RowSegment row{Vec3d::Zero(), Vec3d::Zero()};
+        detail::RowSegment row{Vec3d::Zero(), Vec3d::Zero()};
         for (std::size_t i = b; i < e; ++i) {
           if (i + 16 < e) prefetch(i + 16);
           const VoxelEmbedding& em = embeddingAt(i);
@@ -222,7 +185,7 @@ void DeformationOctree::forEachVoxelPosition(std::size_t n, EmbeddingAt&& embedd
             oy = em.offset[1];
             oz = em.offset[2];
             inv = elements_[element].inverseSize();
-            row = rowSegment(positions_, elements_[element].nodes, (oy + 0.5) * inv,
+            row = detail::rowSegment(positions_, elements_[element].nodes, (oy + 0.5) * inv,
                              (oz + 0.5) * inv);
           }
           write(i, em.element, Vec3d(row.start + ((em.offset[0] + 0.5) * inv) * row.delta));
