@@ -92,13 +92,6 @@ void DeformationOctree::updateHangingNodes() {
   }
 }
 
-Vec3d DeformationOctree::localCoordinates(std::size_t v) const {
-  const VoxelEmbedding& em = embedding_[v];
-  VOXCUT_ASSERT(em.element != kNoElement, "voxel is empty");
-  const double inv = elements_[em.element].inverseSize();
-  return {(em.offset[0] + 0.5) * inv, (em.offset[1] + 0.5) * inv, (em.offset[2] + 0.5) * inv};
-}
-
 std::array<double, 8> DeformationOctree::weights(std::size_t v) const {
   const Vec3d t = localCoordinates(v);
   std::array<double, 8> w{};

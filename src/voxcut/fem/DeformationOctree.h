@@ -168,7 +168,12 @@ class DeformationOctree {
   [[nodiscard]] const VoxelEmbedding& embedding(std::size_t v) const { return embedding_[v]; }
   [[nodiscard]] std::uint32_t owner(std::size_t v) const { return embedding_[v].element; }
   /// Trilinear coordinates of occupied voxel v in its owning element, each in (0, 1).
-  [[nodiscard]] Vec3d localCoordinates(std::size_t v) const;
+  [[nodiscard]] Vec3d localCoordinates(std::size_t v) const {
+    const VoxelEmbedding& em = embedding_[v];
+    VOXCUT_ASSERT(em.element != kNoElement, "voxel is empty");
+    const double inv = elements_[em.element].inverseSize();
+    return {(em.offset[0] + 0.5) * inv, (em.offset[1] + 0.5) * inv, (em.offset[2] + 0.5) * inv};
+  }
   /// The 8 trilinear weights of occupied voxel v, for the element's corners 0..7; sum 1.
   [[nodiscard]] std::array<double, 8> weights(std::size_t v) const;
   /// Current position of occupied voxel v (metres): sum of weights * current corner positions.
