@@ -179,7 +179,7 @@ void DeformationOctree::forEachVoxelPosition(std::size_t n, EmbeddingAt&& embedd
             oz = em.offset[2];
             inv = elements_[element].inverseSize();
             row = detail::rowSegment(positions_, elements_[element].nodes, (oy + 0.5) * inv,
-                             (oz + 0.5) * inv);
+                                     (oz + 0.5) * inv);
           }
           write(i, em.element, Vec3d(row.start + ((em.offset[0] + 0.5) * inv) * row.delta));
         }

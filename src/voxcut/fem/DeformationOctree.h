@@ -83,9 +83,6 @@ struct HangingNode {
   std::array<std::uint32_t, 4> masters{};  ///< the first masterCount entries are used
 };
 
-/// Where an occupied voxel lives: its owning element and its offset in voxels from the
-/// element's first voxel (each in [0, 2^level)). Its trilinear (local) coordinates are
-/// (offset + 0.5) / 2^level, exact in floating point.
 namespace detail {
 
 /// The segment of an element with corner `nodes` at trilinear (ty, tz): its ends on the x = 0
@@ -112,6 +109,9 @@ struct RowSegment {
 
 }  // namespace detail
 
+/// Where an occupied voxel lives: its owning element and its offset in voxels from the
+/// element's first voxel (each in [0, 2^level)). Its trilinear (local) coordinates are
+/// (offset + 0.5) / 2^level, exact in floating point.
 struct VoxelEmbedding {
   std::uint32_t element = kNoElement;
   std::array<std::uint8_t, 3> offset{};
@@ -204,8 +204,8 @@ class DeformationOctree {
     VOXCUT_ASSERT(em.element != kNoElement, "voxel is empty");
     const OctreeElement& el = elements_[em.element];
     const double inv = el.inverseSize();
-    const detail::RowSegment r = detail::rowSegment(positions_, el.nodes, (em.offset[1] + 0.5) * inv,
-                                                    (em.offset[2] + 0.5) * inv);
+    const detail::RowSegment r = detail::rowSegment(
+        positions_, el.nodes, (em.offset[1] + 0.5) * inv, (em.offset[2] + 0.5) * inv);
     return r.start + ((em.offset[0] + 0.5) * inv) * r.delta;
   }
   /// For a list of voxels whose embeddings were gathered beforehand (gatherEmbeddings, current
