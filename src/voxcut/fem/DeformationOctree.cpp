@@ -101,11 +101,6 @@ std::array<double, 8> DeformationOctree::weights(std::size_t v) const {
   return w;
 }
 
-Vec3d DeformationOctree::pointInElement(std::uint32_t e, const Vec3d& t) const {
-  const detail::RowSegment r = detail::rowSegment(positions_, elements_[e].nodes, t.y(), t.z());
-  return r.start + t.x() * r.delta;
-}
-
 namespace {
 
 /// Trilinear map of element `nodes` at xi and its Jacobian.
