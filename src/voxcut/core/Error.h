@@ -1,7 +1,7 @@
 #pragma once
 /// @file Error.h
-/// The three kinds of failure (STYLE.md item 8): programming errors trip VOXCUT_ASSERT,
-/// bad input throws voxcut::InputError, solvers return a status.
+/// The three kinds of failure (docs/architecture.md, "Conventions"): programming errors trip
+/// VOXCUT_ASSERT, bad input throws voxcut::InputError, solvers return a status.
 
 #include <stdexcept>
 #include <string>

@@ -1,8 +1,8 @@
 #pragma once
 /// @file Parallel.h
-/// The one parallel wrapper over oneTBB (STYLE.md item 5). Every parallel loop in voxcut goes
-/// through parallelFor; results must never depend on the thread count, so bodies write into
-/// fixed slots or their outputs are sorted afterwards.
+/// The one parallel wrapper over oneTBB (docs/architecture.md, "Conventions"). Every parallel
+/// loop in voxcut goes through parallelFor; results must never depend on the thread count, so
+/// bodies write into fixed slots or their outputs are sorted afterwards.
 
 #include <tbb/blocked_range.h>
 #include <tbb/global_control.h>

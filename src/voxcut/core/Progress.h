@@ -1,7 +1,7 @@
 #pragma once
 /// @file Progress.h
 /// Optional callback for long operations: it receives progress and may ask to stop
-/// (STYLE.md item 9, after OpenVDB's NullInterrupter).
+/// (docs/architecture.md, "Conventions"; after OpenVDB's NullInterrupter).
 
 #include <functional>
 #include <string_view>
