@@ -1,8 +1,8 @@
 #pragma once
 /// @file PlaneCut.h
 /// Planar cuts: disconnect every connected link that a plane crosses, with Hermite data.
-/// A stand-in for the blade until the cutting module exists; it lets cut surfaces and piece
-/// counting be used and tested.
+/// What `voxcut info --cut-plane` and `voxcut surface --cut-plane` apply, and what tests of cut
+/// surfaces and pieces use; the blade (cutting/) is the general tool.
 
 #include "voxcut/voxel/VoxelGrid.h"
 

@@ -1,8 +1,9 @@
 #pragma once
 /// @file VoxelGrid.h
-/// The linked voxel model (DESIGN.md part 1): a uniform grid of voxels, each empty (material 0)
-/// or holding a material, joined to its +x, +y, +z neighbours by links that are connected or
-/// disconnected, with Hermite data on links crossed by a surface, an interface or a cut.
+/// The linked voxel model (docs/algorithms.md, "Linked voxel model"): a uniform grid of
+/// voxels, each empty (material 0) or holding a material, joined to its +x, +y, +z neighbours by
+/// links that are connected or disconnected, with Hermite data on links crossed by a surface, an
+/// interface or a cut.
 ///
 /// Conventions: voxel index v = x + nx*(y + ny*z); link id 3*v + axis joins v and v + e_axis;
 /// voxel v's centre is at origin + voxelSize * (x, y, z) in the rest frame (metres).

@@ -1,6 +1,6 @@
 #pragma once
 /// @file Voxelizer.h
-/// Builds the linked voxel model from triangle meshes (DESIGN.md part 1).
+/// Builds the linked voxel model from triangle meshes (docs/algorithms.md, "Voxelization").
 ///
 /// Per material mesh, in order: repairMesh; exact crossings with the grid lines
 /// (scanConvert); inside/outside per voxel, from the exact crossing-count winding number when
