@@ -286,8 +286,8 @@ struct Worker : WorkerMemory {
       // centre voxel, two along each axis a, inside the two mid-planes across the other axes.
       // The blade's trace through a cut one crosses both mid-planes' borders (their links on
       // the cube's faces, decided already), so a pair is tested only when both borders hold a
-      // cut: in the single-frame cuts about a third of the links (a blade crossing a cube
-      // cuts the centre links of one or two axes). Where the sweep's boundary comes near
+      // cut, which skips most pairs (a blade crossing a cube cuts the centre links of one or
+      // two axes). Where the sweep's boundary comes near
       // (`points`), the blade's edge may end inside the cube and leave a mid-plane's border
       // uncut: all 6 are tested. (5-3) the cube opens up completely: recorded here
       // (VoxelOctree::openedCubes); its 27 voxels and 54 links, the frames of its level-0

@@ -11,12 +11,11 @@
 /// few per link it crosses, not with the area. Squares of 2 x 2 cells test their 4 inside
 /// links directly, level-1 cubes the pairs of centre links whose two mid-planes have a cut on
 /// their border. A face is traced once: by the first of two affected cubes of the same size
-/// that share it, by the larger of two that share part of it. The bunny's single-frame cut
-/// tests 5,934 links and cuts 2,199 of them (8,996 when level-1 cubes tested all 6 centre
-/// links and both cubes traced a face shared in part; bisecting each face into squares tested
-/// 14,930). Beyond the paper: where the sweep's boundary lies inside the model, the cubes it
-/// reaches into are split too and their traces seeded along it (SweepBoundary), so the cut
-/// stays exact there as well.
+/// that share it, by the larger of two that share part of it (docs/algorithms.md, "Trace
+/// following"; the links tested on the bunny: docs/performance.md). Beyond the paper: where
+/// the sweep's boundary lies inside the model, the cubes it reaches into are split too and their
+/// traces seeded along it (SweepBoundary), so the cut stays exact there as well
+/// (docs/algorithms.md, "Sweep boundary").
 
 #include <functional>
 #include <optional>
