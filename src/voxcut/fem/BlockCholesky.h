@@ -8,7 +8,7 @@
 /// step to the next, so the factor of an earlier step still brings the solve down to a few
 /// iterations).
 ///
-/// Method (algorithms.md, "Composite elements" and the solver notes):
+/// Method (docs/algorithms.md, "Preconditioners"):
 ///  1. Ordering: approximate minimum degree (Eigen's AMDOrdering) on the node graph, so a
 ///     node's three unknowns stay together.
 ///  2. Symbolic: elimination tree (Liu's algorithm with path compression), then the pattern of
@@ -20,7 +20,7 @@
 /// Subtrees of the elimination tree (each at most an eighth of the work) are factorised in
 /// parallel, then the columns above them in order; every column is computed by the same
 /// operations in the same order whichever thread runs it, so the factor does not depend on the
-/// thread count. The solves are sequential (in parallel they were no faster here).
+/// thread count. The solves are sequential (parallel solves do not pay at these sizes).
 ///
 /// Thread-safety: none; one call at a time per object (all three use its scratch).
 

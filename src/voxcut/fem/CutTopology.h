@@ -1,6 +1,6 @@
 #pragma once
 /// @file CutTopology.h
-/// The deformation octree's topology after a cut (DESIGN.md part 4, issue 4 item 2): elements
+/// The deformation octree's topology after a cut (docs/algorithms.md, "Cut topology"): elements
 /// holding newly cut links are refined down to a finest level keeping the 2:1 rule, every
 /// element whose voxels form several connected parts becomes one copy per part, and nodes are
 /// duplicated so that copies share a node exactly where their voxels stay connected around it.

@@ -1,9 +1,10 @@
 #pragma once
 /// @file DeformationOctree.h
-/// The deformation octree (DESIGN.md part 3), structure only: a restricted (2:1) octree of
-/// hexahedral elements on the voxel grid offset by half a voxel, its corner nodes with rest and
-/// current positions, hanging-node constraints, and each occupied voxel's embedding (owning
-/// element and trilinear coordinates). The dynamics (stiffness, mass, solver) live elsewhere.
+/// The deformation octree (docs/algorithms.md, "Deformation octree"), structure only: a
+/// restricted (2:1) octree of hexahedral elements on the voxel grid offset by half a voxel, its
+/// corner nodes with rest and current positions, hanging-node constraints, and each occupied
+/// voxel's embedding (owning element and trilinear coordinates). The dynamics (stiffness, mass,
+/// solver) live elsewhere.
 ///
 /// Geometry. Element-grid node (i, j, k) sits at origin + h * ((i, j, k) - 0.5), h the voxel
 /// size (metres). A level-L element with integer coordinates E covers the voxels
@@ -18,7 +19,7 @@
 /// empty space the 2:1 rule does not rule this out); hangingNodes() is ordered so that
 /// resolving it front to back sees masters already resolved.
 ///
-/// Copies (DESIGN.md part 4, algorithms.md "components of a dual cell"). A leaf cube of the
+/// Copies (docs/algorithms.md, "Element copies and the node rule"). A leaf cube of the
 /// octree whose occupied voxels form several connected parts (connected links inside the cube)
 /// is one element *copy* per part: copies share the cube (level, coord) and own disjoint voxels.
 /// Nodes are copies too: several nodes may sit at one node-grid point, one per group of the
@@ -88,8 +89,8 @@ namespace detail {
 /// The segment of an element with corner `nodes` at trilinear (ty, tz): its ends on the x = 0
 /// and x = 1 faces (bilinear in y, then z). pointInElement, voxelPosition and
 /// updateVoxelPositions all go through it, so a voxel's position is bitwise the same whichever
-/// computes it. Always inlined: as a call (GCC left `face` out of line) it cost the position
-/// update about a third of its time (bunny, 2 threads: 0.46-0.48 ms instead of 0.31).
+/// computes it. Always inlined: as a call (GCC left `face` out of line) it slows the position
+/// update markedly (docs/performance.md, "Single-frame cutting test").
 struct RowSegment {
   Vec3d start;
   Vec3d delta;

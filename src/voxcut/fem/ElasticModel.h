@@ -1,15 +1,17 @@
 #pragma once
 /// @file ElasticModel.h
-/// Set-up of the composite hexahedral FEM on a deformation octree (DESIGN.md part 3): the
+/// Set-up of the composite hexahedral FEM on a deformation octree (docs/algorithms.md,
+/// "Corotational FEM"): the
 /// material table, every element's rest stiffness and lumped mass (HexElement.h), the nodes'
 /// lumped masses, the hanging-node prolongation, fixed nodes, and the 3x3-block sparsity of the
 /// reduced system with the plan that gathers it each step. ImplicitEuler.h solves with it.
 ///
-/// Reduced unknowns ("free nodes", in node-grid order): the nodes that are neither hanging, nor fixed, nor unused
-/// (referenced by no element holding voxels, directly or as a master). The prolongation P maps free-node
-/// values to all nodes: a free node takes its own value, a fixed or unused node zero, a
-/// hanging node the mean of its masters' values (chains resolved, coarse first). The solver
-/// works with P^T A P, P^T f; positions and velocities of all nodes stay consistent with P.
+/// Reduced unknowns ("free nodes", in node-grid order): the nodes that are neither hanging, nor
+/// fixed, nor unused (referenced by no element holding voxels, directly or as a master). The
+/// prolongation P maps free-node values to all nodes: a free node takes its own value, a fixed or
+/// unused node zero, a hanging node the mean of its masters' values (chains resolved, coarse
+/// first). The solver works with P^T A P, P^T f; positions and velocities of all nodes stay
+/// consistent with P.
 ///
 /// Fixed nodes. setFixed takes one flag per node. A hanging node cannot be fixed on its own
 /// (it is the mean of its masters), so fixing it fixes its masters, recursively: the fixed set
@@ -138,8 +140,8 @@ class ElasticModel {
   [[nodiscard]] std::size_t sparsityRowsReused() const { return sparsityRowsReused_; }
   /// The aggregates of the free nodes for the two-level preconditioner
   /// (TwoLevelPreconditioner.h), for the current sparsity(): made by the first call after each
-  /// rebuild (about 0.4 ms on the cut bunny, which a step preconditioned otherwise does not
-  /// pay). That first call must not run concurrently with another.
+  /// rebuild (a cost that a step preconditioned otherwise does not pay). That first call must
+  /// not run concurrently with another.
   [[nodiscard]] const NodeAggregation& aggregation() const;
   [[nodiscard]] bool threaded() const { return threaded_; }
 

@@ -109,9 +109,8 @@ bool FactorBridge::prepare(const ElasticModel& model, const DeformationOctree& o
   localList_.clear();
   for (std::size_t i = 0; i < rows; ++i)
     if (!local_[i] && claims[freeRow_[freeStart_[i]]] > 1) local_[i] = 1;
-  // Grown by one ring of neighbours: rows next to a change see a changed row of A too
-  // (bunny-ear: 7.0 instead of 9.9 conjugate-gradient iterations per cut step; more rings
-  // gained nothing).
+  // Grown by one ring of neighbours: rows next to a change see a changed row of A too (fewer
+  // iterations per cut step; more rings gain nothing: docs/performance.md, "Deformation solver").
   const BlockSparsity& sp = model.sparsity();
   const auto withNeighbours = [&](const std::vector<std::uint8_t>& flags) {
     std::vector<std::uint8_t> out = flags;

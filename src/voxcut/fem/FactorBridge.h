@@ -4,8 +4,8 @@
 /// preconditioned by the factor made before it instead of a weaker preconditioner.
 ///
 /// Why: a cut changes the reduced system's rows (nodes are duplicated, elements refined), so
-/// the factor no longer matches it, and a new one costs an analysis and a factorisation (on the
-/// cut bunny, tens of times one iteration). Most of the body did not change, though: away from
+/// the factor no longer matches it, and a new one costs an analysis and a factorisation (many
+/// times one iteration). Most of the body did not change, though: away from
 /// the cut the old factor is still the inverse of (nearly) the same matrix.
 ///
 /// How: every node of the current model is expressed as a weighted sum of the factor's rows,
@@ -27,9 +27,9 @@
 /// matrix) and zero elsewhere, and a vector with no part on them is left unchanged by I - A S
 /// and mapped by B^T injectively (each clean row to its own factor row), so the factor term
 /// is positive. Conjugate gradients therefore stay correct; the bridge only decides how many
-/// iterations they take (bunny-ear's cut steps: 7 on average instead of 17 with the two-level
-/// V-cycle). The sweeps and the products behind them touch the local rows and their
-/// neighbours only. Deterministic (sequential, in row order).
+/// iterations they take (far fewer than with the two-level V-cycle on the shipped scenes' cut
+/// steps: docs/performance.md, "Running scenes"). The sweeps and the products behind them
+/// touch the local rows and their neighbours only. Deterministic (sequential, in row order).
 
 #include <Eigen/Core>
 #include <cstdint>

@@ -1,7 +1,7 @@
 #pragma once
 /// @file HexElement.h
-/// Pure kernels of the composite hexahedral element (DESIGN.md part 3, algorithms.md
-/// "Composite elements"): rest stiffness and lumped mass of a level-L element integrated over
+/// Pure kernels of the composite hexahedral element (docs/algorithms.md, "Composite
+/// elements" and "Corotation"): rest stiffness and lumped mass of a level-L element integrated over
 /// the voxels it holds, each voxel with its own material; the corotational frame (deformation
 /// gradient at the element centre and its polar rotation).
 ///

@@ -1,7 +1,7 @@
 #pragma once
 /// @file ImplicitEuler.h
-/// One implicit (backward) Euler step of the corotational composite FEM (DESIGN.md part 3,
-/// algorithms.md "Composite elements"), one linearised solve per step:
+/// One implicit (backward) Euler step of the corotational composite FEM (docs/algorithms.md,
+/// "Implicit Euler"), one linearised solve per step:
 ///
 ///   (M + dt C + dt^2 K) dv = dt (f_el + f_ext - C v - dt K v),  v += dv,  x += dt v,
 ///
@@ -41,18 +41,14 @@
 
 namespace voxcut {
 
-/// Preconditioner of the conjugate gradients. Iterations per step measured with
-/// bench/bench_fem (after 20 steps from rest; the bunny cases with E 1e5 Pa):
-///
-///   case                                Jacobi  BlockJacobi  SymGaussSeidel  IC(0)  TwoLevel  Cholesky
-///   bunny, 766 free nodes, tol 1e-3         55           50              26     11        13       2.2
-///   bunny after the ear cut, 1,704 free   >100         >100              63     36        13       2.3
-///   cantilever, 4,869 free, tol 1e-4      >400         >400             190    123        11   (TwoLevel)
+/// Preconditioner of the conjugate gradients (docs/algorithms.md, "Preconditioners"; the
+/// iterations each takes per step, from bench/bench_fem: docs/performance.md, "Deformation
+/// solver").
 ///
 /// IC(0) costs a factorisation per step (about 4 matrix-vector products' worth of work) and a
 /// sequential solve per iteration (about one product). Where a pivot breaks down it falls back
-/// to block Jacobi for that row; in the bunny-ear scene, after the ear came off, a run with
-/// IC(0) went unstable (a piece flew off). Symmetric Gauss-Seidel is positive definite for any
+/// to block Jacobi for that row; it has gone unstable on a piece cut off (docs/performance.md,
+/// "Deformation solver"). Symmetric Gauss-Seidel is positive definite for any
 /// SPD matrix and stable there, but its iterations grow with the body's size, with the
 /// contrast between element sizes and on a cut-off piece that hangs on its mass alone. The
 /// two-level V-cycle adds a coarse correction by the rigid motions of node aggregates: an
@@ -67,11 +63,11 @@ namespace voxcut {
 /// earlier factor mapped onto the new rows (FactorBridge.h: a V-cycle with that factor as its
 /// coarse solve and Gauss-Seidel on the rows the change touched); without an earlier factor,
 /// or for a system whose factor would cost too much (`maxFactorUpdates`), the two-level
-/// V-cycle stands in. On the bunny a
-/// factorisation costs about 5 ms on one core (770-1,000 free nodes) and an iteration the time
-/// of 2-4 products (its forward and backward solves are sequential), so a step takes 2-3
-/// iterations and a quarter to a half of the two-level's time. Being an exact factor of an SPD matrix, a stale
-/// one is still SPD: the conjugate gradients stay correct, only slower.
+/// V-cycle stands in. A factorisation costs more than a step's iterations and an iteration a
+/// few products (its forward and backward solves are sequential), but a factor brings a step
+/// down to a few iterations, so over the steps it serves it is the cheapest. Being an exact
+/// factor of an SPD matrix, a stale one is still SPD: the conjugate gradients stay correct,
+/// only slower.
 /// All are deterministic for any thread count.
 enum class Preconditioner {
   Jacobi,                ///< inverse of the diagonal entries
@@ -111,16 +107,15 @@ struct ImplicitEulerParams {
   /// (FactorBridge.h) while the previous such step took at most this many iterations; after
   /// one that took more (the changes since the factor have piled up: a blade cutting frame
   /// after frame, with no step in between to factorise), the two-level V-cycle until the next
-  /// factorisation. starfish-arm's twelve cutting frames in a row went 4, 5, 10, 11, 11, 18,
-  /// 20 ... 50 iterations on the bridge, 9-12 on the two-level V-cycle.
+  /// factorisation (the iterations of a scene that cuts frame after frame: docs/performance.md,
+  /// "Running scenes").
   int bridgeIterations = 12;
   /// Cholesky only: when one factorisation would cost more 3x3 block updates than this
-  /// (BlockCholesky::updateCount, about 10 ns each here) or more than maxFactorUpdatesPerBlock
+  /// (BlockCholesky::updateCount) or more than maxFactorUpdatesPerBlock
   /// per block of the matrix, the two-level preconditioner is used instead: a factor whose
   /// fill outgrows the body costs more to make, and each of its sequential solves more, than
-  /// the iterations it saves. (The bunny, liver and starfish scenes need 20-32 per block; the
-  /// 20 cm cantilever, a thin beam of 4,869 free nodes, 275, and there a step with the factor
-  /// took longer than one with the two-level V-cycle.)
+  /// the iterations it saves (the shipped scenes' organs stay well below the limit per block,
+  /// a thin beam does not: docs/performance.md, "Deformation solver").
   double maxFactorUpdates = 1e7;
   double maxFactorUpdatesPerBlock = 50.0;
 };

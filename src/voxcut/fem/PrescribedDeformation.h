@@ -1,7 +1,7 @@
 #pragma once
 /// @file PrescribedDeformation.h
 /// Prescribed deformations of the deformation octree's nodes, so that collision and cutting can
-/// be tested on deformed objects before the dynamics exist (issue 3, item 1). Each is a smooth,
+/// be tested on deformed objects without running the dynamics. Each is a smooth,
 /// invertible map of space applied to the free nodes' rest positions; hanging nodes are then
 /// set from their masters, so voxel positions stay continuous across fine/coarse faces.
 ///

@@ -30,8 +30,8 @@
 /// positive definite whenever A is and T has full rank, and is factorised every step by a
 /// sparse Cholesky (Eigen's simplicial LLT, AMD ordering; the ordering and symbolic factor are
 /// kept while the pattern stays); if that fails the preconditioner is symmetric Gauss-Seidel
-/// alone. A dense factor would grow with the cube of the aggregates, which cuts multiply: on
-/// the cantilever (810 coarse unknowns) 16.7 ms against 2.4 ms per step.
+/// alone. A dense factor would grow with the cube of the aggregates, which cuts multiply
+/// (docs/performance.md, "Deformation solver").
 ///
 /// Application (one symmetric V-cycle, so M is symmetric positive definite and CG applies):
 ///   u  = (D + L)^-1 r                      forward block Gauss-Seidel sweep
@@ -69,11 +69,9 @@ struct NodeAggregation {
   [[nodiscard]] std::size_t count() const { return start.size() - 1; }
 };
 
-/// Rounds of pairing after the 1-ring aggregation that ElasticModel uses. Measured on the
-/// bunny-ear scene (1 thread, 250 frames; iterations per step / deformation ms per frame):
-/// 0 rounds 11.1 / 16.6, 1 round 15.4 / 11.2, 2 rounds 19.1 / 11.1 with a dense coarse
-/// factor. With the sparse one, 0 rounds take 8.8 iterations instead of 13 on the bunny
-/// (bench_fem) at about the same time per step: the larger coarse system eats the gain.
+/// Rounds of pairing after the 1-ring aggregation that ElasticModel uses. One round: larger
+/// aggregates cost a few more iterations and save more in the coarse system; no round, or a
+/// second one, is no faster per step (docs/performance.md, "Deformation solver").
 inline constexpr int kAggregatePairings = 1;
 
 /// Plain aggregation of the rows of `sparsity` (file comment), then `pairings` rounds of
