@@ -1,10 +1,11 @@
 #pragma once
 /// @file SpatialHash.h
-/// Spatial hash of element bounding boxes (DESIGN.md part 6), shared by the cutting tool, the
-/// probe and object collisions. Space is cut into cubic cells of edge `cellSize` (metres); cell
-/// (i, j, k) is [i, i+1) x [j, j+1) x [k, k+1) times cellSize, and a box is registered in every
-/// cell its closed extent touches. Cells are hashed into a table of about twice as many buckets
-/// as (cell, element) entries, so memory follows the content, not the space it spans.
+/// Spatial hash of element bounding boxes (docs/algorithms.md, "Culling"), shared by the
+/// cutting tool, the probe and object collisions. Space is cut into cubic cells of edge `cellSize`
+/// (metres); cell (i, j, k) is [i, i+1) x [j, j+1) x [k, k+1) times cellSize, and a box is
+/// registered in every cell its closed extent touches. Cells are hashed into a table of about twice
+/// as many buckets as (cell, element) entries, so memory follows the content, not the space it
+/// spans.
 ///
 /// Rebuilt each frame with build(): per-box work runs in parallel into fixed slots, then one
 /// stable counting sort by bucket, so the contents of every cell are in increasing element id

@@ -237,12 +237,11 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   // Voxel position update, stored in active order, with whether each active voxel's element
   // is marked (from the embeddings kept in active order, see CutBody). When
   // the blade reaches under half the elements (a frame of a running scene, and the bunny's
-  // single-frame cut: 242 of 534), only the voxels in marked elements are positioned and a
+  // single-frame cut), only the voxels in marked elements are positioned and a
   // link to a voxel outside them positions that end on the way; else (a longer sweep) every
   // active voxel is positioned in one pass, which is cheaper than positioning the many ends
-  // outside one by one (measured on the bunny at 2 threads: the limit at a quarter instead of
-  // a half took 0.62-0.73 ms instead of 0.39-0.53 with the octree, 1.04-1.24 instead of
-  // 0.77-0.93 without). The positions are bitwise the same.
+  // outside one by one (docs/performance.md, "Single-frame cutting test"). The positions are
+  // bitwise the same.
   timer.restart();
   const std::vector<std::uint32_t>& active = b.activity.activeVoxels;
   const bool fewMarked = 2 * r.markedElements < marked.size();
@@ -255,9 +254,8 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   // Intersection test: each active connected link (v, a) once, from its low voxel v, when
   // either end lies in a marked element. Per chunk of entries, first the candidates, without
   // a branch per link: the octree's active links come and go from one entry to the next
-  // (frames, shell), and branching on each cost it more than the test of the links that
-  // pass (measured on the bunny: 0.41 ms instead of 0.19 for this pass at 1 thread); then
-  // the candidates are tested.
+  // (frames, shell), and branching on each costs more than the test of the links that pass
+  // (docs/performance.md, "Single-frame cutting test"); then the candidates are tested.
   timer.restart();
   const auto positionOf = [&](std::size_t i, bool isMarked) {
     return isMarked || !fewMarked ? b.activePositions[i] : b.deformation.voxelPosition(embeddings[i]);

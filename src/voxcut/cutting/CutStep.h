@@ -1,6 +1,6 @@
 #pragma once
 /// @file CutStep.h
-/// The cutting tool's collision for one frame (paper §3.1-3.2, DESIGN.md "One frame"):
+/// The cutting tool's collision for one frame (paper §3.1-3.2; docs/algorithms.md, "Blade sweep"):
 /// voxel position update, intersection test of the blade sweep against active connected links
 /// (culled by the spatial hash of element AABBs and the sweep's approximate OBB), then, with
 /// the octree, subdivision of the cubes the new cuts touch; the deferred updates follow.
