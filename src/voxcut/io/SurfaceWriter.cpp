@@ -1,13 +1,13 @@
 #include "voxcut/io/SurfaceWriter.h"
 
 // Written directly rather than through Assimp::Exporter (which MeshReader's assimp would
-// offer). Measured on a 150k-triangle surface: assimp's OBJ exporter takes ~340 ms, renumbers
-// the vertices (breaking the match with SurfaceMesh::vertexVoxel and between frames) and
-// prints floats with artifacts (0.00100000005); its binary PLY is fast (~33 ms) but needs an
-// aiScene, materials and nodes built around 150k heap-allocated index arrays just to pass the
-// data through. Both formats are a few lines each; the writers below keep vertex order, print
-// OBJ doubles exactly (shortest round-trip decimals from std::to_chars), and take ~60 ms (OBJ)
-// and ~6 ms (PLY) for the same surface.
+// offer): assimp's OBJ exporter is slow, renumbers the vertices (breaking the match with
+// SurfaceMesh::vertexVoxel and between frames) and prints floats with artifacts
+// (0.00100000005); its binary PLY needs an aiScene, materials and nodes built around one
+// heap-allocated index array per triangle just to pass the data through. Both formats are a
+// few lines each; the writers below keep vertex order, print OBJ doubles exactly (shortest
+// round-trip decimals from std::to_chars) and are faster than assimp's (docs/performance.md,
+// "Surface").
 
 #include <algorithm>
 #include <bit>

@@ -1,6 +1,6 @@
 #pragma once
 /// @file Simulation.h
-/// A running scene (DESIGN.md part 7 and "One frame"): deformable bodies cut by key-framed
+/// A running scene (docs/architecture.md, "One frame"): deformable bodies cut by key-framed
 /// blades. Each frame, per body: cutting tool collision (voxel positions, blade x active links,
 /// octree subdivision, deferred updates), cut topology (refinement, duplication per voxel part)
 /// and the solver's structures for what changed, the local surface update, one implicit Euler

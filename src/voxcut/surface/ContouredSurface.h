@@ -1,7 +1,7 @@
 #pragma once
 /// @file ContouredSurface.h
 /// The dual-contoured surface of a linked voxel grid, kept up to date while it is cut
-/// (DESIGN.md part 5, "local surface update" in the frame pipeline).
+/// (docs/algorithms.md, "Local surface update").
 ///
 /// build() contours the whole grid and gives the same surface as dualContour(); update()
 /// then follows a set of links whose state or Hermite data changed by re-solving only the
@@ -19,8 +19,7 @@
 /// a cell (or on a face whose split vertices changed) are rebuilt. A vertex of a re-solved cell
 /// keeps its id when the cell had a vertex with the same position and voxel, and a sheet keeps
 /// its triangles when it comes out the same. Cost: O(changed links) work in hash maps keyed by
-/// cell, face and link, no pass over the grid or the surface (about 2 ms of CPU for 300 links of
-/// a plane cut through the bunny at resolution 101 on a loaded 2-core machine).
+/// cell, face and link, no pass over the grid or the surface (docs/performance.md, "Surface").
 
 #include <array>
 #include <cstdint>

@@ -3,7 +3,8 @@
 /// A dual cell is the cube whose 8 corners are voxel centres (min corner (x,y,z)); its 12
 /// edges are links. Its occupied corners, joined by its connected links, fall into
 /// components; the surface crossing it falls into patches (one dual-contouring vertex each).
-/// Both serve the surface now and node duplication of the deformation octree later.
+/// The components are also the level-0 case of the deformation octree's node rule
+/// (docs/algorithms.md, "Element copies and the node rule").
 ///
 /// Numbering: corner c = bx + 2*by + 4*bz. Edge e = 4*a + ou + 2*ow runs along axis a from the
 /// corner with offset 0 to offset 1 along a, with offsets ou along u = (a+1)%3 and ow along

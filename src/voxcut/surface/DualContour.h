@@ -1,6 +1,7 @@
 #pragma once
 /// @file DualContour.h
-/// Dual contouring of all disconnected links of a linked voxel grid (DESIGN.md part 5).
+/// Dual contouring of all disconnected links of a linked voxel grid (docs/algorithms.md,
+/// "Dual contouring with cuts").
 ///
 /// Each dual cell gets one vertex per surface patch (dualCellPatches), placed by a QEF over the
 /// Hermite data of the patch's incidences, solved in cell coordinates with eigenvalues below
