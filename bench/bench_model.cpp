@@ -1,4 +1,4 @@
-// Benchmarks of the model path (issue 2): voxelizing and dual-contouring the built-in models,
+// Benchmarks of the model path: voxelizing and dual-contouring the built-in models,
 // each stage alone at two resolutions and with 1 and 2 worker threads, so one run compares
 // the stages and the thread counts side by side.
 //

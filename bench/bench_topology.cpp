@@ -8,7 +8,7 @@
 //    at its base. Per update, ElasticModel::updateTopology is timed (new elements' matrices,
 //    node masses, prolongation, and the block sparsity with the rows of unchanged
 //    neighbourhoods copied), and right after it, on a copy, the full rebuild of the reduced
-//    structure that used to follow every cut (setFixed: prolongation and every row gathered
+//    structure that the update replaces (setFixed: prolongation and every row gathered
 //    anew). Counters: both means per update, their ratio, the share of rows copied.
 // Each runs with 1 and 2 worker threads. Only the updates are timed (manual time); copying the
 // octree and disconnecting the links before each update are not.

@@ -151,9 +151,8 @@ int main(int argc, char** argv) {
   // Keep freed memory for reuse instead of giving it back to the system: glibc trims the heap
   // and unmaps large blocks as soon as they are freed, so the next frame's buffers (the cut
   // step's scratch, a cube array that grows, a copied model) come back as fresh pages, and a
-  // page fault costs microseconds on a virtual machine. Measured on the 2-core development VM:
-  // the liver's deferred octree updates after a single-frame cut took 7.8-7.9 ms without this
-  // and 2.0-2.3 ms with it; bunny-ear's frames 2.47 ms on average instead of 2.77.
+  // page fault costs microseconds on a virtual machine (docs/performance.md, "Memory kept for
+  // reuse").
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
   mallopt(M_MMAP_THRESHOLD, 32 << 20);
   mallopt(M_TOP_PAD, 16 << 20);

@@ -1,5 +1,5 @@
 // Tests of the voxcut command line: run the built binary as a user would, and check its exit
-// status, stdout (text or JSON), stderr and the files it writes (issue 2, "Must show").
+// status, stdout (text or JSON), stderr and the files it writes.
 
 #include <fcntl.h>
 #include <gtest/gtest.h>
@@ -188,7 +188,7 @@ ModelGeometry geometryOf(const std::string& spec) {
   return g;
 }
 
-/// Checks the keys and types every `info --json` object must have (issue 2, item 7).
+/// Checks the keys and types every `info --json` object must have (README, "Command line").
 void expectInfoKeys(const json& j) {
   ASSERT_TRUE(j.is_object());
   ASSERT_TRUE(j.contains("grid") && j["grid"].is_array() && j["grid"].size() == 3u) << j.dump();
@@ -274,7 +274,7 @@ double expectClosedOriented(const ObjMesh& m) {
   return v;
 }
 
-/// Expects a failed run reported as issue 2 item 8 and STYLE.md item 8 say: a status in
+/// Expects a failed run reported cleanly (docs/architecture.md, "Invariants"): a status in
 /// 1..127, nothing on stdout, and exactly one line on stderr starting with "voxcut: error:".
 void expectCleanFailure(const std::vector<std::string>& args) {
   const RunResult r = voxcut(args);
@@ -573,7 +573,7 @@ TEST(Cli, HelpOfEachSubcommand) {
   }
 }
 
-// --- the voxel octree and the single-frame cut (issue 3) -----------------------------------
+// --- the voxel octree and the single-frame cut ---------------------------------------------
 
 /// Runs `voxcut cut ARGS --json`, expects success and returns the parsed object.
 json cutJson(std::vector<std::string> args) { return commandJson("cut", std::move(args)); }
