@@ -79,6 +79,12 @@ TEST(MeshFormats, StlBinaryWhoseHeaderSaysSolid) {
   test::expectCube(readMeshFromMemory(stl, "stl"));
 }
 
+TEST(MeshFormats, StlAsciiWithUtf8Name) {
+  std::string text = test::cubeAsciiStl();
+  text.replace(0, 10, "solid W\xc3\xbcrfel");
+  test::expectCube(readMeshFromMemory(text, "stl"));
+}
+
 TEST(MeshFormats, StlAsciiSeveralSolidsAndCrlf) {
   std::string text = test::cubeAsciiStl();
   // Split after the sixth facet into two solids, and use CRLF line ends.

@@ -8,7 +8,8 @@
 #include <climits>
 #include <cmath>
 #include <cstdlib>
-#include <unordered_map>
+#include <numeric>
+#include <tuple>
 
 #include "voxcut/core/Error.h"
 
@@ -23,18 +24,6 @@ bool isBlank(char c) {
 struct PositionKey {
   std::array<std::uint64_t, 3> bits;
   friend bool operator==(const PositionKey&, const PositionKey&) = default;
-};
-
-struct PositionKeyHash {
-  std::size_t operator()(const PositionKey& k) const {
-    std::uint64_t h = 0x9e3779b97f4a7c15ULL;
-    for (const std::uint64_t b : k.bits) {
-      h ^= b + 0x9e3779b97f4a7c15ULL + (h << 6) + (h >> 2);
-      h *= 0xff51afd7ed558ccdULL;
-      h ^= h >> 33;
-    }
-    return static_cast<std::size_t>(h);
-  }
 };
 
 PositionKey keyOf(const Vec3d& p) {
@@ -160,26 +149,44 @@ TriangleMesh RawMesh::finish(const MeshInput& in) const {
   // Faces are numbered with int downstream (crossings, winding-number trees).
   if (faces_.size() > static_cast<std::size_t>(INT_MAX) / 3)
     throw InputError(in.what + " has too many triangles (" + std::to_string(faces_.size()) + ")");
-  TriangleMesh out;
-  out.faces.reserve(faces_.size());
-  std::unordered_map<PositionKey, int, PositionKeyHash> ids;
-  ids.reserve(std::min(vertices_.size(), faces_.size() * 3));
-  std::vector<int> welded(vertices_.size(), -1);
-  for (const auto& face : faces_) {
-    std::array<int, 3> tri{};
-    for (int k = 0; k < 3; ++k) {
-      int& id = welded[static_cast<std::size_t>(face[k])];
-      if (id < 0) {
-        const Vec3d& p = vertices_[static_cast<std::size_t>(face[k])];
-        const auto [it, inserted] =
-            ids.try_emplace(keyOf(p), static_cast<int>(out.vertices.size()));
-        if (inserted) out.vertices.push_back(p);
-        id = it->second;
+  // The used vertices in order of first use; slot[v] is v's place in that order.
+  std::vector<int> used;
+  std::vector<int> slot(vertices_.size(), -1);
+  for (const auto& face : faces_)
+    for (const int v : face)
+      if (slot[static_cast<std::size_t>(v)] < 0) {
+        slot[static_cast<std::size_t>(v)] = static_cast<int>(used.size());
+        used.push_back(v);
       }
-      tri[k] = id;
-    }
-    out.faces.push_back(tri);
+  // Sorting by exact position (ties by first use) puts equal positions side by side; each
+  // run is welded into its first-used member, and the output keeps the order of first use.
+  std::vector<PositionKey> keys(used.size());
+  for (std::size_t i = 0; i < used.size(); ++i)
+    keys[i] = keyOf(vertices_[static_cast<std::size_t>(used[i])]);
+  std::vector<int> order(used.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(),
+            [&](int a, int b) { return std::tie(keys[a].bits, a) < std::tie(keys[b].bits, b); });
+  std::vector<int> first(used.size());
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const bool same = k > 0 && keys[order[k]] == keys[order[k - 1]];
+    first[order[k]] = same ? first[order[k - 1]] : order[k];
   }
+  TriangleMesh out;
+  std::vector<int> id(used.size());
+  for (std::size_t i = 0; i < used.size(); ++i) {
+    if (first[i] == static_cast<int>(i)) {
+      id[i] = static_cast<int>(out.vertices.size());
+      out.vertices.push_back(vertices_[static_cast<std::size_t>(used[i])]);
+    } else {
+      id[i] = id[static_cast<std::size_t>(first[i])];  // an earlier slot, numbered already
+    }
+  }
+  out.faces.reserve(faces_.size());
+  for (const auto& face : faces_)
+    out.faces.push_back({id[static_cast<std::size_t>(slot[static_cast<std::size_t>(face[0])])],
+                         id[static_cast<std::size_t>(slot[static_cast<std::size_t>(face[1])])],
+                         id[static_cast<std::size_t>(slot[static_cast<std::size_t>(face[2])])]});
   return out;
 }
 

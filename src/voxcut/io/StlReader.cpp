@@ -20,12 +20,13 @@ bool startsWithSolid(std::string_view data) {
   return data.substr(i).starts_with("solid");
 }
 
-/// Whether `data` could be ASCII text: no byte outside tab, line breaks and printable ASCII.
-/// A binary STL's floats practically always hold such bytes.
+/// Whether `data` could be ASCII STL: no control byte other than tab, line breaks, vertical
+/// tab and form feed (bytes from 0x80 up may be UTF-8 in a solid's name). A binary STL holds
+/// such bytes in practice: its triangle count's top byte is 0 below 16.7 million triangles.
 bool looksLikeText(std::string_view data) {
   for (const char c : data) {
     const auto u = static_cast<unsigned char>(c);
-    if (u > 0x7e || (u < 0x20 && u != '\t' && u != '\n' && u != '\r')) return false;
+    if ((u < 0x20 && (u < '\t' || u > '\r')) || u == 0x7f) return false;
   }
   return true;
 }
