@@ -99,14 +99,15 @@ Header parseHeader(const MeshInput& in, LineReader& lines) {
       const std::optional<std::int64_t> count = parseInteger(tokens[2]);
       if (!count || *count < 0) fail("element count " + quoted(tokens[2]) + " is not a count");
       Element e{std::string(tokens[1]), static_cast<std::uint64_t>(*count), {}, lines.lineNumber()};
-      bool& seen = e.name == "vertex" ? haveVertex : haveFace;
-      if (e.name == "vertex" || e.name == "face") {
-        if (seen) fail("a second '" + e.name + "' element");
-        seen = true;
-      }
       if (e.name == "vertex") {
+        if (haveVertex) fail("a second 'vertex' element");
         if (e.count > kMaxVertices) fail("too many vertices (" + std::to_string(e.count) + ")");
         header.vertexCount = e.count;
+        haveVertex = true;
+      }
+      if (e.name == "face") {
+        if (haveFace) fail("a second 'face' element");
+        haveFace = true;
       }
       header.elements.push_back(std::move(e));
     } else if (word == "property") {
