@@ -11,6 +11,7 @@
 #include <cstring>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "voxcut/core/TriangleMesh.h"
@@ -72,6 +73,56 @@ void appendRaw(std::string& out, T value) {
   char bytes[sizeof(T)];
   std::memcpy(bytes, &value, sizeof(T));  // the test machines are little-endian
   out.append(bytes, sizeof(T));
+}
+
+/// Appends `value`'s bytes in the given byte order (the test machines are little-endian).
+template <class T>
+void appendEndian(std::string& out, T value, bool bigEndian) {
+  char bytes[sizeof(T)];
+  std::memcpy(bytes, &value, sizeof(T));
+  if (bigEndian)
+    for (std::size_t i = 0; i < sizeof(T) / 2; ++i) std::swap(bytes[i], bytes[sizeof(T) - 1 - i]);
+  out.append(bytes, sizeof(T));
+}
+
+/// Binary PLY of the cube translated by `offset` (double coordinates), in the given byte
+/// order, with what real files carry besides the geometry: comments, obj_info, normals and
+/// colours of mixed types, a list property on vertices, an element before and one after the
+/// faces, a short list count and unsigned indices, and a property after the index list.
+inline std::string cubeRichBinaryPly(bool bigEndian, double offset = 0.0) {
+  std::string s = std::string("ply\nformat ") +
+                  (bigEndian ? "binary_big_endian" : "binary_little_endian") +
+                  " 1.0\ncomment written by hand\nobj_info test cube\n"
+                  "element vertex 8\nproperty float nx\nproperty double x\nproperty double y\n"
+                  "property double z\nproperty uchar red\nproperty list uchar short tags\n"
+                  "property int16 extra\n"
+                  "element material 2\nproperty float shine\nproperty list int uint ids\n"
+                  "element face 6\nproperty ushort flags\nproperty list short uint vertex_indices\n"
+                  "property double weight\n"
+                  "element edge 1\nproperty int a\nproperty int b\nend_header\n";
+  for (const auto& c : kCubeCorners) {
+    appendEndian(s, 0.5f, bigEndian);
+    for (int k = 0; k < 3; ++k) appendEndian(s, c[k] + (k == 0 ? offset : 0.0), bigEndian);
+    appendEndian(s, std::uint8_t{200}, bigEndian);
+    appendEndian(s, std::uint8_t{2}, bigEndian);
+    appendEndian(s, std::int16_t{-7}, bigEndian);
+    appendEndian(s, std::int16_t{9}, bigEndian);
+    appendEndian(s, std::int16_t{-1}, bigEndian);
+  }
+  for (int m = 0; m < 2; ++m) {
+    appendEndian(s, 1.5f, bigEndian);
+    appendEndian(s, std::int32_t{m}, bigEndian);  // a list of m ids
+    for (int k = 0; k < m; ++k) appendEndian(s, std::uint32_t{77}, bigEndian);
+  }
+  for (const auto& q : kCubeQuads) {
+    appendEndian(s, std::uint16_t{3}, bigEndian);
+    appendEndian(s, std::int16_t{4}, bigEndian);
+    for (const int v : q) appendEndian(s, static_cast<std::uint32_t>(v), bigEndian);
+    appendEndian(s, 0.25, bigEndian);
+  }
+  appendEndian(s, std::int32_t{0}, bigEndian);
+  appendEndian(s, std::int32_t{1}, bigEndian);
+  return s;
 }
 
 /// Binary little-endian PLY of the cube's triangles; `corner0x` replaces corner 0's x.

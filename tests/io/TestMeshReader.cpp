@@ -178,13 +178,18 @@ TEST(MeshReaderErrors, UnparsableFile) {
   const TempDir dir;
   const std::string unknown = dir.write("mesh.xyz", "this is not a mesh\n");
   expectInputError([&] { (void)readMesh(unknown); }, {unknown, "cannot read"});
-  // Truncated files. (A truncated ascii STL is left out: assimp 5.2 leaks on that path.)
+  // Truncated files: the position where the data ends is named.
   const std::string stl = dir.write("truncated.stl", test::cubeBinaryStl().substr(0, 300));
-  expectInputError([&] { (void)readMesh(stl); }, {stl, "cannot read"});
-  const std::string ply = dir.write("truncated.ply", test::cubeBinaryPly().substr(0, 200));
-  expectInputError([&] { (void)readMesh(ply); }, {ply, "cannot read"});
+  expectInputError([&] { (void)readMesh(stl); }, {stl, "byte 80", "declares 12 triangles"});
+  const std::string fullStl = test::cubeAsciiStl();
+  std::size_t cut = 0;
+  for (int line = 0; line < 5; ++line) cut = fullStl.find('\n', cut) + 1;
+  const std::string asciiStl = dir.write("truncated-ascii.stl", fullStl.substr(0, cut));
+  expectInputError([&] { (void)readMesh(asciiStl); }, {asciiStl, "line 5", "inside a facet"});
+  const std::string ply = dir.write("truncated.ply", test::cubeBinaryPly().substr(0, 400));
+  expectInputError([&] { (void)readMesh(ply); }, {ply, "byte ", "'face' element"});
   const std::string off = dir.write("truncated.off", "OFF\n3 1 0\n0 0 0\n1 0\n");
-  expectInputError([&] { (void)readMesh(off); }, {off, "cannot read"});
+  expectInputError([&] { (void)readMesh(off); }, {off, "line 4", "x y z needed"});
 }
 
 TEST(MeshReaderErrors, FromMemory) {

@@ -3,18 +3,16 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
-#include <array>
 #include <assimp/Importer.hpp>
-#include <bit>
-#include <climits>
+#include <cctype>
 #include <cmath>
-#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <string_view>
-#include <unordered_map>
+#include <vector>
 
 #include "voxcut/core/Error.h"
+#include "voxcut/io/MeshFormats.h"
 
 namespace voxcut {
 namespace {
@@ -46,72 +44,35 @@ std::string oneLine(std::string_view text) {
   return out.empty() ? std::string("unknown error") : out;
 }
 
-/// Exact position as a hash key; -0 is folded into +0 so that equal values weld.
-struct PositionKey {
-  std::array<std::uint64_t, 3> bits;
-  friend bool operator==(const PositionKey&, const PositionKey&) = default;
-};
-
-struct PositionKeyHash {
-  std::size_t operator()(const PositionKey& k) const {
-    std::uint64_t h = 0x9e3779b97f4a7c15ULL;
-    for (const std::uint64_t b : k.bits) {
-      h ^= b + 0x9e3779b97f4a7c15ULL + (h << 6) + (h >> 2);
-      h *= 0xff51afd7ed558ccdULL;
-      h ^= h >> 33;
-    }
-    return static_cast<std::size_t>(h);
-  }
-};
-
-PositionKey keyOf(const Vec3d& p) {
-  return {{std::bit_cast<std::uint64_t>(p.x() + 0.0), std::bit_cast<std::uint64_t>(p.y() + 0.0),
-           std::bit_cast<std::uint64_t>(p.z() + 0.0)}};
-}
-
 /// Merges the triangles of every mesh of `scene` into one mesh, welding equal positions.
 /// `what` names the source in error messages ("mesh file 'x.obj'").
 TriangleMesh weldedMesh(const aiScene& scene, const std::string& what) {
-  std::size_t triangles = 0;
+  meshio::RawMesh raw;
+  std::vector<int> corners(3);
   for (unsigned m = 0; m < scene.mNumMeshes; ++m) {
     const aiMesh& mesh = *scene.mMeshes[m];
+    const std::size_t base = raw.vertexCount();
+    if (mesh.mNumVertices > meshio::kMaxVertices - base)
+      throw InputError(what + " has too many vertices");
     for (unsigned v = 0; v < mesh.mNumVertices; ++v) {
       const aiVector3D& p = mesh.mVertices[v];
       if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
         throw InputError(what + " has a non-finite vertex coordinate (NaN or infinity)");
+      raw.addVertex(
+          Vec3d(static_cast<double>(p.x), static_cast<double>(p.y), static_cast<double>(p.z)));
     }
-    for (unsigned f = 0; f < mesh.mNumFaces; ++f)
-      if (mesh.mFaces[f].mNumIndices == 3) ++triangles;
-  }
-  if (triangles == 0) throw InputError(what + " has no triangles");
-  if (triangles > static_cast<std::size_t>(INT_MAX) / 3)
-    throw InputError(what + " has too many triangles (" + std::to_string(triangles) + ")");
-
-  TriangleMesh out;
-  out.faces.reserve(triangles);
-  std::unordered_map<PositionKey, int, PositionKeyHash> ids;
-  ids.reserve(triangles);
-  for (unsigned m = 0; m < scene.mNumMeshes; ++m) {
-    const aiMesh& mesh = *scene.mMeshes[m];
     for (unsigned f = 0; f < mesh.mNumFaces; ++f) {
       const aiFace& face = mesh.mFaces[f];
       if (face.mNumIndices != 3) continue;  // points and lines
-      std::array<int, 3> tri{};
       for (int k = 0; k < 3; ++k) {
         const unsigned index = face.mIndices[k];
         if (index >= mesh.mNumVertices) throw InputError(what + " has a vertex index out of range");
-        const aiVector3D& p = mesh.mVertices[index];
-        const Vec3d position(static_cast<double>(p.x), static_cast<double>(p.y),
-                             static_cast<double>(p.z));
-        const auto [it, inserted] =
-            ids.try_emplace(keyOf(position), static_cast<int>(out.vertices.size()));
-        if (inserted) out.vertices.push_back(position);
-        tri[k] = it->second;
+        corners[static_cast<std::size_t>(k)] = static_cast<int>(base + index);
       }
-      out.faces.push_back(tri);
+      raw.addPolygon(corners);
     }
   }
-  return out;
+  return raw.finish({{}, what});
 }
 
 /// Turns the importer's result into a mesh, or its failure into an InputError.
@@ -130,6 +91,30 @@ TriangleMesh meshFromImport(const aiScene* scene, const Assimp::Importer& import
   return weldedMesh(*scene, what);
 }
 
+/// The reader of our own for `format` (an extension without the dot, any case), or null when
+/// assimp has to read it.
+using FormatReader = TriangleMesh (*)(const meshio::MeshInput&);
+FormatReader ownReader(std::string_view format) {
+  std::string lower(format);
+  for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (lower == "obj") return &meshio::readObj;
+  if (lower == "stl") return &meshio::readStl;
+  if (lower == "ply") return &meshio::readPly;
+  if (lower == "off") return &meshio::readOff;
+  return nullptr;
+}
+
+/// The whole regular file at `path` (checked by the caller), or InputError naming `what`.
+std::string fileBytes(const std::string& path, const std::string& what) {
+  std::ifstream file(path, std::ios::binary);
+  std::string bytes;
+  char buffer[1 << 16];
+  while (file.read(buffer, sizeof buffer) || file.gcount() > 0)
+    bytes.append(buffer, static_cast<std::size_t>(file.gcount()));
+  if (file.bad()) throw InputError(what + " could not be read");
+  return bytes;
+}
+
 }  // namespace
 
 TriangleMesh readMesh(const std::string& path) {
@@ -146,6 +131,13 @@ TriangleMesh readMesh(const std::string& path) {
   if (!std::ifstream(path, std::ios::binary)) throw InputError(what + " cannot be opened");
   if (fs::file_size(path, ec) == 0 && !ec) throw InputError(what + " is empty");
 
+  std::string extension = fs::path(path).extension().string();
+  if (!extension.empty()) extension.erase(0, 1);
+  if (const FormatReader reader = ownReader(extension)) {
+    const std::string bytes = fileBytes(path, what);
+    if (bytes.empty()) throw InputError(what + " is empty");
+    return reader({bytes, what});
+  }
   Assimp::Importer importer;
   const aiScene* scene = importer.ReadFile(path, kImportFlags);
   return meshFromImport(scene, importer, what);
@@ -155,6 +147,7 @@ TriangleMesh readMeshFromMemory(std::string_view data, const char* formatHint) {
   const std::string hint = formatHint != nullptr ? formatHint : "";
   const std::string what = "in-memory mesh (" + (hint.empty() ? std::string("?") : hint) + ")";
   if (data.empty()) throw InputError(what + " is empty");
+  if (const FormatReader reader = ownReader(hint)) return reader({data, what});
   Assimp::Importer importer;
   const aiScene* scene =
       importer.ReadFileFromMemory(data.data(), data.size(), kImportFlags, hint.c_str());

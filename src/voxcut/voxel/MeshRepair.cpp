@@ -5,14 +5,29 @@
 #include <numeric>
 #include <tuple>
 
+#include "voxcut/core/Predicates.h"
+
 namespace voxcut {
 namespace {
 
+/// Whether the triangle a b c has exactly zero area: its corners are collinear (or equal)
+/// exactly when each of its three axis-aligned 2D projections is, which the exact orient2d
+/// decides without rounding.
+bool isCollinear(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
+  for (int u = 0; u < 3; ++u) {
+    const int v = (u + 1) % 3;
+    if (orient2d(Vec2d(a[u], a[v]), Vec2d(b[u], b[v]), Vec2d(c[u], c[v])) != 0) return false;
+  }
+  return true;
+}
+
 struct EdgeUse {
-  int a, b;   // sorted vertex pair
+  int a, b;  // sorted vertex pair
   int face;
   bool forward;  // face uses a->b
-  bool operator<(const EdgeUse& o) const { return std::tie(a, b, face) < std::tie(o.a, o.b, o.face); }
+  bool operator<(const EdgeUse& o) const {
+    return std::tie(a, b, face) < std::tie(o.a, o.b, o.face);
+  }
 };
 
 std::vector<EdgeUse> edgeUses(const std::vector<std::array<int, 3>>& faces) {
@@ -59,11 +74,13 @@ TriangleMesh repairMesh(const TriangleMesh& in, RepairReport* report) {
     remap[i] = newIndex[rep0];
   }
 
-  // Drop degenerate faces and duplicates (same vertex set, either winding): keep the first.
+  // Drop degenerate faces (a repeated vertex, or collinear corners: zero area, no normal) and
+  // duplicates (same vertex set, either winding): keep the first.
   std::map<std::array<int, 3>, int> seen;
   for (const auto& f : in.faces) {
     const std::array<int, 3> g{remap[f[0]], remap[f[1]], remap[f[2]]};
-    if (g[0] == g[1] || g[1] == g[2] || g[0] == g[2]) {
+    if (g[0] == g[1] || g[1] == g[2] || g[0] == g[2] ||
+        isCollinear(out.vertices[g[0]], out.vertices[g[1]], out.vertices[g[2]])) {
       ++rep.degenerateFaces;
       continue;
     }
@@ -103,8 +120,9 @@ TriangleMesh repairMesh(const TriangleMesh& in, RepairReport* report) {
       const int f = queue[q];
       patch.push_back(f);
       const auto& t = out.faces[f];
-      const double area =
-          (out.vertices[t[1]] - out.vertices[t[0]]).cross(out.vertices[t[2]] - out.vertices[t[0]]).norm();
+      const double area = (out.vertices[t[1]] - out.vertices[t[0]])
+                              .cross(out.vertices[t[2]] - out.vertices[t[0]])
+                              .norm();
       (flip[f] ? flippedArea : keptArea) += area;
       for (const auto& [g, s] : adj[f]) {
         // Two faces agree when they use their shared edge in opposite directions.
