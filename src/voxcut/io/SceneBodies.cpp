@@ -18,11 +18,13 @@ std::vector<VoxelGrid> voxelizeSceneBodies(const Scene& scene, bool threaded,
     vp.resolution.resolution = scene.bodies[i].resolution.value_or(model.defaultResolution);
     vp.threaded = threaded;
     vp.progress = progress;
+    const std::string body = scene.source + ": bodies[" + std::to_string(i) + "]";
     try {
       grids.push_back(voxelize(model.materials, vp));
     } catch (const InputError& e) {
-      throw InputError(scene.source + ": bodies[" + std::to_string(i) + "]: " + e.what());
+      throw InputError(body + ": " + e.what());
     }
+    requireVoxels(grids.back(), body + " (model '" + scene.bodies[i].model + "')");
   }
   return grids;
 }

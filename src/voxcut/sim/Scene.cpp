@@ -1,7 +1,9 @@
 #include "voxcut/sim/Scene.h"
 
 #include <algorithm>
+#include <cmath>
 
+#include "voxcut/core/CoordinateRange.h"
 #include "voxcut/core/Error.h"
 
 namespace voxcut {
@@ -9,6 +11,12 @@ namespace voxcut {
 BladePose bladePoseAt(const SceneTool& tool, double t) {
   VOXCUT_ASSERT(!tool.keys.empty(), "a tool needs at least one key");
   const std::vector<ToolKey>& keys = tool.keys;
+  VOXCUT_ASSERT(std::all_of(keys.begin(), keys.end(),
+                            [](const ToolKey& k) {
+                              return std::isfinite(k.t) && isCoordinate(k.pose.a) &&
+                                     isCoordinate(k.pose.b);
+                            }),
+                "a tool key with a non-finite time or an end outside the coordinate range");
   if (!(t > keys.front().t)) return keys.front().pose;  // also NaN: the first pose
   if (t >= keys.back().t) return keys.back().pose;
   // First key strictly after t; keys.front().t < t < keys.back().t, so 1 <= k < size.

@@ -1,0 +1,45 @@
+#pragma once
+/// @file CoordinateRange.h
+/// The range of positions and lengths voxcut accepts from its input: every coordinate (scene
+/// offsets, fixed boxes, blade ends, command-line blade poses) within [-1e6, 1e6] m, every
+/// length (primitive sizes) in (0, 1e6] m.
+///
+/// Why a range: the exact orientation predicates (core/Predicates.h) are exact only when the
+/// magnitudes passed to one call lie within a factor 2^300 of each other, and coordinate
+/// differences must not overflow; a blade end at 1e155 m next to voxels at 0.1 m breaks the
+/// first, one at 1e308 m the second. A kilometre-sized world of millimetre voxels stays far
+/// inside the range. Thread-safety: pure functions.
+
+#include <string>
+
+#include "voxcut/core/Types.h"
+
+namespace voxcut {
+
+/// The largest coordinate magnitude and length accepted from input, metres.
+inline constexpr double kMaxCoordinate = 1e6;
+
+/// "[-1e6, 1e6] m": the coordinate range as messages and documents write it.
+inline constexpr const char* kCoordinateRangeText = "[-1e6, 1e6] m";
+
+/// Whether x is finite and |x| <= kMaxCoordinate (false for NaN and infinities).
+[[nodiscard]] constexpr bool isCoordinate(double x) {
+  return x >= -kMaxCoordinate && x <= kMaxCoordinate;
+}
+
+/// Whether every component of p is a coordinate (isCoordinate).
+[[nodiscard]] inline bool isCoordinate(const Vec3d& p) {
+  return isCoordinate(p.x()) && isCoordinate(p.y()) && isCoordinate(p.z());
+}
+
+/// Whether x is a length voxcut accepts: 0 < x <= kMaxCoordinate (false for NaN).
+[[nodiscard]] constexpr bool isLength(double x) {
+  return x > 0.0 && x <= kMaxCoordinate;
+}
+
+/// Throws InputError "<context>: must be in [-1e6, 1e6] m, got <x>" unless isCoordinate(x);
+/// x is written in its shortest round-trip form. For the input boundary (readers, command
+/// line); inside the library a coordinate out of range is a programming error.
+void requireCoordinate(double x, const std::string& context);
+
+}  // namespace voxcut
