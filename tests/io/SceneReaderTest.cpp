@@ -558,7 +558,7 @@ TEST(SceneReaderErrors, DeepNestingIsOneErrorQuickly) {
   // Brackets inside strings (escaped quotes included) do not count.
   EXPECT_EQ(parse(withTop("\"description\": \"\\\"" + std::string(1000, '[') + "\"")).bodies.size(),
             1u);
-  // The deepest a scene needs (5) is far inside the limit; 64 levels pass the depth check.
+  // The deepest a scene needs (7) is far inside the limit; 64 levels pass the depth check.
   const std::string at64 = std::string(63, '[') + std::string(63, ']');
   EXPECT_NE(parseError(withTop("\"description\": " + at64)).find("description: must be a string"),
             std::string::npos);

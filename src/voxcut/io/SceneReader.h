@@ -21,7 +21,8 @@ namespace voxcut {
 /// The largest scene file readScene reads, bytes (64 MiB; the shipped scenes are about 2 KiB).
 inline constexpr std::size_t kMaxSceneFileBytes = std::size_t{64} << 20;
 
-/// The deepest nesting of lists and objects a scene may have (the format itself needs 5).
+/// The deepest nesting of lists and objects a scene may have (the format itself needs 7:
+/// a fixed box's corner).
 inline constexpr std::size_t kMaxSceneDepth = 64;
 
 /// Reads and validates the scene file at `path`: readSceneText, then parseScene. Relative
