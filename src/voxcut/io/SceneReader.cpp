@@ -160,7 +160,8 @@ Vec3d vec3(const Reader& r, const Json& v, const std::string& path) {
 /// A position or translation [x, y, z] in metres, each within the coordinate range.
 Vec3d point(const Reader& r, const Json& v, const std::string& path) {
   const Vec3d p = vec3(r, v, path);
-  for (int i = 0; i < 3; ++i) requireCoordinate(p[i], r.source + ": " + element(path, i));
+  for (int i = 0; i < 3; ++i)  // the message's key path is built only when it is needed
+    if (!isCoordinate(p[i])) requireCoordinate(p[i], r.source + ": " + element(path, i));
   return p;
 }
 
