@@ -473,6 +473,21 @@ TEST(SceneReaderErrors, DuplicateKey) {
               R"(key "time_step" appears twice in one object)");
 }
 
+TEST(SceneReaderErrors, ControlCharactersInKeysStayOnOneLine) {
+  // Keys are decoded JSON strings: escapes become newlines and other control characters,
+  // which messages write escaped again.
+  expectError(withTop(R"("a\nb": 1, "a\nb": 2)"), R"(key "a\nb" appears twice in one object)");
+  expectError(withTop(R"("time\u001bstep": 1)"), R"(time\u001bstep: unknown key)");
+  const Scene scene = parse(withBody(R"("materials": {"x\r\ny": {}})"));
+  try {
+    (void)loadBodyModel(scene, 0);
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind(R"(scene.json: bodies[0].materials.x\r\ny: )", 0), 0u)
+        << e.what();
+  }
+}
+
 TEST(SceneReaderErrors, MissingOrUnreadableFile) {
   const TempDir dir;
   const std::string missing = dir.file("nothing.json");

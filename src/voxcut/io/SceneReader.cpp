@@ -42,10 +42,11 @@ struct Reader {
   std::string source;
   fs::path baseDir;
 
-  /// Throws "SOURCE: PATH: WHAT" (PATH "top level" for the root).
+  /// Throws "SOURCE: PATH: WHAT" (PATH "top level" for the root), control characters of keys
+  /// escaped so that it stays one line.
   [[noreturn]] void fail(const std::string& path, const std::string& what) const {
-    throw InputError(source + ": " + (path.empty() ? std::string("top level") : path) + ": " +
-                     what);
+    throw InputError(detail::oneLine(
+        source + ": " + (path.empty() ? std::string("top level") : path) + ": " + what));
   }
 };
 
@@ -404,20 +405,21 @@ Scene readScene(const std::string& path) {
 }
 
 std::string readSceneText(const std::string& path) {
+  const auto fail = [&](const std::string& what) {
+    throw InputError(detail::oneLine(path + ": " + what));
+  };
   std::error_code ec;
   const auto status = fs::status(path, ec);
-  if (ec || !fs::exists(status)) throw InputError(path + ": no such file");
-  if (fs::is_directory(status)) throw InputError(path + ": is a directory, not a scene file");
+  if (ec || !fs::exists(status)) fail("no such file");
+  if (fs::is_directory(status)) fail("is a directory, not a scene file");
   if (!fs::is_regular_file(status))
-    throw InputError(path +
-                     ": not a regular file (a device, FIFO or socket); a scene is read "
-                     "from a regular file");
-  const std::string tooLarge = ": larger than " + std::to_string(kMaxSceneFileBytes >> 20) +
-                               " MiB, the limit of a scene file";
+    fail("not a regular file (a device, FIFO or socket); a scene is read from a regular file");
+  const std::string tooLarge =
+      "larger than " + std::to_string(kMaxSceneFileBytes >> 20) + " MiB, the limit of a scene file";
   const auto size = fs::file_size(path, ec);
-  if (!ec && size > kMaxSceneFileBytes) throw InputError(path + tooLarge);
+  if (!ec && size > kMaxSceneFileBytes) fail(tooLarge);
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open: " + std::strerror(errno));
+  if (!in) fail(std::string("cannot open: ") + std::strerror(errno));
   // At most one byte more than the limit is read, whatever the file's size said: a file that
   // grows while it is read cannot exhaust memory.
   std::string text;
@@ -427,8 +429,8 @@ std::string readSceneText(const std::string& path) {
     in.read(chunk.data(), static_cast<std::streamsize>(want));
     text.append(chunk.data(), static_cast<std::size_t>(in.gcount()));
   }
-  if (in.bad()) throw InputError(path + ": cannot read: " + std::strerror(errno));
-  if (text.size() > kMaxSceneFileBytes) throw InputError(path + tooLarge);
+  if (in.bad()) fail(std::string("cannot read: ") + std::strerror(errno));
+  if (text.size() > kMaxSceneFileBytes) fail(tooLarge);
   return text;
 }
 
@@ -439,8 +441,8 @@ Model loadBodyModel(const Scene& scene, std::size_t bodyIndex) {
   try {
     model = loadModel(body.model);
   } catch (const InputError& e) {
-    throw InputError(scene.source + ": bodies[" + std::to_string(bodyIndex) +
-                     "].model: " + e.what());
+    throw InputError(detail::oneLine(scene.source + ": bodies[" + std::to_string(bodyIndex) +
+                                     "].model: " + e.what()));
   }
   if (!isBuiltinModelSpec(body.model) && model.materials.size() == 1)
     model.materials.front().name = "default";
@@ -448,14 +450,19 @@ Model loadBodyModel(const Scene& scene, std::size_t bodyIndex) {
     for (Vec3d& p : m.mesh.vertices) {
       p += body.offset;
       if (!isCoordinate(p))
-        throw InputError(scene.source + ": bodies[" + std::to_string(bodyIndex) +
-                         "]: the model, moved by offset, reaches outside the coordinate range " +
-                         kCoordinateRangeText + " (a vertex at " + shown(p.x()) + ", " +
-                         shown(p.y()) + ", " + shown(p.z()) + ")");
+        throw InputError(
+            detail::oneLine(scene.source + ": bodies[" + std::to_string(bodyIndex) +
+                            "]: the model, moved by offset, reaches outside the coordinate range " +
+                            kCoordinateRangeText + " (a vertex at " + shown(p.x()) + ", " +
+                            shown(p.y()) + ", " + shown(p.z()) + ")"));
     }
   std::vector<std::string> names;
   for (const MaterialMesh& m : model.materials) names.push_back(m.name);
-  checkMaterialNames(scene, bodyIndex, names);
+  try {
+    checkMaterialNames(scene, bodyIndex, names);
+  } catch (const InputError& e) {
+    throw InputError(detail::oneLine(e.what()));  // a material name may hold a newline
+  }
   return model;
 }
 

@@ -1,6 +1,7 @@
 #include "voxcut/io/StrictJson.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <unordered_set>
 #include <vector>
 
@@ -67,7 +68,7 @@ class DocumentBuilder final : public nlohmann::json_sax<Json> {
   }
   bool key(string_t& key) override {
     if (!keys_.back().insert(key).second)
-      throw InputError(source_ + ": key \"" + key + "\" appears twice in one object");
+      throw InputError(oneLine(source_ + ": key \"" + key + "\" appears twice in one object"));
     pendingKey_ = std::move(key);
     return true;
   }
@@ -150,6 +151,28 @@ std::string reasonOf(std::string message) {
 }
 
 }  // namespace
+
+std::string oneLine(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  for (const char c : text) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (byte >= 0x20 && byte != 0x7f) {
+      out += c;
+    } else if (c == '\n') {
+      out += "\\n";
+    } else if (c == '\r') {
+      out += "\\r";
+    } else if (c == '\t') {
+      out += "\\t";
+    } else {
+      char escape[8];
+      std::snprintf(escape, sizeof escape, "\\u%04x", byte);
+      out += escape;
+    }
+  }
+  return out;
+}
 
 std::pair<std::size_t, std::size_t> lineAndColumn(std::string_view text, std::size_t offset) {
   offset = std::min(offset, text.size());

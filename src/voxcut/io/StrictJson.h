@@ -31,6 +31,10 @@ namespace voxcut::detail {
                                                      const std::string& source,
                                                      std::size_t maxDepth);
 
+/// `text` with every control character (newline, tab, ...) written as a JSON escape (\n, \t,
+/// \u001b, ...), so that a key or path quoted in a message keeps the message on one line.
+[[nodiscard]] std::string oneLine(std::string_view text);
+
 /// Line and column (both from 1; columns count bytes) of the byte at `offset` (from 0) of
 /// `text`; an offset past the end counts as the end.
 [[nodiscard]] std::pair<std::size_t, std::size_t> lineAndColumn(std::string_view text,
