@@ -626,10 +626,12 @@ TEST(SceneReaderErrors, CoordinatesOutOfRangeNameTheKey) {
   // The bounds themselves are inside.
   const Scene edge = parse(withTop(blade + "[1e6, -1e6, 1e6]}]}]"));
   EXPECT_EQ(edge.tools[0].keys[0].pose.b, Vec3d(1e6, -1e6, 1e6));
-  // A primitive size is a length in (0, 1e6] m.
+  // A primitive size is a length in [1e-6, 1e6] m.
   expectError(R"({"bodies": [{"model": "box:2e6,1,1"}]})",
-              "bodies[0].model: bad model 'box:2e6,1,1': sizes must be positive, finite and at "
-              "most 1e6 m, got '2e6'");
+              "bodies[0].model: bad model 'box:2e6,1,1': sizes must be in [1e-6, 1e6] m, got "
+              "'2e6'");
+  expectError(R"({"bodies": [{"model": "sphere:1e-300"}]})",
+              "bodies[0].model: bad model 'sphere:1e-300': sizes must be in [1e-6, 1e6] m");
   expectError(R"({"bodies": [{"model": "sphere:1e155"}]})", "bodies[0].model: bad model");
 }
 

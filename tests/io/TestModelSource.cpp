@@ -173,8 +173,11 @@ TEST(ModelSource, MaterialsErrors) {
 }
 
 TEST(ModelSource, PrimitiveSizesUpToTheCoordinateRange) {
-  EXPECT_NE(loadError("box:1,1,2e6").find("at most 1e6 m, got '2e6'"), std::string::npos);
-  EXPECT_NO_THROW((void)loadModel("box:1e6,1e-3,1"));
+  EXPECT_NE(loadError("box:1,1,2e6").find("sizes must be in [1e-6, 1e6] m, got '2e6'"),
+            std::string::npos);
+  EXPECT_NE(loadError("sphere:1e-7").find("sizes must be in [1e-6, 1e6] m, got '1e-7'"),
+            std::string::npos);
+  EXPECT_NO_THROW((void)loadModel("box:1e6,1e-6,1"));
 }
 
 TEST(ModelSource, ModelWithoutVoxelsIsAnError) {

@@ -2,13 +2,15 @@
 /// @file CoordinateRange.h
 /// The range of positions and lengths voxcut accepts from its input: every coordinate (scene
 /// offsets, fixed boxes, blade ends, command-line blade poses) within [-1e6, 1e6] m, every
-/// length (primitive sizes) in (0, 1e6] m.
+/// length (primitive sizes) in [1e-6, 1e6] m.
 ///
 /// Why a range: the exact orientation predicates (core/Predicates.h) are exact only when the
 /// magnitudes passed to one call lie within a factor 2^300 of each other, and coordinate
 /// differences must not overflow; a blade end at 1e155 m next to voxels at 0.1 m breaks the
 /// first, one at 1e308 m the second. A kilometre-sized world of millimetre voxels stays far
-/// inside the range. Thread-safety: pure functions.
+/// inside the range. Lengths have a lower bound too: a body micrometres across already needs
+/// voxels of nanometres, and at far smaller scales its masses and volumes underflow and the
+/// simulation goes silently wrong. Thread-safety: pure functions.
 
 #include <string>
 
@@ -32,9 +34,15 @@ inline constexpr const char* kCoordinateRangeText = "[-1e6, 1e6] m";
   return isCoordinate(p.x()) && isCoordinate(p.y()) && isCoordinate(p.z());
 }
 
-/// Whether x is a length voxcut accepts: 0 < x <= kMaxCoordinate (false for NaN).
+/// The smallest length accepted from input, metres.
+inline constexpr double kMinLength = 1e-6;
+
+/// "[1e-6, 1e6] m": the length range as messages and documents write it.
+inline constexpr const char* kLengthRangeText = "[1e-6, 1e6] m";
+
+/// Whether x is a length voxcut accepts: kMinLength <= x <= kMaxCoordinate (false for NaN).
 [[nodiscard]] constexpr bool isLength(double x) {
-  return x > 0.0 && x <= kMaxCoordinate;
+  return x >= kMinLength && x <= kMaxCoordinate;
 }
 
 /// Throws InputError "<context>: must be in [-1e6, 1e6] m, got <x>" unless isCoordinate(x);

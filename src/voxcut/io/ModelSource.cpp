@@ -49,7 +49,7 @@ std::vector<double> parseSizes(const std::string& spec, std::string_view list, s
       throw InputError(bad + "'" + std::string(field) + "' is not a number (expected " +
                        std::string(form) + " in metres)");
     if (ec == std::errc::result_out_of_range || !isLength(value))
-      throw InputError(bad + "sizes must be positive, finite and at most 1e6 m, got '" +
+      throw InputError(bad + "sizes must be in " + kLengthRangeText + ", got '" +
                        std::string(field) + "'");
     sizes.push_back(value);
     if (comma == std::string_view::npos) break;

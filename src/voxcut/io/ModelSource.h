@@ -29,7 +29,7 @@ struct Model {
 ///     after the file stem, 101.
 /// Built-in names and primitives take precedence over files of the same name.
 /// Throws InputError naming `spec` for bad primitive sizes (not numbers, not lengths in
-/// (0, 1e6] m as core/CoordinateRange.h has them, wrong count), for a spec that is neither a
+/// [1e-6, 1e6] m as core/CoordinateRange.h has them, wrong count), for a spec that is neither a
 /// built-in nor an existing file, and for any failure of readMesh. Thread-safe.
 [[nodiscard]] Model loadModel(const std::string& spec);
 
