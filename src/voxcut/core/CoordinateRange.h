@@ -34,6 +34,16 @@ inline constexpr const char* kCoordinateRangeText = "[-1e6, 1e6] m";
   return isCoordinate(p.x()) && isCoordinate(p.y()) && isCoordinate(p.z());
 }
 
+/// The largest coordinate magnitude the geometric kernels accept (they assert it): twice the
+/// input range, so that points derived from input, such as blade poses interpolated between
+/// keys (rounding) or cut fronts carried with a deforming body, stay inside.
+inline constexpr double kMaxKernelCoordinate = 2.0 * kMaxCoordinate;
+
+/// Whether every component of p is finite and at most kMaxKernelCoordinate in magnitude.
+[[nodiscard]] inline bool isKernelCoordinate(const Vec3d& p) {
+  return (p.array().abs() <= kMaxKernelCoordinate).all();
+}
+
 /// The smallest length accepted from input, metres.
 inline constexpr double kMinLength = 1e-6;
 

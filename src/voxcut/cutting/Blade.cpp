@@ -50,10 +50,10 @@ BladeSweep makeSweep(const BladePose& from, const BladePose& to,
                     ids[1] != ids[3] && ids[2] != ids[3],
                 "makeSweep: the corners' ids must be distinct");
   // The predicates are exact only for coordinates of comparable scale (core/Predicates.h);
-  // input is checked against this range at the boundary (readers, command line).
-  VOXCUT_ASSERT(
-      isCoordinate(from.a) && isCoordinate(from.b) && isCoordinate(to.a) && isCoordinate(to.b),
-      "makeSweep: a blade corner outside the coordinate range [-1e6, 1e6] m");
+  // readers and the command line hold input to half this range.
+  VOXCUT_ASSERT(isKernelCoordinate(from.a) && isKernelCoordinate(from.b) &&
+                    isKernelCoordinate(to.a) && isKernelCoordinate(to.b),
+                "makeSweep: a blade corner outside the coordinate range (|x| <= 2e6 m)");
   BladeSweep s;
   s.frame = frame;
   s.corners = {from.a, from.b, to.b, to.a};

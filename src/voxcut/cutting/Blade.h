@@ -79,7 +79,7 @@ struct BladeSweep {
 /// derived from a frame index. For a strip of sweeps that share corners (a blade edge sampled
 /// into a polyline), give the same point the same id in every sweep and distinct points
 /// distinct ids; the ids of one sweep must be distinct. `frame` is stored as is. Every corner
-/// must lie within the coordinate range of core/CoordinateRange.h (asserted).
+/// must lie within kMaxKernelCoordinate of core/CoordinateRange.h (asserted).
 [[nodiscard]] BladeSweep makeSweep(const BladePose& from, const BladePose& to,
                                    const std::array<std::uint64_t, 4>& ids, std::uint64_t frame);
 
