@@ -1,5 +1,7 @@
 #include "CutCommand.h"
 
+#include <unistd.h>
+
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
@@ -7,8 +9,8 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <sstream>
-#include <unistd.h>
 
+#include "voxcut/core/CoordinateRange.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/io/SurfaceWriter.h"
 #include "voxcut/sim/SingleFrameCut.h"
@@ -19,6 +21,9 @@ namespace {
 
 BladePose parsePose(const std::string& text, const char* option) {
   const std::vector<double> v = parseNumberList(text, option, 6, "AX,AY,AZ,BX,BY,BZ");
+  static constexpr const char* kNames[6] = {"AX", "AY", "AZ", "BX", "BY", "BZ"};
+  for (std::size_t i = 0; i < v.size(); ++i)
+    requireCoordinate(v[i], std::string(option) + " '" + text + "': " + kNames[i]);
   BladePose p{Vec3d(v[0], v[1], v[2]), Vec3d(v[3], v[4], v[5])};
   if ((p.a - p.b).norm() == 0) throw InputError(std::string(option) + ": the blade's two ends coincide");
   return p;
@@ -34,7 +39,9 @@ std::string hex(std::uint64_t h) {
 VoxelGrid voxelizeModel(const ModelOptions& mo, std::string& name) {
   const Model model = loadFromOptions(mo);
   name = model.name;
-  return voxelize(model.materials, voxelizeParams(mo, model));
+  VoxelGrid grid = voxelize(model.materials, voxelizeParams(mo, model));
+  requireVoxels(grid, modelSubject(mo, model));
+  return grid;
 }
 
 // Prepares (and deforms) a body for cutting, with or without the octree.

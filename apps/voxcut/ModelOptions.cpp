@@ -163,7 +163,13 @@ ModelBuild buildFromOptions(const ModelOptions& opt, std::string& modelName, boo
   params.octree = octreeParams(opt, names);
   params.octrees = octrees;
   for (const auto& p : opt.cutPlanes) params.cuts.push_back(parsePlane(p));
-  return buildModel(model.materials, params);
+  ModelBuild build = buildModel(model.materials, params);
+  requireVoxels(build.grid, modelSubject(opt, model));
+  return build;
+}
+
+std::string modelSubject(const ModelOptions& opt, const Model& model) {
+  return "model '" + (opt.model.empty() ? model.name : opt.model) + "'";
 }
 
 }  // namespace voxcut::app

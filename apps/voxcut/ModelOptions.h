@@ -44,7 +44,10 @@ OctreeParams octreeParams(const ModelOptions& opt, const std::vector<std::string
 
 /// Loads the model, voxelizes, cuts and contours it; progress on stderr when it is a terminal.
 /// `modelName` receives the name to report; `octrees` builds both octrees for the report.
-/// Throws InputError.
+/// Throws InputError, also for a model that voxelizes to no voxels (requireVoxels).
 ModelBuild buildFromOptions(const ModelOptions& opt, std::string& modelName, bool octrees);
+
+/// "model 'MODEL'" as the user gave it (or the joined --material names), for messages.
+std::string modelSubject(const ModelOptions& opt, const Model& model);
 
 }  // namespace voxcut::app

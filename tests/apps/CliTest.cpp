@@ -709,5 +709,32 @@ TEST(Cli, RunBadScenesFailCleanly) {
   for (const std::string& p : {bad, unknown, broken}) fs::remove(p);
 }
 
+TEST(Cli, HostileScenesBladesAndEmptyModelsExitTwo) {
+  const ScratchDir dir;
+  const std::string flat =
+      dir.write("flat.obj", "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0.1 0.1 0\nf 1 2 3\nf 2 4 3\n");
+  const std::vector<std::pair<std::vector<std::string>, std::string>> cases{
+      {{"run", "/dev/zero"}, "/dev/zero: not a regular file"},
+      {{"run", dir.path().string()}, "is a directory"},
+      {{"cut", "box:0.1,0.1,0.1", "--resolution", "16", "--blade", "1e308,0,0,0,0,0.1", "--to",
+        "0,0.1,0,0,0.1,0.1"},
+       "AX: must be in [-1e6, 1e6] m, got 1e+308"},
+      {{"cut", "box:0.1,0.1,0.1", "--resolution", "16", "--blade", "-1,0,0,1,0,0", "--to",
+        "-1e155,0.1,0,1e155,0.1,0"},
+       "--to '-1e155,0.1,0,1e155,0.1,0': AX: must be in [-1e6, 1e6] m, got -1e+155"},
+      {{"info", flat}, "model '" + flat + "': voxelizes to no voxels at resolution 101"},
+      {{"cut", flat}, "model '" + flat + "': voxelizes to no voxels"},
+  };
+  for (const auto& [args, message] : cases) {
+    const RunResult r = voxcut(args);
+    EXPECT_EQ(r.status, 2) << describe(args, r);
+    EXPECT_TRUE(r.out.empty()) << describe(args, r);
+    EXPECT_EQ(r.err.rfind("voxcut: error: ", 0), 0u) << describe(args, r);
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << describe(args, r);
+    EXPECT_NE(r.err.find(message), std::string::npos) << describe(args, r);
+    EXPECT_LT(r.seconds, 10.0) << describe(args, r);
+  }
+}
+
 }  // namespace
 }  // namespace voxcut

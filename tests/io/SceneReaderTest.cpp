@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "CubeFiles.h"
+#include "SceneText.h"
 #include "TempDir.h"
 #include "voxcut/core/Error.h"
 #include "voxcut/cutting/CutStep.h"
@@ -20,33 +21,12 @@ namespace voxcut {
 namespace {
 
 namespace fs = std::filesystem;
+using test::expectError;
+using test::parse;
+using test::parseError;
 using test::TempDir;
-
-/// Parses `text` as "scene.json" in the current directory.
-Scene parse(const std::string& text) {
-  return parseScene(text, "scene.json", fs::current_path());
-}
-
-/// The message of the InputError that parsing `text` throws; fails the test if none is.
-std::string parseError(const std::string& text) {
-  try {
-    (void)parse(text);
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no InputError for " << text;
-  return {};
-}
-
-/// A scene of one bunny whose body has the extra members `body` (JSON text after a comma).
-std::string withBody(const std::string& body) {
-  return R"({"bodies": [{"model": "bunny", )" + body + "}]}";
-}
-
-/// A scene with one bunny and the extra top-level members `top`.
-std::string withTop(const std::string& top) {
-  return R"({"bodies": [{"model": "bunny"}], )" + top + "}";
-}
+using test::withBody;
+using test::withTop;
 
 std::string shippedScene(const std::string& name) {
   return std::string(VOXCUT_SOURCE_DIR) + "/scenes/" + name;
@@ -284,13 +264,6 @@ TEST(SceneReader, BladePoseInterpolatesAndClamps) {
 
 // ---- errors: each kind names the file and the key path --------------------------------------
 
-/// Expects parsing `text` to fail with a message that starts with "scene.json: " + `start`.
-void expectError(const std::string& text, const std::string& start) {
-  const std::string msg = parseError(text);
-  EXPECT_EQ(msg.rfind("scene.json: " + start, 0), 0u) << "message: " << msg;
-  EXPECT_EQ(msg.find('\n'), std::string::npos) << "one line: " << msg;
-}
-
 TEST(SceneReaderErrors, OutOfRangeNamesTheKeyPathAndTheValue) {
   EXPECT_EQ(parseError(R"({"bodies": [{"model": "liver",
                            "materials": {"tumor": {"poisson_ratio": 0.7}}}]})"),
@@ -318,8 +291,9 @@ TEST(SceneReaderErrors, OutOfRangeNamesTheKeyPathAndTheValue) {
   expectError(withTop(R"("solver": {"tolerance": -1e-3})"), "solver.tolerance: must be > 0");
   expectError(withTop(R"("solver": {"max_iterations": 0})"),
               "solver.max_iterations: must be an integer in 1..");
-  expectError(withTop(R"("solver": {"preconditioner": "multigrid"})"),
-              R"(solver.preconditioner: unknown preconditioner "multigrid" (expected one of: "jacobi", "block_jacobi", "symmetric_gauss_seidel", "incomplete_cholesky", "two_level", "cholesky"))");
+  expectError(
+      withTop(R"("solver": {"preconditioner": "multigrid"})"),
+      R"(solver.preconditioner: unknown preconditioner "multigrid" (expected one of: "jacobi", "block_jacobi", "symmetric_gauss_seidel", "incomplete_cholesky", "two_level", "cholesky"))");
   expectError(withTop(R"("solver": {"preconditioner": 3})"),
               "solver.preconditioner: unknown preconditioner 3");
 }
@@ -460,7 +434,8 @@ TEST(SceneReaderErrors, JsonSyntaxErrorHasLineAndColumn) {
 }
 
 TEST(SceneReaderErrors, NumberTooLarge) {
-  expectError(withTop(R"("time_step": 1e999)"), "JSON error: number overflow parsing '1e999'");
+  expectError(withTop(R"("time_step": 1e999)"),
+              "JSON error at line 1, column 47: number overflow parsing '1e999'");
 }
 
 TEST(SceneReaderErrors, DuplicateKey) {

@@ -9,6 +9,7 @@
 #include "TempDir.h"
 #include "voxcut/core/Error.h"
 #include "voxcut/io/ModelSource.h"
+#include "voxcut/voxel/Voxelizer.h"
 
 namespace voxcut {
 namespace {
@@ -118,9 +119,11 @@ TEST(ModelSource, BadFileReportsReadError) {
 
 TEST(ModelSource, BadPrimitive) {
   for (const std::string spec :
-       {"box:", "box:1", "box:1,2", "box:1,2,3,4", "box:a,1,1", "box:1,,1", "box:0,1,1",
-        "box:-1,1,1", "box:inf,1,1", "box:nan,1,1", "box:1e400,1,1", "box:1x,1,1",
-        "sphere:", "sphere:0", "sphere:-0.1", "sphere:0.1,0.2", "sphere:abc", "sphere:+inf"}) {
+       {"box:",           "box:1",      "box:1,2",     "box:1,2,3,4", "box:a,1,1",
+        "box:1,,1",       "box:0,1,1",  "box:-1,1,1",  "box:inf,1,1", "box:nan,1,1",
+        "box:1e400,1,1",  "box:1x,1,1", "sphere:",     "sphere:0",    "sphere:-0.1",
+        "sphere:0.1,0.2", "sphere:abc", "sphere:+inf", "box:1,1,2e6", "sphere:1e155",
+        "sphere:1.5e6"}) {
     const std::string message = loadError(spec);
     EXPECT_NE(message.find("'" + spec + "'"), std::string::npos) << message;
     EXPECT_EQ(message.find('\n'), std::string::npos) << message;
@@ -167,6 +170,37 @@ TEST(ModelSource, MaterialsErrors) {
   EXPECT_NE(materialsError({{"organ", "liver"}}).find("2 materials"), std::string::npos);
   EXPECT_NE(materialsError({{"a", "sphere:0"}}).find("'sphere:0'"), std::string::npos);
   EXPECT_NE(materialsError({{"a", "nosuch"}}).find("unknown model 'nosuch'"), std::string::npos);
+}
+
+TEST(ModelSource, PrimitiveSizesUpToTheCoordinateRange) {
+  EXPECT_NE(loadError("box:1,1,2e6").find("sizes must be in [1e-6, 1e6] m, got '2e6'"),
+            std::string::npos);
+  EXPECT_NE(loadError("sphere:1e-7").find("sizes must be in [1e-6, 1e6] m, got '1e-7'"),
+            std::string::npos);
+  EXPECT_NO_THROW((void)loadModel("box:1e6,1e-6,1"));
+}
+
+TEST(ModelSource, ModelWithoutVoxelsIsAnError) {
+  VoxelizeParams params;
+  params.resolution.resolution = 12;
+  params.threaded = false;
+  // A flat square encloses no volume; a closed box does.
+  TriangleMesh flat;
+  flat.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}};
+  flat.faces = {{0, 1, 2}, {1, 3, 2}};
+  const VoxelGrid empty = voxelize({{"default", flat}}, params);
+  try {
+    requireVoxels(empty, "model 'flat.obj'");
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(
+        std::string(e.what()).rfind(
+            "model 'flat.obj': voxelizes to no voxels at resolution 12 (voxel size 0.1 m): ", 0),
+        0u)
+        << e.what();
+  }
+  const Model box = loadModel("box:1,1,1");
+  EXPECT_NO_THROW(requireVoxels(voxelize(box.materials, params), "model 'box'"));
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "voxcut/core/CoordinateRange.h"
 #include "voxcut/core/Error.h"
 
 namespace voxcut {
@@ -48,6 +49,11 @@ BladeSweep makeSweep(const BladePose& from, const BladePose& to,
   VOXCUT_ASSERT(ids[0] != ids[1] && ids[0] != ids[2] && ids[0] != ids[3] && ids[1] != ids[2] &&
                     ids[1] != ids[3] && ids[2] != ids[3],
                 "makeSweep: the corners' ids must be distinct");
+  // The predicates are exact only for coordinates of comparable scale (core/Predicates.h);
+  // readers and the command line hold input to half this range.
+  VOXCUT_ASSERT(isKernelCoordinate(from.a) && isKernelCoordinate(from.b) &&
+                    isKernelCoordinate(to.a) && isKernelCoordinate(to.b),
+                "makeSweep: a blade corner outside the coordinate range (|x| <= 2e6 m)");
   BladeSweep s;
   s.frame = frame;
   s.corners = {from.a, from.b, to.b, to.a};

@@ -78,7 +78,8 @@ struct BladeSweep {
 /// As makeSweep, with the corners' symbolic ids given (order a0, b0, b1, a1) instead of
 /// derived from a frame index. For a strip of sweeps that share corners (a blade edge sampled
 /// into a polyline), give the same point the same id in every sweep and distinct points
-/// distinct ids; the ids of one sweep must be distinct. `frame` is stored as is.
+/// distinct ids; the ids of one sweep must be distinct. `frame` is stored as is. Every corner
+/// must lie within kMaxKernelCoordinate of core/CoordinateRange.h (asserted).
 [[nodiscard]] BladeSweep makeSweep(const BladePose& from, const BladePose& to,
                                    const std::array<std::uint64_t, 4>& ids, std::uint64_t frame);
 

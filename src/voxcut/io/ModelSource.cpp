@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <string_view>
 
+#include "voxcut/core/CoordinateRange.h"
 #include "voxcut/core/Error.h"
 #include "voxcut/io/BunnyData.h"
 #include "voxcut/io/MeshReader.h"
@@ -46,8 +48,9 @@ std::vector<double> parseSizes(const std::string& spec, std::string_view list, s
     if (!whole || (ec != std::errc() && ec != std::errc::result_out_of_range))
       throw InputError(bad + "'" + std::string(field) + "' is not a number (expected " +
                        std::string(form) + " in metres)");
-    if (ec == std::errc::result_out_of_range || !std::isfinite(value) || value <= 0.0)
-      throw InputError(bad + "sizes must be positive and finite, got '" + std::string(field) + "'");
+    if (ec == std::errc::result_out_of_range || !isLength(value))
+      throw InputError(bad + "sizes must be in " + kLengthRangeText + ", got '" +
+                       std::string(field) + "'");
     sizes.push_back(value);
     if (comma == std::string_view::npos) break;
     start = comma + 1;
@@ -123,6 +126,19 @@ Model loadMaterials(const std::vector<std::pair<std::string, std::string>>& name
     model.defaultResolution = std::max(model.defaultResolution, part.defaultResolution);
   }
   return model;
+}
+
+void requireVoxels(const VoxelGrid& grid, const std::string& subject) {
+  for (std::size_t v = 0; v < grid.voxelCount(); ++v)
+    if (grid.occupied(v)) return;
+  const Index3& d = grid.dims();
+  const int resolution = std::max({d.x, d.y, d.z});
+  char size[32];
+  std::snprintf(size, sizeof size, "%.3g", grid.voxelSize());
+  throw InputError(subject + ": voxelizes to no voxels at resolution " +
+                   std::to_string(resolution) + " (voxel size " + size +
+                   " m): its surface encloses no voxel centre (an open or flat surface, or a "
+                   "model thinner than a voxel; try a finer resolution)");
 }
 
 }  // namespace voxcut

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "voxcut/core/TriangleMesh.h"
+#include "voxcut/voxel/VoxelGrid.h"
 
 namespace voxcut {
 
@@ -27,9 +28,9 @@ struct Model {
 ///   - otherwise an existing mesh file, read with readMesh; model and material are named
 ///     after the file stem, 101.
 /// Built-in names and primitives take precedence over files of the same name.
-/// Throws InputError naming `spec` for bad primitive sizes (not numbers, not positive and
-/// finite, wrong count), for a spec that is neither a built-in nor an existing file, and for
-/// any failure of readMesh. Thread-safe.
+/// Throws InputError naming `spec` for bad primitive sizes (not numbers, not lengths in
+/// [1e-6, 1e6] m as core/CoordinateRange.h has them, wrong count), for a spec that is neither a
+/// built-in nor an existing file, and for any failure of readMesh. Thread-safe.
 [[nodiscard]] Model loadModel(const std::string& spec);
 
 /// Builds a model from named materials, one per (name, spec) pair in order, as given by the
@@ -40,6 +41,13 @@ struct Model {
 /// materials, and whatever loadModel throws. Thread-safe.
 [[nodiscard]] Model loadMaterials(
     const std::vector<std::pair<std::string, std::string>>& nameAndMesh);
+
+/// Throws InputError "<subject>: voxelizes to no voxels at resolution N (voxel size H m): ..."
+/// when `grid` holds no voxel of any material: a model that encloses no voxel centre (an open
+/// or flat surface, a sliver thinner than a voxel) cannot be simulated or cut. `subject` names
+/// the model for the user, e.g. "model 'plate.obj'" or "scene.json: bodies[1] (model ...)".
+/// Linear in the grid's voxels. Thread-safe.
+void requireVoxels(const VoxelGrid& grid, const std::string& subject);
 
 /// The built-in models loadModel accepts by name: {"bunny", "liver", "starfish"}. The
 /// primitives `box:LX,LY,LZ` and `sphere:R` take parameters and are not listed.

@@ -5,6 +5,7 @@
 #include "voxcut/core/Error.h"
 #include "voxcut/io/ModelSource.h"
 #include "voxcut/io/SceneReader.h"
+#include "voxcut/io/StrictJson.h"
 #include "voxcut/voxel/Voxelizer.h"
 
 namespace voxcut {
@@ -18,11 +19,14 @@ std::vector<VoxelGrid> voxelizeSceneBodies(const Scene& scene, bool threaded,
     vp.resolution.resolution = scene.bodies[i].resolution.value_or(model.defaultResolution);
     vp.threaded = threaded;
     vp.progress = progress;
+    // Paths may hold control characters; detail::oneLine keeps each message one line.
+    const std::string body = detail::oneLine(scene.source + ": bodies[" + std::to_string(i) + "]");
     try {
       grids.push_back(voxelize(model.materials, vp));
     } catch (const InputError& e) {
-      throw InputError(scene.source + ": bodies[" + std::to_string(i) + "]: " + e.what());
+      throw InputError(body + ": " + e.what());
     }
+    requireVoxels(grids.back(), body + " (model '" + detail::oneLine(scene.bodies[i].model) + "')");
   }
   return grids;
 }

@@ -14,7 +14,9 @@ namespace voxcut {
 
 /// Voxelizes every body of `scene`, in order (grids[i] for scene.bodies[i], world frame).
 /// Throws InputError naming the body's key path for a model that cannot be loaded, unknown
-/// material names, or a resolution the voxelizer refuses. Deterministic for any thread count.
+/// material names, a resolution the voxelizer refuses, or a model that voxelizes to no voxels
+/// (requireVoxels, e.g. "scene.json: bodies[1] (model '/data/plate.obj'): voxelizes to no
+/// voxels at resolution 101 ..."). Deterministic for any thread count.
 [[nodiscard]] std::vector<VoxelGrid> voxelizeSceneBodies(const Scene& scene, bool threaded = true,
                                                          const ProgressCallback& progress = {});
 

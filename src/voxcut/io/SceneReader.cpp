@@ -6,13 +6,12 @@
 #include <cstring>
 #include <fstream>
 #include <initializer_list>
-#include <iterator>
 #include <nlohmann/json.hpp>
-#include <set>
-#include <sstream>
 #include <vector>
 
+#include "voxcut/core/CoordinateRange.h"
 #include "voxcut/core/Error.h"
+#include "voxcut/io/StrictJson.h"
 
 namespace voxcut {
 namespace {
@@ -26,16 +25,28 @@ constexpr int kMaxResolution = 4096;
 constexpr int kMaxElementLevel = 6;
 constexpr int kMaxOctreeLevel = 7;
 constexpr std::size_t kMaxShownChars = 60;
+// Ranges of the physical parameters: wide enough for any material and setting a simulation of
+// soft or stiff solids needs, narrow enough that products in the solver stay far from
+// overflow.
+constexpr double kMaxTimeStep = 1e3;       // s
+constexpr double kMaxKeyTime = 1e9;        // s, |t| of a tool key
+constexpr double kMaxGravity = 1e4;        // m/s^2, per component
+constexpr double kMaxYoungModulus = 1e12;  // Pa
+constexpr double kMaxDensity = 1e5;        // kg/m^3
+constexpr double kMaxDamping = 1e6;        // 1/s (alpha) and s (beta)
+// Chunk in which a scene file is read, so that only what the file holds is allocated.
+constexpr std::size_t kReadChunk = 1 << 16;
 
 /// The context of one parse: the scene's name for messages and the folder of mesh paths.
 struct Reader {
   std::string source;
   fs::path baseDir;
 
-  /// Throws "SOURCE: PATH: WHAT" (PATH "top level" for the root).
+  /// Throws "SOURCE: PATH: WHAT" (PATH "top level" for the root), control characters of keys
+  /// escaped so that it stays one line.
   [[noreturn]] void fail(const std::string& path, const std::string& what) const {
-    throw InputError(source + ": " + (path.empty() ? std::string("top level") : path) + ": " +
-                     what);
+    throw InputError(detail::oneLine(
+        source + ": " + (path.empty() ? std::string("top level") : path) + ": " + what));
   }
 };
 
@@ -99,15 +110,21 @@ double number(const Reader& r, const Json& v, const std::string& path) {
   return x;
 }
 
-double positive(const Reader& r, const Json& v, const std::string& path) {
+/// A number in (0, max]; `maxText` writes max with its unit for messages.
+double positive(const Reader& r, const Json& v, const std::string& path, double max,
+                const char* maxText) {
   const double x = number(r, v, path);
   if (!(x > 0.0)) r.fail(path, "must be > 0, got " + shown(v));
+  if (!(x <= max)) r.fail(path, std::string("must be <= ") + maxText + ", got " + shown(v));
   return x;
 }
 
-double nonNegative(const Reader& r, const Json& v, const std::string& path) {
+/// A number in [0, max]; `maxText` writes max with its unit for messages.
+double nonNegative(const Reader& r, const Json& v, const std::string& path, double max,
+                   const char* maxText) {
   const double x = number(r, v, path);
   if (!(x >= 0.0)) r.fail(path, "must be >= 0, got " + shown(v));
+  if (!(x <= max)) r.fail(path, std::string("must be <= ") + maxText + ", got " + shown(v));
   return x;
 }
 
@@ -141,6 +158,14 @@ Vec3d vec3(const Reader& r, const Json& v, const std::string& path) {
           number(r, v[2], element(path, 2))};
 }
 
+/// A position or translation [x, y, z] in metres, each within the coordinate range.
+Vec3d point(const Reader& r, const Json& v, const std::string& path) {
+  const Vec3d p = vec3(r, v, path);
+  for (int i = 0; i < 3; ++i)  // the message's key path is built only when it is needed
+    if (!isCoordinate(p[i])) requireCoordinate(p[i], r.source + ": " + element(path, i));
+  return p;
+}
+
 /// A list (possibly empty).
 const Json& list(const Reader& r, const Json& v, const std::string& path) {
   if (!v.is_array()) r.fail(path, std::string("must be a list, got ") + kindOf(v));
@@ -166,7 +191,8 @@ SolverSettings readSolver(const Reader& r, const Json& v, const std::string& pat
       r.fail(child(path, "preconditioner"),
              "unknown preconditioner " + shown(p) + " (expected one of: " + names + ")");
   }
-  if (v.contains("tolerance")) s.tolerance = positive(r, v["tolerance"], child(path, "tolerance"));
+  if (v.contains("tolerance"))
+    s.tolerance = positive(r, v["tolerance"], child(path, "tolerance"), 1.0, "1");
   if (v.contains("max_iterations"))
     s.maxIterations = integer(r, v["max_iterations"], child(path, "max_iterations"), 1, 1000000);
   return s;
@@ -181,14 +207,16 @@ SceneMaterial readMaterial(const Reader& r, const std::string& name, const Json&
   SceneMaterial m;
   m.name = name;
   if (v.contains("young_modulus"))
-    m.youngModulus = positive(r, v["young_modulus"], child(path, "young_modulus"));
+    m.youngModulus =
+        positive(r, v["young_modulus"], child(path, "young_modulus"), kMaxYoungModulus, "1e12 Pa");
   if (v.contains("poisson_ratio")) {
     const std::string p = child(path, "poisson_ratio");
     m.poissonRatio = number(r, v["poisson_ratio"], p);
     if (!(m.poissonRatio >= 0.0 && m.poissonRatio < 0.5))
       r.fail(p, "must be in [0, 0.5), got " + shown(v["poisson_ratio"]));
   }
-  if (v.contains("density")) m.density = positive(r, v["density"], child(path, "density"));
+  if (v.contains("density"))
+    m.density = positive(r, v["density"], child(path, "density"), kMaxDensity, "1e5 kg/m^3");
   if (v.contains("damping")) {
     const std::string p = child(path, "damping");
     const Json& d = v["damping"];
@@ -197,8 +225,8 @@ SceneMaterial readMaterial(const Reader& r, const std::string& name, const Json&
              "must be a list of 2 numbers [alpha, beta] (Rayleigh mass and stiffness "
              "factors), got " +
                  shown(d));
-    m.massDamping = nonNegative(r, d[0], element(p, 0));
-    m.stiffnessDamping = nonNegative(r, d[1], element(p, 1));
+    m.massDamping = nonNegative(r, d[0], element(p, 0), kMaxDamping, "1e6 1/s");
+    m.stiffnessDamping = nonNegative(r, d[1], element(p, 1), kMaxDamping, "1e6 s");
   }
   if (v.contains("max_internal_level"))
     m.maxInternalLevel =
@@ -216,7 +244,7 @@ FixedBox readFixed(const Reader& r, const Json& v, const std::string& path) {
   const Json& box = required(r, v, path, "box");
   if (!box.is_array() || box.size() != 2)
     r.fail(p, "must be [[x0, y0, z0], [x1, y1, z1]], got " + shown(box));
-  FixedBox f{vec3(r, box[0], element(p, 0)), vec3(r, box[1], element(p, 1))};
+  FixedBox f{point(r, box[0], element(p, 0)), point(r, box[1], element(p, 1))};
   static constexpr const char* kAxes[3] = {"x", "y", "z"};
   for (int a = 0; a < 3; ++a)
     if (!(f.lo[a] <= f.hi[a]))
@@ -287,7 +315,7 @@ SceneBody readBody(const Reader& r, const Json& v, const std::string& path) {
     for (std::size_t i = 0; i < fixed.size(); ++i)
       b.fixed.push_back(readFixed(r, fixed[i], element(p, i)));
   }
-  if (v.contains("offset")) b.offset = vec3(r, v["offset"], child(path, "offset"));
+  if (v.contains("offset")) b.offset = point(r, v["offset"], child(path, "offset"));
   return b;
 }
 
@@ -310,13 +338,16 @@ SceneTool readTool(const Reader& r, const Json& v, const std::string& path) {
     expectObject(r, k, kp);
     checkKeys(r, k, kp, {"t", "a", "b"});
     ToolKey key;
-    key.t = number(r, required(r, k, kp, "t"), child(kp, "t"));
+    const Json& t = required(r, k, kp, "t");
+    key.t = number(r, t, child(kp, "t"));
+    if (!(std::abs(key.t) <= kMaxKeyTime))
+      r.fail(child(kp, "t"), "must be in [-1e9, 1e9] s, got " + shown(t));
     if (i > 0 && !(key.t > tool.keys.back().t))
       r.fail(child(kp, "t"), "key times must increase strictly: must be > " +
                                  shown(tool.keys.back().t) + " (the previous key's), got " +
                                  shown(key.t));
-    key.pose.a = vec3(r, required(r, k, kp, "a"), child(kp, "a"));
-    key.pose.b = vec3(r, required(r, k, kp, "b"), child(kp, "b"));
+    key.pose.a = point(r, required(r, k, kp, "a"), child(kp, "a"));
+    key.pose.b = point(r, required(r, k, kp, "b"), child(kp, "b"));
     if (key.pose.a == key.pose.b) r.fail(kp, "the blade's ends a and b must differ");
     tool.keys.push_back(key);
   }
@@ -331,8 +362,15 @@ Scene readTop(const Reader& r, const Json& v) {
   scene.source = r.source;
   if (v.contains("description") && !v["description"].is_string())
     r.fail("description", std::string("must be a string, got ") + kindOf(v["description"]));
-  if (v.contains("time_step")) scene.timeStep = positive(r, v["time_step"], "time_step");
-  if (v.contains("gravity")) scene.gravity = vec3(r, v["gravity"], "gravity");
+  if (v.contains("time_step"))
+    scene.timeStep = positive(r, v["time_step"], "time_step", kMaxTimeStep, "1e3 s");
+  if (v.contains("gravity")) {
+    scene.gravity = vec3(r, v["gravity"], "gravity");
+    for (int i = 0; i < 3; ++i)
+      if (!(std::abs(scene.gravity[i]) <= kMaxGravity))
+        r.fail(element("gravity", i),
+               "must be in [-1e4, 1e4] m/s^2, got " + shown(v["gravity"][i]));
+  }
   if (v.contains("solver")) scene.solver = readSolver(r, v["solver"], "solver");
   if (v.contains("frames")) scene.frames = integer(r, v["frames"], "frames", 1, 100000000);
   const Json& bodies = required(r, v, "", "bodies");
@@ -348,60 +386,6 @@ Scene readTop(const Reader& r, const Json& v) {
   return scene;
 }
 
-/// Line and column (1-based) of the byte at `offset` (0-based) of `text`.
-std::pair<std::size_t, std::size_t> lineAndColumn(std::string_view text, std::size_t offset) {
-  offset = std::min(offset, text.size());
-  std::size_t line = 1, column = 1;
-  for (std::size_t i = 0; i < offset; ++i) {
-    if (text[i] == '\n') {
-      ++line;
-      column = 1;
-    } else {
-      ++column;
-    }
-  }
-  return {line, column};
-}
-
-/// Parses JSON, rejecting a key repeated within one object (the JSON library would keep the
-/// last one silently).
-Json parseJson(std::string_view text, const std::string& source) {
-  std::vector<std::set<std::string>> open;  // keys seen in each enclosing object
-  const Json::parser_callback_t onEvent = [&](int, Json::parse_event_t event, Json& parsed) {
-    using Event = Json::parse_event_t;
-    if (event == Event::object_start) {
-      open.emplace_back();
-    } else if (event == Event::object_end) {
-      if (!open.empty()) open.pop_back();
-    } else if (event == Event::key && !open.empty()) {
-      const std::string key = parsed.get<std::string>();
-      if (!open.back().insert(key).second)
-        throw InputError(source + ": key \"" + key + "\" appears twice in one object");
-    }
-    return true;
-  };
-  try {
-    return Json::parse(text.begin(), text.end(), onEvent);
-  } catch (const Json::parse_error& e) {
-    // e.byte counts from 1 and points just past the offending character.
-    const auto [line, column] = lineAndColumn(text, e.byte > 0 ? e.byte - 1 : 0);
-    std::string reason = e.what();
-    // Drop the library's "[json.exception.parse_error.101] parse error at line L, column C: ".
-    const std::size_t colon = reason.find(": ", reason.find("parse error"));
-    if (colon != std::string::npos) reason = reason.substr(colon + 2);
-    std::replace(reason.begin(), reason.end(), '\n', ' ');
-    throw InputError(source + ": JSON syntax error at line " + std::to_string(line) + ", column " +
-                     std::to_string(column) + ": " + reason);
-  } catch (const Json::exception& e) {
-    // A number literal too large for a double (e.g. 1e999); the library gives no position.
-    std::string reason = e.what();
-    const std::size_t bracket = reason.find("] ");
-    if (bracket != std::string::npos) reason = reason.substr(bracket + 2);
-    std::replace(reason.begin(), reason.end(), '\n', ' ');
-    throw InputError(source + ": JSON error: " + reason);
-  }
-}
-
 }  // namespace
 
 bool isBuiltinModelSpec(std::string_view model) {
@@ -413,20 +397,41 @@ bool isBuiltinModelSpec(std::string_view model) {
 
 Scene parseScene(std::string_view text, const std::string& source, const fs::path& baseDir) {
   const Reader reader{source, fs::absolute(baseDir)};
-  return readTop(reader, parseJson(text, source));
+  return readTop(reader, detail::parseStrictJson(text, source, kMaxSceneDepth));
 }
 
 Scene readScene(const std::string& path) {
+  return parseScene(readSceneText(path), path, fs::absolute(fs::path(path)).parent_path());
+}
+
+std::string readSceneText(const std::string& path) {
+  const auto fail = [&](const std::string& what) {
+    throw InputError(detail::oneLine(path + ": " + what));
+  };
   std::error_code ec;
   const auto status = fs::status(path, ec);
-  if (ec || !fs::exists(status)) throw InputError(path + ": no such file");
-  if (fs::is_directory(status)) throw InputError(path + ": is a directory, not a scene file");
+  if (ec || !fs::exists(status)) fail("no such file");
+  if (fs::is_directory(status)) fail("is a directory, not a scene file");
+  if (!fs::is_regular_file(status))
+    fail("not a regular file (a device, FIFO or socket); a scene is read from a regular file");
+  const std::string tooLarge =
+      "larger than " + std::to_string(kMaxSceneFileBytes >> 20) + " MiB, the limit of a scene file";
+  const auto size = fs::file_size(path, ec);
+  if (!ec && size > kMaxSceneFileBytes) fail(tooLarge);
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open: " + std::strerror(errno));
-  std::ostringstream bytes;
-  bytes << in.rdbuf();
-  if (in.bad()) throw InputError(path + ": cannot read: " + std::strerror(errno));
-  return parseScene(bytes.str(), path, fs::absolute(fs::path(path)).parent_path());
+  if (!in) fail(std::string("cannot open: ") + std::strerror(errno));
+  // At most one byte more than the limit is read, whatever the file's size said: a file that
+  // grows while it is read cannot exhaust memory.
+  std::string text;
+  std::vector<char> chunk(kReadChunk);
+  while (in && text.size() <= kMaxSceneFileBytes) {
+    const std::size_t want = std::min(chunk.size(), kMaxSceneFileBytes + 1 - text.size());
+    in.read(chunk.data(), static_cast<std::streamsize>(want));
+    text.append(chunk.data(), static_cast<std::size_t>(in.gcount()));
+  }
+  if (in.bad()) fail(std::string("cannot read: ") + std::strerror(errno));
+  if (text.size() > kMaxSceneFileBytes) fail(tooLarge);
+  return text;
 }
 
 Model loadBodyModel(const Scene& scene, std::size_t bodyIndex) {
@@ -436,16 +441,28 @@ Model loadBodyModel(const Scene& scene, std::size_t bodyIndex) {
   try {
     model = loadModel(body.model);
   } catch (const InputError& e) {
-    throw InputError(scene.source + ": bodies[" + std::to_string(bodyIndex) +
-                     "].model: " + e.what());
+    throw InputError(detail::oneLine(scene.source + ": bodies[" + std::to_string(bodyIndex) +
+                                     "].model: " + e.what()));
   }
   if (!isBuiltinModelSpec(body.model) && model.materials.size() == 1)
     model.materials.front().name = "default";
   for (MaterialMesh& m : model.materials)
-    for (Vec3d& p : m.mesh.vertices) p += body.offset;
+    for (Vec3d& p : m.mesh.vertices) {
+      p += body.offset;
+      if (!isCoordinate(p))
+        throw InputError(
+            detail::oneLine(scene.source + ": bodies[" + std::to_string(bodyIndex) +
+                            "]: the model, moved by offset, reaches outside the coordinate range " +
+                            kCoordinateRangeText + " (a vertex at " + shown(p.x()) + ", " +
+                            shown(p.y()) + ", " + shown(p.z()) + ")"));
+    }
   std::vector<std::string> names;
   for (const MaterialMesh& m : model.materials) names.push_back(m.name);
-  checkMaterialNames(scene, bodyIndex, names);
+  try {
+    checkMaterialNames(scene, bodyIndex, names);
+  } catch (const InputError& e) {
+    throw InputError(detail::oneLine(e.what()));  // a material name may hold a newline
+  }
   return model;
 }
 

@@ -18,12 +18,29 @@
 
 namespace voxcut {
 
-/// Reads and validates the scene file at `path`. Relative mesh paths in `model` are resolved
-/// against the file's folder. Scene::source is set to `path` as given.
-/// Throws InputError for a missing or unreadable file, a JSON syntax error (with line and
-/// column), an unknown key anywhere, a missing required key, a value of the wrong type or out
-/// of range, and a mesh file that does not exist (see docs/scenes.md for every rule).
+/// The largest scene file readScene reads, bytes (64 MiB; the shipped scenes are about 2 KiB).
+inline constexpr std::size_t kMaxSceneFileBytes = std::size_t{64} << 20;
+
+/// The deepest nesting of lists and objects a scene may have (the format itself needs 7:
+/// a fixed box's corner).
+inline constexpr std::size_t kMaxSceneDepth = 64;
+
+/// Reads and validates the scene file at `path`: readSceneText, then parseScene. Relative
+/// mesh paths in `model` are resolved against the file's folder. Scene::source is set to
+/// `path` as given.
+/// Throws InputError for a missing, unreadable, irregular or oversized file, nesting deeper
+/// than kMaxSceneDepth, a JSON syntax error (with line and column), an unknown key anywhere,
+/// a missing required key, a value of the wrong type or out of range (coordinates within
+/// core/CoordinateRange.h's range), and a mesh file that does not exist (see docs/scenes.md
+/// for every rule). Time and memory are linear in the size of the file.
 [[nodiscard]] Scene readScene(const std::string& path);
+
+/// The bytes of the scene file at `path`. Throws InputError for a path that does not exist,
+/// is a directory or is not a regular file (a device such as /dev/zero, a FIFO, a socket:
+/// they are never opened, so none can block or stream without end), and for a file larger
+/// than kMaxSceneFileBytes, checked on its size before reading and again while reading (at
+/// most kMaxSceneFileBytes + 1 bytes are read).
+[[nodiscard]] std::string readSceneText(const std::string& path);
 
 /// Parses and validates the scene JSON `text`. `source` names it in messages (and becomes
 /// Scene::source); relative mesh paths are resolved against `baseDir` (made absolute against
@@ -37,8 +54,9 @@ namespace voxcut {
 
 /// Loads the model of scene.bodies[bodyIndex] for simulation: loadModel(body.model); a mesh
 /// file's single material is renamed "default" (the name scenes use for it); every material
-/// mesh is translated by body.offset (metres); then checkMaterialNames. Errors of loadModel
-/// come back prefixed with the key path, e.g. "scene.json: bodies[0].model: ...".
+/// mesh is translated by body.offset (metres) and must then lie within the coordinate range
+/// (core/CoordinateRange.h); then checkMaterialNames. Errors of loadModel come back prefixed
+/// with the key path, e.g. "scene.json: bodies[0].model: ...".
 /// Asserts that bodyIndex is in range. Thread-safe.
 [[nodiscard]] Model loadBodyModel(const Scene& scene, std::size_t bodyIndex);
 

@@ -1,7 +1,9 @@
 #include "voxcut/sim/Scene.h"
 
 #include <algorithm>
+#include <cmath>
 
+#include "voxcut/core/CoordinateRange.h"
 #include "voxcut/core/Error.h"
 
 namespace voxcut {
@@ -9,13 +11,20 @@ namespace voxcut {
 BladePose bladePoseAt(const SceneTool& tool, double t) {
   VOXCUT_ASSERT(!tool.keys.empty(), "a tool needs at least one key");
   const std::vector<ToolKey>& keys = tool.keys;
-  if (!(t > keys.front().t)) return keys.front().pose;  // also NaN: the first pose
-  if (t >= keys.back().t) return keys.back().pose;
+  // Only the keys a pose comes from are checked, so that a call stays O(log keys); the
+  // geometric predicates need coordinates within the range (core/CoordinateRange.h).
+  const auto checked = [](const ToolKey& key) -> const ToolKey& {
+    VOXCUT_ASSERT(std::isfinite(key.t) && isCoordinate(key.pose.a) && isCoordinate(key.pose.b),
+                  "a tool key with a non-finite time or an end outside the coordinate range");
+    return key;
+  };
+  if (!(t > keys.front().t)) return checked(keys.front()).pose;  // also NaN: the first pose
+  if (t >= keys.back().t) return checked(keys.back()).pose;
   // First key strictly after t; keys.front().t < t < keys.back().t, so 1 <= k < size.
   const auto next = std::upper_bound(keys.begin(), keys.end(), t,
                                      [](double time, const ToolKey& key) { return time < key.t; });
-  const ToolKey& k1 = *next;
-  const ToolKey& k0 = *(next - 1);
+  const ToolKey& k1 = checked(*next);
+  const ToolKey& k0 = checked(*(next - 1));
   if (t == k0.t) return k0.pose;
   const double s = (t - k0.t) / (k1.t - k0.t);
   return {k0.pose.a + s * (k1.pose.a - k0.pose.a), k0.pose.b + s * (k1.pose.b - k0.pose.b)};

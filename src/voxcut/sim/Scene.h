@@ -92,7 +92,9 @@ struct Scene {
 /// The pose of `tool` at time `t` (s): the linear interpolation of the two keys around t,
 /// i.e. for t_k <= t <= t_{k+1}, a = a_k + s (a_{k+1} - a_k) with s = (t - t_k) /
 /// (t_{k+1} - t_k), b likewise; the first key's pose before the first key and the last key's
-/// after the last key. A key's time gives its pose exactly. Asserts that the tool has keys.
+/// after the last key. A key's time gives its pose exactly. Asserts that the tool has keys and
+/// that the keys the pose comes from have finite times and ends within the coordinate range
+/// (core/CoordinateRange.h). O(log keys).
 [[nodiscard]] BladePose bladePoseAt(const SceneTool& tool, double t);
 
 /// The material `name` of `body`: the one the scene sets, or SceneMaterial's defaults named
