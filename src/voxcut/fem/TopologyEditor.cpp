@@ -57,7 +57,8 @@ void TopologyEditor::dirtyPoints(std::vector<std::uint64_t>& keys, std::vector<s
   findLeaves(0);
   // The leaves touching those points: their hanging nodes' masters may have changed. Only
   // their edge midpoints and face centres can hold such nodes.
-  KeyTable cubeSeen(first / 2);
+  FlatHashMap<std::uint8_t> cubeSeen;
+  cubeSeen.reserve(first / 2 + 8);
   for (std::size_t i = 0; i < first; ++i)
     for (std::size_t d = 0; d < 8; ++d) {
       const std::uint64_t k = leaves[i][d];
@@ -111,24 +112,13 @@ PointGroups TopologyEditor::groupAt(const Index3& p, const std::array<std::uint6
   if (members.empty()) return out;
   auto localIndex = [&](std::size_t cube, std::uint32_t copy) {
     for (std::size_t m = firstOf[cube]; m < firstOf[cube + 1]; ++m)
-      if (members[m] == copy) return static_cast<int>(m);
+      if (members[m] == copy) return static_cast<std::uint32_t>(m);
     VOXCUT_ASSERT(false, "voxel owner is not a copy of its cube");
-    return -1;
+    return std::uint32_t{0};
   };
-  // Union-find over the members (roots are the lowest index of their set).
-  std::vector<int>& parent = scratch.parent;
-  parent.resize(members.size());
-  for (std::size_t m = 0; m < members.size(); ++m) parent[m] = static_cast<int>(m);
-  auto find = [&](int a) {
-    while (parent[static_cast<std::size_t>(a)] != a)
-      a = parent[static_cast<std::size_t>(a)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(a)])];
-    return a;
-  };
-  auto unite = [&](int a, int b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
-  };
+  // Members joined through connected links (roots are the lowest index of their set).
+  UnionFind& sets = scratch.sets;
+  sets.reset(members.size());
   const Index3 gd = grid_.dims();
   for (std::size_t i = 0; i < cubeCount; ++i)
     for (std::size_t j = i + 1; j < cubeCount; ++j) {
@@ -158,7 +148,9 @@ PointGroups TopologyEditor::groupAt(const Index3& p, const std::array<std::uint6
       // With one copy on each side the first connected link settles the pair, and nothing is
       // left to find when the two are joined already.
       const bool single = firstOf[low + 1] - firstOf[low] == 1 && firstOf[high + 1] - firstOf[high] == 1;
-      if (single && find(static_cast<int>(firstOf[low])) == find(static_cast<int>(firstOf[high]))) continue;
+      if (single && sets.same(static_cast<std::uint32_t>(firstOf[low]),
+                              static_cast<std::uint32_t>(firstOf[high])))
+        continue;
       bool done = false;
       for (c[w] = lo[w]; c[w] < std::min(hi[w], gd[w]) && !done; ++c[w])
         for (c[u] = lo[u]; c[u] < std::min(hi[u], gd[u]); ++c[u]) {
@@ -166,7 +158,8 @@ PointGroups TopologyEditor::groupAt(const Index3& p, const std::array<std::uint6
           if (!grid_.occupied(x) || !grid_.connected(x, axis)) continue;
           const std::size_t y = x + grid_.stride(axis);
           if (!grid_.occupied(y)) continue;
-          unite(localIndex(low, oc_.embedding_[x].element), localIndex(high, oc_.embedding_[y].element));
+          sets.unite(localIndex(low, oc_.embedding_[x].element),
+                     localIndex(high, oc_.embedding_[y].element));
           if (single) {
             done = true;
             break;
@@ -185,7 +178,7 @@ PointGroups TopologyEditor::groupAt(const Index3& p, const std::array<std::uint6
     const int s = 1 << keyLevel(cubes[c]);
     cornerOf[c] = interiorAxes(f, s, p) == 0 ? cornerIndex(f, s, p) : -1;
     for (std::size_t m = firstOf[c]; m < firstOf[c + 1]; ++m) {
-      const auto r = static_cast<std::size_t>(find(static_cast<int>(m)));
+      const std::size_t r = sets.find(static_cast<std::uint32_t>(m));
       if (groupOf[r] < 0) groupOf[r] = groupCount++;
       memberGroup[m] = groupOf[r];
     }

@@ -8,6 +8,7 @@
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/cutting/Fragments.h"
+#include "voxcut/surface/VertexNormals.h"
 #include "voxcut/voxel/Pieces.h"
 
 namespace voxcut {
@@ -289,15 +290,7 @@ SurfaceMesh Simulation::deformedSurface(std::size_t bi) const {
                            index[static_cast<std::size_t>(t[2])]});
   }
   // Normals follow the deformation: area-weighted from the deformed triangles.
-  m.normals.assign(m.positions.size(), Vec3d::Zero());
-  for (const auto& t : m.triangles) {
-    const Vec3d n = (m.positions[t[1]] - m.positions[t[0]]).cross(m.positions[t[2]] - m.positions[t[0]]);
-    for (int k = 0; k < 3; ++k) m.normals[t[k]] += n;
-  }
-  for (Vec3d& n : m.normals) {
-    const double len = n.norm();
-    n = len > 0 ? Vec3d(n / len) : Vec3d::UnitZ();
-  }
+  m.normals = vertexNormals(m.positions, m.triangles, Vec3d::UnitZ());
   return m;
 }
 
