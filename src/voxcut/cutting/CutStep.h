@@ -14,6 +14,7 @@
 #include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/octree/OctreeSubdivision.h"
 #include "voxcut/octree/VoxelOctree.h"
+#include "voxcut/voxel/LinkCut.h"
 
 namespace voxcut {
 

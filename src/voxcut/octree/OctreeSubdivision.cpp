@@ -377,14 +377,6 @@ struct Worker : WorkerMemory {
 
 }  // namespace
 
-void storeHermite(HermiteMap& hermite, LinkCut* first, LinkCut* last) {
-  for (LinkCut* c = first; c != last; ++c) {
-    if (last - c > static_cast<std::ptrdiff_t>(HermiteMap::kPrefetchAhead))
-      hermite.prefetch(c[HermiteMap::kPrefetchAhead].link);
-    c->previous = hermite.exchange(c->link, c->hermite);
-  }
-}
-
 void markCubesAroundLink(const VoxelOctree& oct, const VoxelGrid& grid, std::uint64_t link,
                          std::vector<std::uint8_t>& marked) {
   const auto v = static_cast<std::size_t>(link / 3);

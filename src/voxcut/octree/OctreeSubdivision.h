@@ -24,21 +24,9 @@
 #include <vector>
 
 #include "voxcut/octree/VoxelOctree.h"
+#include "voxcut/voxel/LinkCut.h"
 
 namespace voxcut {
-
-/// A link the blade crossed, with its Hermite data in the rest frame.
-struct LinkCut {
-  std::uint64_t link = 0;
-  Hermite hermite;
-  /// The link's Hermite data before the cut replaced it (a material interface), if any; set
-  /// when the cut is applied, so that the cut can be undone (cutting/Fragments.h).
-  std::optional<Hermite> previous;
-};
-
-/// Sets the Hermite data of the cuts [first, last) in `hermite`, each LinkCut::previous taking
-/// the entry it replaced (the table's slots fetched ahead: they are scattered).
-void storeHermite(HermiteMap& hermite, LinkCut* first, LinkCut* last);
 
 /// Voxel positions the link test computed, kept for the next calls of the same task (the
 /// trace following meets a voxel from up to four links of a face, and from two mid-planes):
