@@ -206,11 +206,23 @@ void refreshActiveEmbeddings(CutBody& b, bool threaded) {
   b.activeEmbeddingsFor[1] = stamps[1];
 }
 
+CutStepResult cutStep(CutBody& b, const BladeSweep& sweep, SubdivisionWorkspace& workspace,
+                      bool threaded) {
+  return cutStep(b, std::vector<BladeSweep>{sweep}, workspace, threaded);
+}
+
 CutStepResult cutStep(CutBody& b, const BladeSweep& sweep, bool threaded) {
-  return cutStep(b, std::vector<BladeSweep>{sweep}, threaded);
+  SubdivisionWorkspace workspace;
+  return cutStep(b, std::vector<BladeSweep>{sweep}, workspace, threaded);
 }
 
 CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool threaded) {
+  SubdivisionWorkspace workspace;
+  return cutStep(b, sweeps, workspace, threaded);
+}
+
+CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps,
+                      SubdivisionWorkspace& workspace, bool threaded) {
   CutStepResult r;
   VoxelGrid& g = b.grid;
 
@@ -335,8 +347,8 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
     hooks.testLink = [&](std::size_t v, int a, VoxelPositionCache& cache) {
       return testCubeLink(b, sweeps, v, a, cache);
     };
-    r.subdivision =
-        subdivideCutCubes(b.activity, g, r.cuts, hooks, threaded, boundary, false, &cubeMarks);
+    r.subdivision = subdivideCutCubes(b.activity, g, r.cuts, hooks, workspace, threaded, boundary,
+                                      false, &cubeMarks);
     r.subdivisionMs = timer.ms();
     timer.restart();
     activateNewCubeFrames(b.activity, g, threaded);

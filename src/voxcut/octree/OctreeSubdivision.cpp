@@ -39,9 +39,11 @@ struct CutLink {
   int a;
 };
 
+}  // namespace
+
 // The memory of a worker (below) that outlives a subdivision run: its vectors keep their
 // capacity from one run (frame) to the next, so a frame does not grow them from nothing.
-struct WorkerMemory {
+struct SubdivisionWorkspace::WorkerMemory {
   // Findings, cleared at the start of each phase.
   std::vector<LinkCut> cuts;   // links this worker cut this round
   std::vector<CutLink> found;  // the same, as positions, for the sub-cube test
@@ -61,6 +63,15 @@ struct WorkerMemory {
   std::vector<Vec3d> cubePoints;  // the boundary points near the cube a task resolves
   std::vector<CutLink> boundary;  // the cut links on a split cube's faces
 };
+
+SubdivisionWorkspace::SubdivisionWorkspace() = default;
+SubdivisionWorkspace::~SubdivisionWorkspace() = default;
+SubdivisionWorkspace::SubdivisionWorkspace(SubdivisionWorkspace&&) noexcept = default;
+SubdivisionWorkspace& SubdivisionWorkspace::operator=(SubdivisionWorkspace&&) noexcept = default;
+
+namespace {
+
+using WorkerMemory = SubdivisionWorkspace::WorkerMemory;
 
 // A thread's worker: its findings in the current phase, and scratch memory reused by every
 // task it runs in one subdivision run (the position cache stays valid for the whole run:
@@ -397,8 +408,8 @@ void prefetchCubesAroundLink(const VoxelOctree& oct, const VoxelGrid& grid, std:
 }
 
 SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vector<LinkCut>& cuts,
-                                   const SubdivisionHooks& hooks, bool threaded,
-                                   const SweepBoundary& boundary, bool givenStored,
+                                   const SubdivisionHooks& hooks, SubdivisionWorkspace& workspace,
+                                   bool threaded, const SweepBoundary& boundary, bool givenStored,
                                    std::vector<std::uint8_t>* givenMarked) {
   SubdivisionStats stats;
   const Index3 d = grid.dims();
@@ -406,11 +417,9 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
   for (const LinkCut& c : cuts) pending.push_back(c.link);
   std::size_t givenUnstored = givenStored ? 0 : cuts.size();  // cuts[0, this) lack their data
   std::vector<std::uint8_t> affected;
-  // The workers' memory is kept per calling thread between runs (a run's workers are indexed
-  // by the thread slots of its parallel loops, unique among the threads running at once).
-  // (A reference: in a task on another thread, the name would mean that thread's own.)
-  thread_local std::vector<WorkerMemory> keptHere;
-  std::vector<WorkerMemory>& kept = keptHere;
+  // The workers' memory comes from the workspace and goes back to it (a run's workers are
+  // indexed by the thread slots of its parallel loops, unique among the threads running at once).
+  std::vector<WorkerMemory>& kept = workspace.workers;
   kept.resize(std::max(kept.size(), static_cast<std::size_t>(threadSlots())));
   std::vector<std::unique_ptr<Worker>> workers(static_cast<std::size_t>(threadSlots()));
   // Cubes the sweep's boundary reaches into (the first round only; see the header).

@@ -183,7 +183,7 @@ void Simulation::stepBody(SimBody& b, std::vector<double>& ms, FrameReport& repo
       }
       sweeps = sweepStrip(start, startIds, ends[ti], endIds[ti], frame);
     }
-    CutStepResult r = cutStep(b.cut, sweeps, params_.threaded);
+    CutStepResult r = cutStep(b.cut, sweeps, b.subdivision, params_.threaded);
     ms[kPositionUpdate] += r.positionUpdateMs;
     ms[kIntersectionTest] += r.intersectionMs;
     ms[kOctreeSubdivision] += r.subdivisionMs;

@@ -54,6 +54,7 @@ struct SimBody {
   std::vector<BladeFront> fronts;          ///< per scene tool: its cut front in this body
   int finestLevel = 0;
   std::size_t cutLinks = 0;                ///< links cut so far
+  SubdivisionWorkspace subdivision;        ///< the cutting step's buffers, kept between frames
 };
 
 /// The stages of a frame, in order; FrameReport::stageMs follows this order.
