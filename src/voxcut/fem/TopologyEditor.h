@@ -109,6 +109,36 @@ struct GroupScratch {
   std::vector<int> groupOf;
 };
 
+/// A node made by this update: its node-grid point, where it comes from in the old state, its
+/// position, and the coarse copy it hangs on (kNoElement: none).
+struct TempNode {
+  Index3 p;
+  NodeSource src;
+  Vec3d pos = Vec3d::Zero();
+  std::uint32_t coarse = kNoElement;
+};
+
+/// What the phases of TopologyEditor::finalize hand on to each other.
+struct Finalization {
+  std::vector<TempNode> temp;          ///< the nodes made by this update
+  std::vector<char> freedElement;      ///< per old element: its slot was freed
+  std::vector<char> freedNode;         ///< per old node: its slot was freed
+  std::vector<std::uint32_t> alive;    ///< provisional copies kept, by lowest voxel
+  std::vector<std::uint32_t> finalId;  ///< per provisional copy: its element slot
+  std::vector<std::uint32_t> nodeId;   ///< per new node: its node slot
+  std::vector<std::uint32_t> holes;    ///< node slots left free, to fill with the last nodes
+  std::uint32_t appended = 0;          ///< elements added after the old ones
+  std::uint32_t appendedNodes = 0;     ///< nodes added after the old ones
+  std::size_t nodeCount = 0;           ///< nodes after the update
+  std::vector<std::uint64_t> cubes;    ///< the partitioned cubes, ascending
+  bool changed = false;                ///< anything differs from the old octree
+  TopologyChange change;
+  /// The final element id of element copy `copy` (old ids stay).
+  [[nodiscard]] std::uint32_t finalOf(std::uint32_t copy, std::uint32_t oldElements) const {
+    return copy < oldElements ? copy : finalId[copy - oldElements];
+  }
+};
+
 }  // namespace topology_detail
 
 /// The working state of one topology update (friend of DeformationOctree).
@@ -168,7 +198,20 @@ class TopologyEditor {
   void assignTempNodes();
   [[nodiscard]] std::uint32_t cornerNode(std::uint32_t copy, int c) const;
   [[nodiscard]] std::vector<std::uint64_t> ambiguousCubes() const;
+  /// Writes the octree from the settled groups, in the phases below (in this order).
   TopologyChange finalize();
+  [[nodiscard]] std::vector<topology_detail::TempNode> makeTempNodes() const;
+  void assignElementSlots(topology_detail::Finalization& state) const;
+  void assignNodeSlots(topology_detail::Finalization& state) const;
+  void writeNodes(topology_detail::Finalization& state);
+  void writeElements(topology_detail::Finalization& state);
+  void renumberEmbedding(const topology_detail::Finalization& state);
+  void writeCubeIndex(const topology_detail::Finalization& state);
+  [[nodiscard]] std::vector<HangingNode> keptAndNewHangingNodes(
+      const topology_detail::Finalization& state) const;
+  void fillNodeHoles(topology_detail::Finalization& state, std::vector<HangingNode>& hanging);
+  void writeHangingNodes(topology_detail::Finalization& state, std::vector<HangingNode> hanging);
+  void writeElementSources(topology_detail::Finalization& state) const;
 
   DeformationOctree& oc_;
   const VoxelGrid& grid_;
