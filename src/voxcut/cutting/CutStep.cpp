@@ -221,14 +221,12 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   return cutStep(b, sweeps, workspace, threaded);
 }
 
-CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps,
-                      SubdivisionWorkspace& workspace, bool threaded) {
-  CutStepResult r;
-  VoxelGrid& g = b.grid;
+namespace {
 
-  // Culling first: hash of element boxes (from the nodes), elements under the sweep's OBB.
-  // It is part of the intersection test's time.
-  Timer timer;
+// Culling, the first part of the intersection test: the hash of element boxes (from the nodes)
+// and the elements under the sweeps' OBBs (1 each).
+std::vector<std::uint8_t> markElementsUnderSweeps(CutBody& b, const std::vector<BladeSweep>& sweeps,
+                                                  bool threaded) {
   if (threaded) wakeWorkers();  // the culling is serial, the position update is not
   b.deformation.updateElementBounds(b.elementBoxes, threaded);
   b.hash.build(b.elementBoxes, 0.0, threaded);
@@ -243,34 +241,46 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps,
     }
     b.hash.markElements(obbBounds, [&](const Eigen::AlignedBox3d& cell) { return overlaps(obb, cell); }, marked);
   }
-  for (std::uint8_t m : marked) r.markedElements += m;
-  const double cullMs = timer.ms();
+  return marked;
+}
 
-  // Voxel position update, stored in active order, with whether each active voxel's element
-  // is marked (from the embeddings kept in active order, see CutBody). When
-  // the blade reaches under half the elements (a frame of a running scene, and the bunny's
-  // single-frame cut: 242 of 534), only the voxels in marked elements are positioned and a
-  // link to a voxel outside them positions that end on the way; else (a longer sweep) every
-  // active voxel is positioned in one pass, which is cheaper than positioning the many ends
-  // outside one by one (measured on the bunny at 2 threads: the limit at a quarter instead of
-  // a half took 0.62-0.73 ms instead of 0.39-0.53 with the octree, 1.04-1.24 instead of
-  // 0.77-0.93 without). The positions are bitwise the same.
-  timer.restart();
-  const std::vector<std::uint32_t>& active = b.activity.activeVoxels;
-  const bool fewMarked = 2 * r.markedElements < marked.size();
+// Voxel position update, stored in active order, with whether each active voxel's element
+// is marked (from the embeddings kept in active order, see CutBody). When
+// the blade reaches under half the elements (a frame of a running scene, and the bunny's
+// single-frame cut: 242 of 534), only the voxels in marked elements are positioned and a
+// link to a voxel outside them positions that end on the way; else (a longer sweep) every
+// active voxel is positioned in one pass, which is cheaper than positioning the many ends
+// outside one by one (measured on the bunny at 2 threads: the limit at a quarter instead of
+// a half took 0.62-0.73 ms instead of 0.39-0.53 with the octree, 1.04-1.24 instead of
+// 0.77-0.93 without). The positions are bitwise the same.
+void positionActiveVoxels(CutBody& b, const std::vector<std::uint8_t>& marked, bool fewMarked,
+                          bool threaded) {
   refreshActiveEmbeddings(b, threaded);
-  const std::vector<VoxelEmbedding>& embeddings = b.activeEmbeddings;
-  b.deformation.updateVoxelPositions(embeddings, marked, fewMarked, b.activePositions,
+  b.deformation.updateVoxelPositions(b.activeEmbeddings, marked, fewMarked, b.activePositions,
                                      b.activeMarked, threaded);
-  r.positionUpdateMs = timer.ms();
+}
 
-  // Intersection test: each active connected link (v, a) once, from its low voxel v, when
-  // either end lies in a marked element. Per chunk of entries, first the candidates, without
-  // a branch per link: the octree's active links come and go from one entry to the next
-  // (frames, shell), and branching on each cost it more than the test of the links that
-  // pass (measured on the bunny: 0.41 ms instead of 0.19 for this pass at 1 thread); then
-  // the candidates are tested.
-  timer.restart();
+// What the intersection test finds: the crossed links (in the order of the active voxels'
+// chunks), how many links it tested, and with the octree the sweeps' boundary and the cubes
+// around the cuts (sub-step (1) of the subdivision).
+struct LinkTestResult {
+  std::vector<LinkCut> cuts;
+  std::size_t tested = 0;
+  SweepBoundary boundary;
+  std::vector<std::uint8_t> cubeMarks;
+};
+
+// Intersection test: each active connected link (v, a) once, from its low voxel v, when
+// either end lies in a marked element. Per chunk of entries, first the candidates, without
+// a branch per link: the octree's active links come and go from one entry to the next
+// (frames, shell), and branching on each cost it more than the test of the links that
+// pass (measured on the bunny: 0.41 ms instead of 0.19 for this pass at 1 thread); then
+// the candidates are tested.
+LinkTestResult testActiveLinks(CutBody& b, const std::vector<BladeSweep>& sweeps, bool fewMarked,
+                               bool threaded) {
+  VoxelGrid& g = b.grid;
+  const std::vector<std::uint32_t>& active = b.activity.activeVoxels;
+  const std::vector<VoxelEmbedding>& embeddings = b.activeEmbeddings;
   const auto positionOf = [&](std::size_t i, bool isMarked) {
     return isMarked || !fewMarked ? b.activePositions[i] : b.deformation.voxelPosition(embeddings[i]);
   };
@@ -327,21 +337,36 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps,
     }
   }, threaded);
 
+  LinkTestResult out;
+  out.boundary = std::move(boundary);
+  out.cubeMarks = std::move(cubeMarks);
   for (std::size_t c = 0; c < found.size(); ++c) {
-    r.testedLinks += tested[c];
-    r.cuts.insert(r.cuts.end(), found[c].begin(), found[c].end());
+    out.tested += tested[c];
+    out.cuts.insert(out.cuts.end(), found[c].begin(), found[c].end());
   }
-  // The crossed links are disconnected and get their Hermite data; with the octree, the
-  // subdivision sets the data beside its first phase (it reads only the link bits), so the
-  // data is not set here when it runs.
-  for (const LinkCut& lc : r.cuts)
-    g.setConnected(static_cast<std::size_t>(lc.link / 3), static_cast<int>(lc.link % 3), false);
-  if (!b.useOctree) storeHermite(g.hermite(), r.cuts.data(), r.cuts.data() + r.cuts.size());
-  r.intersectionMs = cullMs + timer.ms();
+  return out;
+}
 
-  // Octree subdivision around the new cuts and in the cubes that the sweeps' boundary reaches
-  // into (nothing to subdivide or update without either).
-  timer.restart();
+// The crossed links are disconnected and get their Hermite data; with the octree, the
+// subdivision sets the data beside its first phase (it reads only the link bits), so the
+// data is not set here when it runs.
+void applyCuts(CutBody& b, std::vector<LinkCut>& cuts) {
+  for (const LinkCut& lc : cuts)
+    b.grid.setConnected(static_cast<std::size_t>(lc.link / 3), static_cast<int>(lc.link % 3),
+                        false);
+  if (!b.useOctree) storeHermite(b.grid.hermite(), cuts.data(), cuts.data() + cuts.size());
+}
+
+// Octree subdivision around the new cuts and in the cubes that the sweeps' boundary reaches
+// into (nothing to subdivide or update without either).
+// Records the subdivision's and the deferred updates' times and counts in r.
+void subdivideAroundCuts(CutBody& b, const std::vector<BladeSweep>& sweeps,
+                         SubdivisionWorkspace& workspace, LinkTestResult& found, CutStepResult& r,
+                         bool threaded) {
+  VoxelGrid& g = b.grid;
+  SweepBoundary& boundary = found.boundary;
+  std::vector<std::uint8_t>& cubeMarks = found.cubeMarks;
+  Timer timer;
   if (b.useOctree && (!r.cuts.empty() || !boundary.cubes.empty())) {
     SubdivisionHooks hooks;
     hooks.testLink = [&](std::size_t v, int a, VoxelPositionCache& cache) {
@@ -359,6 +384,31 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps,
   } else if (b.useOctree) {
     r.subdivisionMs = timer.ms();
   }
+}
+
+}  // namespace
+
+CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps,
+                      SubdivisionWorkspace& workspace, bool threaded) {
+  CutStepResult r;
+  Timer timer;
+  const std::vector<std::uint8_t> marked = markElementsUnderSweeps(b, sweeps, threaded);
+  for (std::uint8_t m : marked) r.markedElements += m;
+  const double cullMs = timer.ms();
+
+  timer.restart();
+  const bool fewMarked = 2 * r.markedElements < marked.size();
+  positionActiveVoxels(b, marked, fewMarked, threaded);
+  r.positionUpdateMs = timer.ms();
+
+  timer.restart();
+  LinkTestResult found = testActiveLinks(b, sweeps, fewMarked, threaded);
+  r.testedLinks = found.tested;
+  r.cuts = std::move(found.cuts);
+  applyCuts(b, r.cuts);
+  r.intersectionMs = cullMs + timer.ms();
+
+  subdivideAroundCuts(b, sweeps, workspace, found, r, threaded);
   std::sort(r.cuts.begin(), r.cuts.end(), [](const LinkCut& x, const LinkCut& y) { return x.link < y.link; });
   return r;
 }
