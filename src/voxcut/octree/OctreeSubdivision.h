@@ -93,7 +93,7 @@ class SubdivisionWorkspace {
   SubdivisionWorkspace(const SubdivisionWorkspace&) = delete;
   SubdivisionWorkspace& operator=(const SubdivisionWorkspace&) = delete;
 
-  /// One worker's buffers (defined in OctreeSubdivision.cpp).
+  /// One worker's buffers (defined in octree/SubdivisionWorker.h).
   struct WorkerMemory;
   /// Per worker of a run (a thread slot of its parallel loops).
   std::vector<WorkerMemory> workers;
