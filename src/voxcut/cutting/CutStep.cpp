@@ -80,8 +80,8 @@ SweepBoundary sweepBoundary(const CutBody& b, const std::vector<BladeSweep>& swe
   for (const BladeSweep& s : sweeps)
     for (std::size_t k = 0; k < 4; ++k) {
       const std::size_t k1 = (k + 1) % 4;
-      edges.push_back({std::min(s.ids[k], s.ids[k1]), std::max(s.ids[k], s.ids[k1]),
-                       s.corners[k], s.corners[k1]});
+      edges.push_back({std::min(s.ids[k], s.ids[k1]), std::max(s.ids[k], s.ids[k1]), s.corners[k],
+                       s.corners[k1]});
     }
   std::sort(edges.begin(), edges.end(), [](const Edge& x, const Edge& y) {
     return std::tie(x.lo, x.hi) < std::tie(y.lo, y.hi);
@@ -236,10 +236,12 @@ std::vector<std::uint8_t> markElementsUnderSweeps(CutBody& b, const std::vector<
     Eigen::AlignedBox3d obbBounds;
     for (int k = 0; k < 8; ++k) {
       Vec3d corner = obb.centre;
-      for (int i = 0; i < 3; ++i) corner += ((k >> i) & 1 ? 1.0 : -1.0) * obb.halfExtents[i] * obb.axes.col(i);
+      for (int i = 0; i < 3; ++i)
+        corner += ((k >> i) & 1 ? 1.0 : -1.0) * obb.halfExtents[i] * obb.axes.col(i);
       obbBounds.extend(corner);
     }
-    b.hash.markElements(obbBounds, [&](const Eigen::AlignedBox3d& cell) { return overlaps(obb, cell); }, marked);
+    b.hash.markElements(
+        obbBounds, [&](const Eigen::AlignedBox3d& cell) { return overlaps(obb, cell); }, marked);
   }
   return marked;
 }
@@ -282,9 +284,11 @@ LinkTestResult testActiveLinks(CutBody& b, const std::vector<BladeSweep>& sweeps
   const std::vector<std::uint32_t>& active = b.activity.activeVoxels;
   const std::vector<VoxelEmbedding>& embeddings = b.activeEmbeddings;
   const auto positionOf = [&](std::size_t i, bool isMarked) {
-    return isMarked || !fewMarked ? b.activePositions[i] : b.deformation.voxelPosition(embeddings[i]);
+    return isMarked || !fewMarked ? b.activePositions[i]
+                                  : b.deformation.voxelPosition(embeddings[i]);
   };
-  VOXCUT_ASSERT(active.size() < (std::size_t{1} << 30), "too many active voxels for the link table");
+  VOXCUT_ASSERT(active.size() < (std::size_t{1} << 30),
+                "too many active voxels for the link table");
   const auto nActive = static_cast<std::uint32_t>(active.size());
   b.activeMarked.push_back(0);  // entry nActive: what a missing link's far end reads
   const std::uint8_t* inMarked = b.activeMarked.data();
@@ -299,43 +303,47 @@ LinkTestResult testActiveLinks(CutBody& b, const std::vector<BladeSweep>& sweeps
   // With the octree, sub-step (1) of the subdivision for these cuts: each chunk marks the cubes
   // around its cuts once it has tested its links (their cells fetched as the cuts are found).
   std::vector<std::uint8_t> cubeMarks(b.useOctree ? b.activity.cubes.size() : 0, 0);
-  parallelFor(0, found.size() + side, 1, [&](std::size_t j0, std::size_t j1) {
-    if (j0 < side) {
-      boundary = sweepBoundary(b, sweeps);
-      ++j0;
-    }
-    std::array<std::uint32_t, 3 * kChunk> candidates;  // entry * 4 + axis
-    std::array<std::uint32_t, 3 * kChunk> farEnds;     // the entry across
-    for (std::size_t c = j0 - side; c < j1 - side; ++c) {
-      std::size_t count = 0;
-      const std::size_t end = std::min(active.size(), (c + 1) * kChunk);
-      for (std::size_t i = c * kChunk; i < end; ++i) {
-        const unsigned here = inMarked[i];
-        const auto first = static_cast<std::uint32_t>(4 * i);
-        for (std::uint32_t a = 0; a < 3; ++a) {
-          const std::uint32_t j = next[i][a];  // kNoActive is above every entry
-          candidates[count] = first + a;
-          farEnds[count] = j;
-          count += static_cast<unsigned>(j < nActive) & (here | inMarked[std::min(j, nActive)]);
+  parallelFor(
+      0, found.size() + side, 1,
+      [&](std::size_t j0, std::size_t j1) {
+        if (j0 < side) {
+          boundary = sweepBoundary(b, sweeps);
+          ++j0;
         }
-      }
-      for (std::size_t k = 0; k < count; ++k) {
-        const std::size_t i = candidates[k] >> 2;
-        const int a = static_cast<int>(candidates[k] & 3u);
-        const std::size_t v = active[i];
-        if (!g.connected(v, a)) continue;
-        const std::uint32_t j = farEnds[k];
-        ++tested[c];
-        if (const auto h = testLink(b, sweeps, v, a, positionOf(i, inMarked[i] != 0),
-                                    positionOf(j, inMarked[j] != 0))) {
-          found[c].push_back({VoxelGrid::linkId(v, a), *h, std::nullopt});
-          if (side) prefetchCubesAroundLink(b.activity, g, found[c].back().link);
+        std::array<std::uint32_t, 3 * kChunk> candidates;  // entry * 4 + axis
+        std::array<std::uint32_t, 3 * kChunk> farEnds;     // the entry across
+        for (std::size_t c = j0 - side; c < j1 - side; ++c) {
+          std::size_t count = 0;
+          const std::size_t end = std::min(active.size(), (c + 1) * kChunk);
+          for (std::size_t i = c * kChunk; i < end; ++i) {
+            const unsigned here = inMarked[i];
+            const auto first = static_cast<std::uint32_t>(4 * i);
+            for (std::uint32_t a = 0; a < 3; ++a) {
+              const std::uint32_t j = next[i][a];  // kNoActive is above every entry
+              candidates[count] = first + a;
+              farEnds[count] = j;
+              count += static_cast<unsigned>(j < nActive) & (here | inMarked[std::min(j, nActive)]);
+            }
+          }
+          for (std::size_t k = 0; k < count; ++k) {
+            const std::size_t i = candidates[k] >> 2;
+            const int a = static_cast<int>(candidates[k] & 3u);
+            const std::size_t v = active[i];
+            if (!g.connected(v, a)) continue;
+            const std::uint32_t j = farEnds[k];
+            ++tested[c];
+            if (const auto h = testLink(b, sweeps, v, a, positionOf(i, inMarked[i] != 0),
+                                        positionOf(j, inMarked[j] != 0))) {
+              found[c].push_back({VoxelGrid::linkId(v, a), *h, std::nullopt});
+              if (side) prefetchCubesAroundLink(b.activity, g, found[c].back().link);
+            }
+          }
+          if (side)
+            for (const LinkCut& lc : found[c])
+              markCubesAroundLink(b.activity, g, lc.link, cubeMarks);
         }
-      }
-      if (side)
-        for (const LinkCut& lc : found[c]) markCubesAroundLink(b.activity, g, lc.link, cubeMarks);
-    }
-  }, threaded);
+      },
+      threaded);
 
   LinkTestResult out;
   out.boundary = std::move(boundary);
@@ -409,12 +417,14 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps,
   r.intersectionMs = cullMs + timer.ms();
 
   subdivideAroundCuts(b, sweeps, workspace, found, r, threaded);
-  std::sort(r.cuts.begin(), r.cuts.end(), [](const LinkCut& x, const LinkCut& y) { return x.link < y.link; });
+  std::sort(r.cuts.begin(), r.cuts.end(),
+            [](const LinkCut& x, const LinkCut& y) { return x.link < y.link; });
   return r;
 }
 
 std::uint64_t cutSetHash(std::vector<LinkCut> cuts) {
-  std::sort(cuts.begin(), cuts.end(), [](const LinkCut& x, const LinkCut& y) { return x.link < y.link; });
+  std::sort(cuts.begin(), cuts.end(),
+            [](const LinkCut& x, const LinkCut& y) { return x.link < y.link; });
   std::uint64_t h = 0xcbf29ce484222325ULL;
   auto mix = [&](std::int64_t value) {
     for (int i = 0; i < 8; ++i) {

@@ -1,26 +1,28 @@
 #include "voxcut/fem/TopologyEditor.h"
 
-#include "voxcut/core/Stamp.h"
-
 #include <algorithm>
 
 #include "voxcut/core/Parallel.h"
+#include "voxcut/core/Stamp.h"
 
 namespace voxcut {
 
 using namespace topology_detail;
 
-void TopologyEditor::dirtyPoints(std::vector<std::uint64_t>& keys, std::vector<std::array<std::uint64_t, 8>>& around) {
+void TopologyEditor::dirtyPoints(std::vector<std::uint64_t>& keys,
+                                 std::vector<std::array<std::uint64_t, 8>>& around) {
   // Points seen, one bit per node-grid point (leaves reach at most 2^maxLevel - 1 past the
   // grid).
   const Index3 gd = grid_.dims();
   const int pad = (1 << oc_.maxLevel_) + 1;
-  const std::size_t nx = static_cast<std::size_t>(gd.x + pad), ny = static_cast<std::size_t>(gd.y + pad);
+  const std::size_t nx = static_cast<std::size_t>(gd.x + pad),
+                    ny = static_cast<std::size_t>(gd.y + pad);
   std::vector<std::uint64_t>& seen = seenPoints_;
   seen.resize((nx * ny * static_cast<std::size_t>(gd.z + pad) + 63) / 64, 0);
   std::vector<std::uint64_t> pts;
   auto add = [&](const Index3& p) {
-    const std::size_t i = static_cast<std::size_t>(p.x) + nx * (static_cast<std::size_t>(p.y) + ny * static_cast<std::size_t>(p.z));
+    const std::size_t i = static_cast<std::size_t>(p.x) +
+                          nx * (static_cast<std::size_t>(p.y) + ny * static_cast<std::size_t>(p.z));
     const std::uint64_t bit = std::uint64_t{1} << (i & 63);
     if (seen[i >> 6] & bit) return;
     seen[i >> 6] |= bit;
@@ -39,9 +41,11 @@ void TopologyEditor::dirtyPoints(std::vector<std::uint64_t>& keys, std::vector<s
     constexpr int m = kTileSize - 1;
     for (std::size_t i = from; i < pts.size(); ++i) {
       const Index3 p = pointOf(pts[i]);
-      if ((p.x & m) != 0 && (p.y & m) != 0 && (p.z & m) != 0) buildTile(p);  // one tile holds all 8
+      if ((p.x & m) != 0 && (p.y & m) != 0 && (p.z & m) != 0)
+        buildTile(p);  // one tile holds all 8
       else
-        for (int d = 0; d < 8; ++d) buildTile({p.x - 1 + (d & 1), p.y - 1 + ((d >> 1) & 1), p.z - 1 + (d >> 2)});
+        for (int d = 0; d < 8; ++d)
+          buildTile({p.x - 1 + (d & 1), p.y - 1 + ((d >> 1) & 1), p.z - 1 + (d >> 2)});
     }
     leaves.resize(pts.size());
     parallelFor(
@@ -80,9 +84,12 @@ void TopologyEditor::dirtyPoints(std::vector<std::uint64_t>& keys, std::vector<s
   for (std::size_t i = 0; i < pts.size(); ++i) {
     order[i] = {pts[i], static_cast<std::uint32_t>(i)};
     const Index3 p = pointOf(pts[i]);
-    seen[(static_cast<std::size_t>(p.x) + nx * (static_cast<std::size_t>(p.y) + ny * static_cast<std::size_t>(p.z))) >> 6] = 0;
+    seen[(static_cast<std::size_t>(p.x) +
+          nx * (static_cast<std::size_t>(p.y) + ny * static_cast<std::size_t>(p.z))) >>
+         6] = 0;
   }
-  std::sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::sort(order.begin(), order.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
   keys.resize(order.size());
   around.resize(order.size());
   for (std::size_t i = 0; i < order.size(); ++i) {
@@ -98,8 +105,9 @@ PointGroups TopologyEditor::groupAt(const Index3& p, const std::array<std::uint6
   std::array<std::uint64_t, 8> cubes{};
   std::size_t cubeCount = 0;
   for (std::uint64_t k : around)
-    if (k != kNoKey && std::find(cubes.begin(), cubes.begin() + static_cast<std::ptrdiff_t>(cubeCount), k) ==
-                           cubes.begin() + static_cast<std::ptrdiff_t>(cubeCount))
+    if (k != kNoKey &&
+        std::find(cubes.begin(), cubes.begin() + static_cast<std::ptrdiff_t>(cubeCount), k) ==
+            cubes.begin() + static_cast<std::ptrdiff_t>(cubeCount))
       cubes[cubeCount++] = k;
   std::vector<std::uint32_t>& members = scratch.members;
   members.clear();
@@ -147,7 +155,8 @@ PointGroups TopologyEditor::groupAt(const Index3& p, const std::array<std::uint6
       if (c[axis] + 1 >= gd[axis]) continue;
       // With one copy on each side the first connected link settles the pair, and nothing is
       // left to find when the two are joined already.
-      const bool single = firstOf[low + 1] - firstOf[low] == 1 && firstOf[high + 1] - firstOf[high] == 1;
+      const bool single =
+          firstOf[low + 1] - firstOf[low] == 1 && firstOf[high + 1] - firstOf[high] == 1;
       if (single && sets.same(static_cast<std::uint32_t>(firstOf[low]),
                               static_cast<std::uint32_t>(firstOf[high])))
         continue;
@@ -194,8 +203,10 @@ PointGroups TopologyEditor::groupAt(const Index3& p, const std::array<std::uint6
           out.members.push_back({members[m], static_cast<std::int8_t>(cornerOf[c]), false});
           corner = corner || cornerOf[c] >= 0;
         }
-    if (!corner) out.members.resize(begin);
-    else out.members.back().last = true;
+    if (!corner)
+      out.members.resize(begin);
+    else
+      out.members.back().last = true;
   }
   return out;
 }
@@ -212,8 +223,10 @@ void TopologyEditor::assignTempNodes() {
         if (gm.corner >= 0) {
           auto [it, fresh] = cornerNodes_.try_emplace(gm.copy);
           if (fresh) {
-            if (gm.copy < oldElements_) it->second = oc_.elements_[gm.copy].nodes;
-            else it->second.fill(kNoElement);
+            if (gm.copy < oldElements_)
+              it->second = oc_.elements_[gm.copy].nodes;
+            else
+              it->second.fill(kNoElement);
           }
           it->second[static_cast<std::size_t>(gm.corner)] = t;
         }
@@ -260,8 +273,10 @@ std::vector<std::uint64_t> TopologyEditor::ambiguousCubes() const {
           m.emplace_back(pointKey(cornerPoint(f, s, mc[static_cast<std::size_t>(i)])),
                          cornerNode(copy, mc[static_cast<std::size_t>(i)]));
         std::sort(m.begin(), m.end());
-        if (ref.empty()) ref = m;
-        else if (m != ref) same = false;
+        if (ref.empty())
+          ref = m;
+        else if (m != ref)
+          same = false;
       }
       if (!same)
         for (std::uint32_t copy : coarse) out.push_back(keyOf(copy));

@@ -24,7 +24,9 @@ constexpr std::uint64_t kNoKey = ~std::uint64_t{0};
 /// Flags a node made by this update in a corner array; the low bits index the new nodes.
 constexpr std::uint32_t kTempNode = 0x80000000u;
 
-inline int keyLevel(std::uint64_t k) { return static_cast<int>(k >> 60); }
+inline int keyLevel(std::uint64_t k) {
+  return static_cast<int>(k >> 60);
+}
 inline Index3 keyFirstVoxel(std::uint64_t k) {
   const std::uint64_t m = (std::uint64_t{1} << 20) - 1;
   const int L = keyLevel(k);
@@ -61,9 +63,11 @@ inline Index3 cornerPoint(const Index3& f, int s, int c) {
 inline int masterCorners(const Index3& f, int s, const Index3& p, std::array<int, 4>& out) {
   int fixed = 0, freeMask = 0;
   for (int k = 0; k < 3; ++k) {
-    if (p[k] == f[k] + s) fixed |= 1 << k;
+    if (p[k] == f[k] + s)
+      fixed |= 1 << k;
     else if (p[k] != f[k]) {
-      VOXCUT_ASSERT(2 * (p[k] - f[k]) == s, "hanging node off a coarse edge midpoint or face centre");
+      VOXCUT_ASSERT(2 * (p[k] - f[k]) == s,
+                    "hanging node off a coarse edge midpoint or face centre");
       freeMask |= 1 << k;
     }
   }
@@ -188,7 +192,8 @@ class TopologyEditor {
   /// The node-grid points to regroup (keys ascending) and the leaves around each: the points
   /// of the partitioned and removed cubes, and the edge midpoints and face centres of the
   /// leaves touching those. Builds the tiles they read.
-  void dirtyPoints(std::vector<std::uint64_t>& keys, std::vector<std::array<std::uint64_t, 8>>& around);
+  void dirtyPoints(std::vector<std::uint64_t>& keys,
+                   std::vector<std::array<std::uint64_t, 8>>& around);
   /// The leaves holding the 8 voxels around node-grid point p (kNoKey where none), in the
   /// order of the offsets (d & 1, (d >> 1) & 1, d >> 2) - 1.
   [[nodiscard]] std::array<std::uint64_t, 8> leavesAround(const Index3& p) const;
@@ -232,9 +237,10 @@ class TopologyEditor {
   std::vector<topology_detail::NewCopy> copies_;
   std::vector<std::uint32_t> removed_;       ///< old elements whose slots are freed
   std::vector<std::uint64_t> removedCubes_;  ///< old leaves split or repartitioned
-  std::vector<std::uint64_t> seenPoints_;  ///< dirtyPoints' bitmap over the node grid, clear between calls
+  std::vector<std::uint64_t>
+      seenPoints_;  ///< dirtyPoints' bitmap over the node grid, clear between calls
   std::vector<topology_detail::PointGroups> points_;
-  std::vector<std::uint64_t> lastPoints_;                ///< keys of points_, ascending
+  std::vector<std::uint64_t> lastPoints_;                 ///< keys of points_, ascending
   std::vector<std::array<std::uint64_t, 8>> lastAround_;  ///< their leaves
   std::unordered_map<std::uint32_t, std::array<std::uint32_t, 8>> cornerNodes_;
   /// (point, its group's first member) of each node made by this update.

@@ -25,9 +25,10 @@ SubdivisionWorkspace& SubdivisionWorkspace::operator=(SubdivisionWorkspace&&) no
 void markCubesAroundLink(const VoxelOctree& oct, const VoxelGrid& grid, std::uint64_t link,
                          std::vector<std::uint8_t>& marked) {
   const auto v = static_cast<std::size_t>(link / 3);
-  forEachCubeAroundLink(oct, grid, grid.coord(v), static_cast<int>(link % 3), [&](std::size_t cube) {
-    std::atomic_ref<std::uint8_t>(marked[cube]).store(1, std::memory_order_relaxed);
-  });
+  forEachCubeAroundLink(
+      oct, grid, grid.coord(v), static_cast<int>(link % 3), [&](std::size_t cube) {
+        std::atomic_ref<std::uint8_t>(marked[cube]).store(1, std::memory_order_relaxed);
+      });
 }
 
 void prefetchCubesAroundLink(const VoxelOctree& oct, const VoxelGrid& grid, std::uint64_t link) {
@@ -129,8 +130,9 @@ SubdivisionRun::SubdivisionRun(VoxelOctree& octree, VoxelGrid& voxels,
     VOXCUT_ASSERT(c < oct.cubes.size() && !oct.cubes[c].deleted, "boundary: not a live cube");
     reached[c] = 1;
   }
-  VOXCUT_ASSERT(oct.unmappedCubes.empty(),
-                "the deferred updates of the last subdivision have not run (activateNewCubeFrames)");
+  VOXCUT_ASSERT(
+      oct.unmappedCubes.empty(),
+      "the deferred updates of the last subdivision have not run (activateNewCubeFrames)");
 }
 
 void SubdivisionRun::markAffected() {

@@ -74,7 +74,9 @@ class ContouredSurface {
   /// Number of vertex ids in use or free (ids are 0..vertexSlots()-1).
   [[nodiscard]] std::size_t vertexSlots() const { return positions_.size(); }
   /// Whether vertex id v holds a vertex of the surface.
-  [[nodiscard]] bool alive(std::int32_t v) const { return alive_[static_cast<std::size_t>(v)] != 0; }
+  [[nodiscard]] bool alive(std::int32_t v) const {
+    return alive_[static_cast<std::size_t>(v)] != 0;
+  }
   /// Rest-frame positions (metres) by vertex id; a dead id keeps its last value.
   [[nodiscard]] const std::vector<Vec3d>& positions() const { return positions_; }
   /// Voxel whose component each vertex belongs to, by vertex id.
@@ -95,8 +97,8 @@ class ContouredSurface {
   struct CellRecord {
     std::array<std::int8_t, 24> patch{};
     std::int8_t count = 0;
-    std::uint8_t splitFaces = 0;   // bit a: the +a face has split vertices (a FaceSplits entry)
-    std::uint8_t ringFaces = 0;    // bit f: the ring rule read the neighbour across face f
+    std::uint8_t splitFaces = 0;  // bit a: the +a face has split vertices (a FaceSplits entry)
+    std::uint8_t ringFaces = 0;   // bit f: the ring rule read the neighbour across face f
     std::array<std::int32_t, 12> vertex{};
     std::array<FaceSegments, 3> segments{};  // surface segments on the +a face
   };
