@@ -135,12 +135,14 @@ TEST(CutStep, SlowBladeCutsEqualTheBaselineFrameByFrame) {
     BladePose pose = across.from;
     pose.b += Vec3d(0.0, 0.3, 0.0) * g.voxelSize();
     std::size_t total = 0;
+    // The octree's subdivision keeps its workspace from frame to frame, as a simulation does.
+    SubdivisionWorkspace workspace;
     for (int frame = 0; frame < frames; ++frame) {
       BladePose next = pose;
       next.a += step;
       next.b += step + Vec3d(0.0, 0.05, 0.0) * g.voxelSize();
       const BladeSweep sweep = makeSweep(pose, next, static_cast<std::uint64_t>(frame));
-      const CutStepResult o = cutStep(withOctree, sweep);
+      const CutStepResult o = cutStep(withOctree, sweep, workspace);
       const CutStepResult b = cutStep(baseline, sweep);
       ASSERT_EQ(o.cuts.size(), b.cuts.size()) << name << " frame " << frame;
       ASSERT_EQ(cutSetHash(o.cuts), cutSetHash(b.cuts)) << name << " frame " << frame;

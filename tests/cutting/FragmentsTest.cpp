@@ -63,8 +63,9 @@ TEST(Fragments, ASingleVoxelCutLooseIsReattachedByItsLowestLink) {
   EXPECT_EQ(findPieces(g).count, 1);
   EXPECT_TRUE(g.connected(static_cast<std::size_t>(lowest / 3), 2));
   // The interface data it had before the cut is back; the other cuts keep theirs.
-  ASSERT_NE(g.hermite().find(lowest), nullptr);
-  EXPECT_EQ(g.hermite().find(lowest)->t, 0.25f);
+  const Hermite* restored = g.hermite().find(lowest);
+  ASSERT_NE(restored, nullptr);
+  EXPECT_EQ(restored->t, 0.25f);
   for (const LinkCut& c : cuts) ASSERT_NE(g.hermite().find(c.link), nullptr);
 }
 

@@ -48,6 +48,7 @@ SubdivisionStats cutWithOctree(VoxelGrid& g, VoxelOctree& oct, const Vec3d& n, d
     g.hermite().set(c.link, c.hermite);
   }
   SubdivisionHooks hooks;
+  SubdivisionWorkspace workspace;
   std::mutex m;
   hooks.testLink = [&](std::size_t v, int a, VoxelPositionCache&) {
     EXPECT_LT(g.coord(v)[a] + 1, g.dims()[a]);
@@ -55,7 +56,7 @@ SubdivisionStats cutWithOctree(VoxelGrid& g, VoxelOctree& oct, const Vec3d& n, d
     asked.push_back(VoxelGrid::linkId(v, a));
     return planeTest(g, n, d, v, a);
   };
-  const SubdivisionStats s = subdivideCutCubes(oct, g, cuts, hooks);
+  const SubdivisionStats s = subdivideCutCubes(oct, g, cuts, hooks, workspace);
   // Split level-1 cubes are listed and opened with the frame activation: all 27 voxels and
   // 54 links active, their cells no longer covered (the last round leaves the cube map to
   // the frame activation).
@@ -336,8 +337,9 @@ TEST(OctreeSubdivision, SweepInsideACubeIsFoundFromItsBoundary) {
           if (const auto h = crossing(r, v, a)) cuts.push_back({VoxelGrid::linkId(v, a), *h, std::nullopt});
     for (const LinkCut& c : cuts) g.setConnected(static_cast<std::size_t>(c.link / 3), static_cast<int>(c.link % 3), false);
     SubdivisionHooks hooks;
+    SubdivisionWorkspace workspace;
     hooks.testLink = [&](std::size_t v, int a, VoxelPositionCache&) { return crossing(r, v, a); };
-    const SubdivisionStats s = subdivideCutCubes(oct, g, cuts, hooks, true, b);
+    const SubdivisionStats s = subdivideCutCubes(oct, g, cuts, hooks, workspace, true, b);
     activateNewCubeFrames(oct, g);
     compactCubes(oct);
     rebuildActiveVoxels(oct);
@@ -415,9 +417,10 @@ TEST(OctreeSubdivision, ACutOnAFaceOfACubeOutsideTheRoundStartsTheNext) {
   boundary.cubes = {a};
   boundary.points = {Vec3d(A.origin.x + s, yc + 0.5, A.origin.z + s / 2 + 0.25)};
   SubdivisionHooks hooks;
+  SubdivisionWorkspace workspace;
   hooks.testLink = [&](std::size_t v, int ax, VoxelPositionCache&) { return planeTest(g, n, d, v, ax); };
   std::vector<LinkCut> cuts;
-  const SubdivisionStats st = subdivideCutCubes(oct, g, cuts, hooks, true, boundary);
+  const SubdivisionStats st = subdivideCutCubes(oct, g, cuts, hooks, workspace, true, boundary);
   // A, then B alone: around the cuts on their shared face, A's side holds no cube after the
   // first round (level-1 cubes opened, or none), which the second round's marking reads from
   // the cube map.
@@ -456,11 +459,12 @@ TEST(OctreeSubdivision, GivenCutsGetTheirDataWithoutARound) {
   ASSERT_EQ(cuts.size(), 1u);
   g.setConnected(static_cast<std::size_t>(cuts[0].link / 3), static_cast<int>(cuts[0].link % 3), false);
   SubdivisionHooks hooks;
+  SubdivisionWorkspace workspace;
   hooks.testLink = [](std::size_t, int, VoxelPositionCache&) -> std::optional<Hermite> {
     ADD_FAILURE();
     return std::nullopt;
   };
-  const SubdivisionStats s = subdivideCutCubes(oct, g, cuts, hooks, true, {}, false);
+  const SubdivisionStats s = subdivideCutCubes(oct, g, cuts, hooks, workspace, true, {}, false);
   EXPECT_EQ(s.rounds, 0);
   const Hermite* h = g.hermite().find(cuts[0].link);
   ASSERT_NE(h, nullptr);
@@ -474,11 +478,12 @@ TEST(OctreeSubdivision, NothingHappensWithoutCuts) {
   const auto before = oct.cubesPerLevel();
   std::vector<LinkCut> cuts;
   SubdivisionHooks hooks;
+  SubdivisionWorkspace workspace;
   hooks.testLink = [](std::size_t, int, VoxelPositionCache&) -> std::optional<Hermite> {
     ADD_FAILURE();
     return std::nullopt;
   };
-  const SubdivisionStats s = subdivideCutCubes(oct, g, cuts, hooks);
+  const SubdivisionStats s = subdivideCutCubes(oct, g, cuts, hooks, workspace);
   EXPECT_EQ(s.rounds, 0);
   EXPECT_EQ(oct.cubesPerLevel(), before);
 }

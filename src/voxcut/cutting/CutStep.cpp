@@ -80,8 +80,8 @@ SweepBoundary sweepBoundary(const CutBody& b, const std::vector<BladeSweep>& swe
   for (const BladeSweep& s : sweeps)
     for (std::size_t k = 0; k < 4; ++k) {
       const std::size_t k1 = (k + 1) % 4;
-      edges.push_back({std::min(s.ids[k], s.ids[k1]), std::max(s.ids[k], s.ids[k1]),
-                       s.corners[k], s.corners[k1]});
+      edges.push_back({std::min(s.ids[k], s.ids[k1]), std::max(s.ids[k], s.ids[k1]), s.corners[k],
+                       s.corners[k1]});
     }
   std::sort(edges.begin(), edges.end(), [](const Edge& x, const Edge& y) {
     return std::tie(x.lo, x.hi) < std::tie(y.lo, y.hi);
@@ -206,17 +206,27 @@ void refreshActiveEmbeddings(CutBody& b, bool threaded) {
   b.activeEmbeddingsFor[1] = stamps[1];
 }
 
+CutStepResult cutStep(CutBody& b, const BladeSweep& sweep, SubdivisionWorkspace& workspace,
+                      bool threaded) {
+  return cutStep(b, std::vector<BladeSweep>{sweep}, workspace, threaded);
+}
+
 CutStepResult cutStep(CutBody& b, const BladeSweep& sweep, bool threaded) {
-  return cutStep(b, std::vector<BladeSweep>{sweep}, threaded);
+  SubdivisionWorkspace workspace;
+  return cutStep(b, std::vector<BladeSweep>{sweep}, workspace, threaded);
 }
 
 CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool threaded) {
-  CutStepResult r;
-  VoxelGrid& g = b.grid;
+  SubdivisionWorkspace workspace;
+  return cutStep(b, sweeps, workspace, threaded);
+}
 
-  // Culling first: hash of element boxes (from the nodes), elements under the sweep's OBB.
-  // It is part of the intersection test's time.
-  Timer timer;
+namespace {
+
+// Culling, the first part of the intersection test: the hash of element boxes (from the nodes)
+// and the elements under the sweeps' OBBs (1 each).
+std::vector<std::uint8_t> markElementsUnderSweeps(CutBody& b, const std::vector<BladeSweep>& sweeps,
+                                                  bool threaded) {
   if (threaded) wakeWorkers();  // the culling is serial, the position update is not
   b.deformation.updateElementBounds(b.elementBoxes, threaded);
   b.hash.build(b.elementBoxes, 0.0, threaded);
@@ -226,41 +236,57 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
     Eigen::AlignedBox3d obbBounds;
     for (int k = 0; k < 8; ++k) {
       Vec3d corner = obb.centre;
-      for (int i = 0; i < 3; ++i) corner += ((k >> i) & 1 ? 1.0 : -1.0) * obb.halfExtents[i] * obb.axes.col(i);
+      for (int i = 0; i < 3; ++i)
+        corner += ((k >> i) & 1 ? 1.0 : -1.0) * obb.halfExtents[i] * obb.axes.col(i);
       obbBounds.extend(corner);
     }
-    b.hash.markElements(obbBounds, [&](const Eigen::AlignedBox3d& cell) { return overlaps(obb, cell); }, marked);
+    b.hash.markElements(
+        obbBounds, [&](const Eigen::AlignedBox3d& cell) { return overlaps(obb, cell); }, marked);
   }
-  for (std::uint8_t m : marked) r.markedElements += m;
-  const double cullMs = timer.ms();
+  return marked;
+}
 
-  // Voxel position update, stored in active order, with whether each active voxel's element
-  // is marked (from the embeddings kept in active order, see CutBody). When
-  // the blade reaches under half the elements (a frame of a running scene, and the bunny's
-  // single-frame cut), only the voxels in marked elements are positioned and a
-  // link to a voxel outside them positions that end on the way; else (a longer sweep) every
-  // active voxel is positioned in one pass, which is cheaper than positioning the many ends
-  // outside one by one (docs/performance.md, "Single-frame cutting test"). The positions are
-  // bitwise the same.
-  timer.restart();
-  const std::vector<std::uint32_t>& active = b.activity.activeVoxels;
-  const bool fewMarked = 2 * r.markedElements < marked.size();
+// Voxel position update, stored in active order, with whether each active voxel's element
+// is marked (from the embeddings kept in active order, see CutBody). When
+// the blade reaches under half the elements (a frame of a running scene, and the bunny's
+// single-frame cut), only the voxels in marked elements are positioned and a
+// link to a voxel outside them positions that end on the way; else (a longer sweep) every
+// active voxel is positioned in one pass, which is cheaper than positioning the many ends
+// outside one by one (docs/performance.md, "Single-frame cutting test"). The positions are
+// bitwise the same.
+void positionActiveVoxels(CutBody& b, const std::vector<std::uint8_t>& marked, bool fewMarked,
+                          bool threaded) {
   refreshActiveEmbeddings(b, threaded);
-  const std::vector<VoxelEmbedding>& embeddings = b.activeEmbeddings;
-  b.deformation.updateVoxelPositions(embeddings, marked, fewMarked, b.activePositions,
+  b.deformation.updateVoxelPositions(b.activeEmbeddings, marked, fewMarked, b.activePositions,
                                      b.activeMarked, threaded);
-  r.positionUpdateMs = timer.ms();
+}
 
-  // Intersection test: each active connected link (v, a) once, from its low voxel v, when
-  // either end lies in a marked element. Per chunk of entries, first the candidates, without
-  // a branch per link: the octree's active links come and go from one entry to the next
-  // (frames, shell), and branching on each costs more than the test of the links that pass
-  // (docs/performance.md, "Single-frame cutting test"); then the candidates are tested.
-  timer.restart();
+// What the intersection test finds: the crossed links (in the order of the active voxels'
+// chunks), how many links it tested, and with the octree the sweeps' boundary and the cubes
+// around the cuts (sub-step (1) of the subdivision).
+struct LinkTestResult {
+  std::vector<LinkCut> cuts;
+  std::size_t tested = 0;
+  SweepBoundary boundary;
+  std::vector<std::uint8_t> cubeMarks;
+};
+
+// Intersection test: each active connected link (v, a) once, from its low voxel v, when
+// either end lies in a marked element. Per chunk of entries, first the candidates, without
+// a branch per link: the octree's active links come and go from one entry to the next
+// (frames, shell), and branching on each costs more than the test of the links that pass
+// (docs/performance.md, "Single-frame cutting test"); then the candidates are tested.
+LinkTestResult testActiveLinks(CutBody& b, const std::vector<BladeSweep>& sweeps, bool fewMarked,
+                               bool threaded) {
+  VoxelGrid& g = b.grid;
+  const std::vector<std::uint32_t>& active = b.activity.activeVoxels;
+  const std::vector<VoxelEmbedding>& embeddings = b.activeEmbeddings;
   const auto positionOf = [&](std::size_t i, bool isMarked) {
-    return isMarked || !fewMarked ? b.activePositions[i] : b.deformation.voxelPosition(embeddings[i]);
+    return isMarked || !fewMarked ? b.activePositions[i]
+                                  : b.deformation.voxelPosition(embeddings[i]);
   };
-  VOXCUT_ASSERT(active.size() < (std::size_t{1} << 30), "too many active voxels for the link table");
+  VOXCUT_ASSERT(active.size() < (std::size_t{1} << 30),
+                "too many active voxels for the link table");
   const auto nActive = static_cast<std::uint32_t>(active.size());
   b.activeMarked.push_back(0);  // entry nActive: what a missing link's far end reads
   const std::uint8_t* inMarked = b.activeMarked.data();
@@ -275,66 +301,85 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   // With the octree, sub-step (1) of the subdivision for these cuts: each chunk marks the cubes
   // around its cuts once it has tested its links (their cells fetched as the cuts are found).
   std::vector<std::uint8_t> cubeMarks(b.useOctree ? b.activity.cubes.size() : 0, 0);
-  parallelFor(0, found.size() + side, 1, [&](std::size_t j0, std::size_t j1) {
-    if (j0 < side) {
-      boundary = sweepBoundary(b, sweeps);
-      ++j0;
-    }
-    std::array<std::uint32_t, 3 * kChunk> candidates;  // entry * 4 + axis
-    std::array<std::uint32_t, 3 * kChunk> farEnds;     // the entry across
-    for (std::size_t c = j0 - side; c < j1 - side; ++c) {
-      std::size_t count = 0;
-      const std::size_t end = std::min(active.size(), (c + 1) * kChunk);
-      for (std::size_t i = c * kChunk; i < end; ++i) {
-        const unsigned here = inMarked[i];
-        const auto first = static_cast<std::uint32_t>(4 * i);
-        for (std::uint32_t a = 0; a < 3; ++a) {
-          const std::uint32_t j = next[i][a];  // kNoActive is above every entry
-          candidates[count] = first + a;
-          farEnds[count] = j;
-          count += static_cast<unsigned>(j < nActive) & (here | inMarked[std::min(j, nActive)]);
+  parallelFor(
+      0, found.size() + side, 1,
+      [&](std::size_t j0, std::size_t j1) {
+        if (j0 < side) {
+          boundary = sweepBoundary(b, sweeps);
+          ++j0;
         }
-      }
-      for (std::size_t k = 0; k < count; ++k) {
-        const std::size_t i = candidates[k] >> 2;
-        const int a = static_cast<int>(candidates[k] & 3u);
-        const std::size_t v = active[i];
-        if (!g.connected(v, a)) continue;
-        const std::uint32_t j = farEnds[k];
-        ++tested[c];
-        if (const auto h = testLink(b, sweeps, v, a, positionOf(i, inMarked[i] != 0),
-                                    positionOf(j, inMarked[j] != 0))) {
-          found[c].push_back({VoxelGrid::linkId(v, a), *h, std::nullopt});
-          if (side) prefetchCubesAroundLink(b.activity, g, found[c].back().link);
+        std::array<std::uint32_t, 3 * kChunk> candidates;  // entry * 4 + axis
+        std::array<std::uint32_t, 3 * kChunk> farEnds;     // the entry across
+        for (std::size_t c = j0 - side; c < j1 - side; ++c) {
+          std::size_t count = 0;
+          const std::size_t end = std::min(active.size(), (c + 1) * kChunk);
+          for (std::size_t i = c * kChunk; i < end; ++i) {
+            const unsigned here = inMarked[i];
+            const auto first = static_cast<std::uint32_t>(4 * i);
+            for (std::uint32_t a = 0; a < 3; ++a) {
+              const std::uint32_t j = next[i][a];  // kNoActive is above every entry
+              candidates[count] = first + a;
+              farEnds[count] = j;
+              count += static_cast<unsigned>(j < nActive) & (here | inMarked[std::min(j, nActive)]);
+            }
+          }
+          for (std::size_t k = 0; k < count; ++k) {
+            const std::size_t i = candidates[k] >> 2;
+            const int a = static_cast<int>(candidates[k] & 3u);
+            const std::size_t v = active[i];
+            if (!g.connected(v, a)) continue;
+            const std::uint32_t j = farEnds[k];
+            ++tested[c];
+            if (const auto h = testLink(b, sweeps, v, a, positionOf(i, inMarked[i] != 0),
+                                        positionOf(j, inMarked[j] != 0))) {
+              found[c].push_back({VoxelGrid::linkId(v, a), *h, std::nullopt});
+              if (side) prefetchCubesAroundLink(b.activity, g, found[c].back().link);
+            }
+          }
+          if (side)
+            for (const LinkCut& lc : found[c])
+              markCubesAroundLink(b.activity, g, lc.link, cubeMarks);
         }
-      }
-      if (side)
-        for (const LinkCut& lc : found[c]) markCubesAroundLink(b.activity, g, lc.link, cubeMarks);
-    }
-  }, threaded);
+      },
+      threaded);
 
+  LinkTestResult out;
+  out.boundary = std::move(boundary);
+  out.cubeMarks = std::move(cubeMarks);
   for (std::size_t c = 0; c < found.size(); ++c) {
-    r.testedLinks += tested[c];
-    r.cuts.insert(r.cuts.end(), found[c].begin(), found[c].end());
+    out.tested += tested[c];
+    out.cuts.insert(out.cuts.end(), found[c].begin(), found[c].end());
   }
-  // The crossed links are disconnected and get their Hermite data; with the octree, the
-  // subdivision sets the data beside its first phase (it reads only the link bits), so the
-  // data is not set here when it runs.
-  for (const LinkCut& lc : r.cuts)
-    g.setConnected(static_cast<std::size_t>(lc.link / 3), static_cast<int>(lc.link % 3), false);
-  if (!b.useOctree) storeHermite(g.hermite(), r.cuts.data(), r.cuts.data() + r.cuts.size());
-  r.intersectionMs = cullMs + timer.ms();
+  return out;
+}
 
-  // Octree subdivision around the new cuts and in the cubes that the sweeps' boundary reaches
-  // into (nothing to subdivide or update without either).
-  timer.restart();
+// The crossed links are disconnected and get their Hermite data; with the octree, the
+// subdivision sets the data beside its first phase (it reads only the link bits), so the
+// data is not set here when it runs.
+void applyCuts(CutBody& b, std::vector<LinkCut>& cuts) {
+  for (const LinkCut& lc : cuts)
+    b.grid.setConnected(static_cast<std::size_t>(lc.link / 3), static_cast<int>(lc.link % 3),
+                        false);
+  if (!b.useOctree) storeHermite(b.grid.hermite(), cuts.data(), cuts.data() + cuts.size());
+}
+
+// Octree subdivision around the new cuts and in the cubes that the sweeps' boundary reaches
+// into (nothing to subdivide or update without either).
+// Records the subdivision's and the deferred updates' times and counts in r.
+void subdivideAroundCuts(CutBody& b, const std::vector<BladeSweep>& sweeps,
+                         SubdivisionWorkspace& workspace, LinkTestResult& found, CutStepResult& r,
+                         bool threaded) {
+  VoxelGrid& g = b.grid;
+  SweepBoundary& boundary = found.boundary;
+  std::vector<std::uint8_t>& cubeMarks = found.cubeMarks;
+  Timer timer;
   if (b.useOctree && (!r.cuts.empty() || !boundary.cubes.empty())) {
     SubdivisionHooks hooks;
     hooks.testLink = [&](std::size_t v, int a, VoxelPositionCache& cache) {
       return testCubeLink(b, sweeps, v, a, cache);
     };
-    r.subdivision =
-        subdivideCutCubes(b.activity, g, r.cuts, hooks, threaded, boundary, false, &cubeMarks);
+    r.subdivision = subdivideCutCubes(b.activity, g, r.cuts, hooks, workspace, threaded, boundary,
+                                      false, &cubeMarks);
     r.subdivisionMs = timer.ms();
     timer.restart();
     activateNewCubeFrames(b.activity, g, threaded);
@@ -345,12 +390,39 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
   } else if (b.useOctree) {
     r.subdivisionMs = timer.ms();
   }
-  std::sort(r.cuts.begin(), r.cuts.end(), [](const LinkCut& x, const LinkCut& y) { return x.link < y.link; });
+}
+
+}  // namespace
+
+CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps,
+                      SubdivisionWorkspace& workspace, bool threaded) {
+  CutStepResult r;
+  Timer timer;
+  const std::vector<std::uint8_t> marked = markElementsUnderSweeps(b, sweeps, threaded);
+  for (std::uint8_t m : marked) r.markedElements += m;
+  const double cullMs = timer.ms();
+
+  timer.restart();
+  const bool fewMarked = 2 * r.markedElements < marked.size();
+  positionActiveVoxels(b, marked, fewMarked, threaded);
+  r.positionUpdateMs = timer.ms();
+
+  timer.restart();
+  LinkTestResult found = testActiveLinks(b, sweeps, fewMarked, threaded);
+  r.testedLinks = found.tested;
+  r.cuts = std::move(found.cuts);
+  applyCuts(b, r.cuts);
+  r.intersectionMs = cullMs + timer.ms();
+
+  subdivideAroundCuts(b, sweeps, workspace, found, r, threaded);
+  std::sort(r.cuts.begin(), r.cuts.end(),
+            [](const LinkCut& x, const LinkCut& y) { return x.link < y.link; });
   return r;
 }
 
 std::uint64_t cutSetHash(std::vector<LinkCut> cuts) {
-  std::sort(cuts.begin(), cuts.end(), [](const LinkCut& x, const LinkCut& y) { return x.link < y.link; });
+  std::sort(cuts.begin(), cuts.end(),
+            [](const LinkCut& x, const LinkCut& y) { return x.link < y.link; });
   std::uint64_t h = 0xcbf29ce484222325ULL;
   auto mix = [&](std::int64_t value) {
     for (int i = 0; i < 8; ++i) {

@@ -14,6 +14,7 @@
 #include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/octree/OctreeSubdivision.h"
 #include "voxcut/octree/VoxelOctree.h"
+#include "voxcut/voxel/LinkCut.h"
 
 namespace voxcut {
 
@@ -68,7 +69,11 @@ struct CutStepResult {
 
 /// Runs one frame of cutting tool collision on `body` for the blade sweep. Cut links are
 /// disconnected and get Hermite data in the rest frame (t along the link; normal pulled back
-/// as F^T n, normalised). Deterministic for any thread count.
+/// as F^T n, normalised). `workspace`: the subdivision's buffers, held by the caller from one
+/// frame to the next (the overload without one makes a fresh one: for a one-off cut).
+/// Deterministic for any thread count.
+CutStepResult cutStep(CutBody& body, const BladeSweep& sweep, SubdivisionWorkspace& workspace,
+                      bool threaded = true);
 CutStepResult cutStep(CutBody& body, const BladeSweep& sweep, bool threaded = true);
 
 /// As cutStep for one sweep, for a strip of sweeps that together form the blade's swept
@@ -76,6 +81,8 @@ CutStepResult cutStep(CutBody& body, const BladeSweep& sweep, bool threaded = tr
 /// sim/BladeFront.h): elements under any sweep's OBB are marked, and a link crossing several
 /// sweeps takes the hit with the smallest t (ties: the first sweep). Empty: nothing is cut,
 /// only the positions are updated.
+CutStepResult cutStep(CutBody& body, const std::vector<BladeSweep>& sweeps,
+                      SubdivisionWorkspace& workspace, bool threaded = true);
 CutStepResult cutStep(CutBody& body, const std::vector<BladeSweep>& sweeps, bool threaded = true);
 
 /// 64-bit FNV-1a hash of the cuts sorted by link id, with t and normals rounded to 1e-6.

@@ -18,7 +18,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "voxcut/octree/OctreeSubdivision.h"
+#include "voxcut/voxel/LinkCut.h"
 #include "voxcut/voxel/VoxelGrid.h"
 
 namespace voxcut {

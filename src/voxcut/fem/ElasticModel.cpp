@@ -9,6 +9,7 @@
 
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
+#include "voxcut/fem/Corotation.h"
 
 namespace voxcut {
 
@@ -626,20 +627,6 @@ double ElasticModel::totalMass() const {
 
 namespace {
 
-/// Current and rest corners of element e, and its corotated displacement.
-Eigen::Matrix<double, 24, 1> corotatedOf(const DeformationOctree& octree, std::uint32_t e,
-                                         Eigen::Matrix3d& rotation) {
-  const OctreeElement& el = octree.element(e);
-  std::array<Vec3d, 8> x, rest, u;
-  for (std::size_t c = 0; c < 8; ++c) {
-    x[c] = octree.positions()[el.nodes[c]];
-    rest[c] = octree.restPositions()[el.nodes[c]];
-    u[c] = x[c] - rest[c];
-  }
-  rotation = polarRotation(centreDeformationGradient(u, octree.voxelSize() * el.size()));
-  return corotatedDisplacement(rotation, x, rest);
-}
-
 void checkInStep(const ElasticModel& model, const DeformationOctree& octree) {
   VOXCUT_ASSERT(
       model.elementCount() == octree.elementCount() && model.nodeCount() == octree.nodeCount(),
@@ -655,12 +642,11 @@ std::vector<Vec3d> elasticForces(const ElasticModel& model, const DeformationOct
       0, model.elementCount(), 16,
       [&](std::size_t b, std::size_t end) {
         for (std::size_t e = b; e < end; ++e) {
-          Eigen::Matrix3d r;
-          const auto y = corotatedOf(octree, static_cast<std::uint32_t>(e), r);
+          const Corotation co = corotation(octree, static_cast<std::uint32_t>(e));
           const Eigen::Matrix<double, 24, 1> ky =
-              model.element(static_cast<std::uint32_t>(e)).stiffness * y;
+              model.element(static_cast<std::uint32_t>(e)).stiffness * co.displacement;
           for (int c = 0; c < 8; ++c)
-            perElement[e][static_cast<std::size_t>(c)] = -(r * ky.segment<3>(3 * c));
+            perElement[e][static_cast<std::size_t>(c)] = -(co.rotation * ky.segment<3>(3 * c));
         }
       },
       model.threaded());
@@ -684,8 +670,8 @@ double elasticEnergy(const ElasticModel& model, const DeformationOctree& octree)
       0, model.elementCount(), 16,
       [&](std::size_t b, std::size_t end) {
         for (std::size_t e = b; e < end; ++e) {
-          Eigen::Matrix3d r;
-          const auto y = corotatedOf(octree, static_cast<std::uint32_t>(e), r);
+          const Eigen::Matrix<double, 24, 1> y =
+              corotation(octree, static_cast<std::uint32_t>(e)).displacement;
           energy[e] = 0.5 * y.dot(model.element(static_cast<std::uint32_t>(e)).stiffness * y);
         }
       },

@@ -10,7 +10,7 @@
 #include "voxcut/core/Parallel.h"
 #include "voxcut/core/Timer.h"
 #include "voxcut/fem/BlockPreconditioner.h"
-#include "voxcut/fem/HexElement.h"
+#include "voxcut/fem/Corotation.h"
 
 namespace voxcut {
 
@@ -182,8 +182,6 @@ void ImplicitEuler::resize(const ElasticModel& model) {
 void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree& octree) {
   const bool threaded = model.threaded();
   const double dt = params_.timeStep;
-  const auto& pos = octree.positions();
-  const auto& rest = octree.restPositions();
   // Elements: rotation, right-hand side force R K (y + (beta + dt) R^T v) and the rotated,
   // scaled stiffness blocks (dt beta + dt^2) R K_ab R^T.
   parallelFor(
@@ -192,15 +190,9 @@ void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree&
         for (std::size_t e = b; e < end; ++e) {
           const ElementMatrices& em = model.element(static_cast<std::uint32_t>(e));
           const OctreeElement& el = octree.element(static_cast<std::uint32_t>(e));
-          std::array<Vec3d, 8> x, x0, u;
-          for (std::size_t c = 0; c < 8; ++c) {
-            x[c] = pos[el.nodes[c]];
-            x0[c] = rest[el.nodes[c]];
-            u[c] = x[c] - x0[c];
-          }
-          const Eigen::Matrix3d r =
-              polarRotation(centreDeformationGradient(u, octree.voxelSize() * el.size()));
-          Eigen::Matrix<double, 24, 1> y = corotatedDisplacement(r, x, x0);
+          const Corotation co = corotation(octree, static_cast<std::uint32_t>(e));
+          const Eigen::Matrix3d& r = co.rotation;
+          Eigen::Matrix<double, 24, 1> y = co.displacement;
           const double damp = em.stiffnessDamping + dt;
           for (std::size_t c = 0; c < 8; ++c)
             y.segment<3>(3 * static_cast<Eigen::Index>(c)) +=
@@ -297,23 +289,12 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
   const bool threaded = model.threaded();
   const std::size_t rows = model.freeNodeCount();
   const BlockSparsity& sp = model.sparsity();
-  static_assert(sizeof(Eigen::Matrix3d) == 9 * sizeof(double) &&
-                sizeof(Vec3d) == 3 * sizeof(double));
-  const double* blocks = blocks_.empty() ? nullptr : blocks_[0].data();
+  const Eigen::Matrix3d* blocks = blocks_.data();
   const std::uint32_t* column = sp.column.data();
   const std::uint32_t* rowStart = sp.rowStart.data();
-  // Row i of A x; blocks are column-major 3x3. Written out: this loop is most of the solve.
+  // Row i of A x: most of the solve.
   auto multiply = [&](const std::vector<Vec3d>& in, std::size_t i) {
-    const double* x = in[0].data();
-    double s0 = 0.0, s1 = 0.0, s2 = 0.0;
-    for (std::uint32_t slot = rowStart[i]; slot < rowStart[i + 1]; ++slot) {
-      const double* a = blocks + 9 * static_cast<std::size_t>(slot);
-      const double* v = x + 3 * static_cast<std::size_t>(column[slot]);
-      s0 += a[0] * v[0] + a[3] * v[1] + a[6] * v[2];
-      s1 += a[1] * v[0] + a[4] * v[1] + a[7] * v[2];
-      s2 += a[2] * v[0] + a[5] * v[1] + a[8] * v[2];
-    }
-    return Vec3d(s0, s1, s2);
+    return blockRowProduct(blocks, column, in.data(), rowStart[i], rowStart[i + 1]);
   };
   // Jacobi and block Jacobi act row by row, fused into the vector updates; the coupled
   // preconditioners run as one sequential sweep over all rows after them.

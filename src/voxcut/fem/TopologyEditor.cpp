@@ -1,26 +1,28 @@
 #include "voxcut/fem/TopologyEditor.h"
 
-#include "voxcut/core/Stamp.h"
-
 #include <algorithm>
 
 #include "voxcut/core/Parallel.h"
+#include "voxcut/core/Stamp.h"
 
 namespace voxcut {
 
 using namespace topology_detail;
 
-void TopologyEditor::dirtyPoints(std::vector<std::uint64_t>& keys, std::vector<std::array<std::uint64_t, 8>>& around) {
+void TopologyEditor::dirtyPoints(std::vector<std::uint64_t>& keys,
+                                 std::vector<std::array<std::uint64_t, 8>>& around) {
   // Points seen, one bit per node-grid point (leaves reach at most 2^maxLevel - 1 past the
   // grid).
   const Index3 gd = grid_.dims();
   const int pad = (1 << oc_.maxLevel_) + 1;
-  const std::size_t nx = static_cast<std::size_t>(gd.x + pad), ny = static_cast<std::size_t>(gd.y + pad);
+  const std::size_t nx = static_cast<std::size_t>(gd.x + pad),
+                    ny = static_cast<std::size_t>(gd.y + pad);
   std::vector<std::uint64_t>& seen = seenPoints_;
   seen.resize((nx * ny * static_cast<std::size_t>(gd.z + pad) + 63) / 64, 0);
   std::vector<std::uint64_t> pts;
   auto add = [&](const Index3& p) {
-    const std::size_t i = static_cast<std::size_t>(p.x) + nx * (static_cast<std::size_t>(p.y) + ny * static_cast<std::size_t>(p.z));
+    const std::size_t i = static_cast<std::size_t>(p.x) +
+                          nx * (static_cast<std::size_t>(p.y) + ny * static_cast<std::size_t>(p.z));
     const std::uint64_t bit = std::uint64_t{1} << (i & 63);
     if (seen[i >> 6] & bit) return;
     seen[i >> 6] |= bit;
@@ -39,9 +41,11 @@ void TopologyEditor::dirtyPoints(std::vector<std::uint64_t>& keys, std::vector<s
     constexpr int m = kTileSize - 1;
     for (std::size_t i = from; i < pts.size(); ++i) {
       const Index3 p = pointOf(pts[i]);
-      if ((p.x & m) != 0 && (p.y & m) != 0 && (p.z & m) != 0) buildTile(p);  // one tile holds all 8
+      if ((p.x & m) != 0 && (p.y & m) != 0 && (p.z & m) != 0)
+        buildTile(p);  // one tile holds all 8
       else
-        for (int d = 0; d < 8; ++d) buildTile({p.x - 1 + (d & 1), p.y - 1 + ((d >> 1) & 1), p.z - 1 + (d >> 2)});
+        for (int d = 0; d < 8; ++d)
+          buildTile({p.x - 1 + (d & 1), p.y - 1 + ((d >> 1) & 1), p.z - 1 + (d >> 2)});
     }
     leaves.resize(pts.size());
     parallelFor(
@@ -57,7 +61,8 @@ void TopologyEditor::dirtyPoints(std::vector<std::uint64_t>& keys, std::vector<s
   findLeaves(0);
   // The leaves touching those points: their hanging nodes' masters may have changed. Only
   // their edge midpoints and face centres can hold such nodes.
-  KeyTable cubeSeen(first / 2);
+  FlatHashMap<std::uint8_t> cubeSeen;
+  cubeSeen.reserve(first / 2 + 8);
   for (std::size_t i = 0; i < first; ++i)
     for (std::size_t d = 0; d < 8; ++d) {
       const std::uint64_t k = leaves[i][d];
@@ -79,9 +84,12 @@ void TopologyEditor::dirtyPoints(std::vector<std::uint64_t>& keys, std::vector<s
   for (std::size_t i = 0; i < pts.size(); ++i) {
     order[i] = {pts[i], static_cast<std::uint32_t>(i)};
     const Index3 p = pointOf(pts[i]);
-    seen[(static_cast<std::size_t>(p.x) + nx * (static_cast<std::size_t>(p.y) + ny * static_cast<std::size_t>(p.z))) >> 6] = 0;
+    seen[(static_cast<std::size_t>(p.x) +
+          nx * (static_cast<std::size_t>(p.y) + ny * static_cast<std::size_t>(p.z))) >>
+         6] = 0;
   }
-  std::sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::sort(order.begin(), order.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
   keys.resize(order.size());
   around.resize(order.size());
   for (std::size_t i = 0; i < order.size(); ++i) {
@@ -97,8 +105,9 @@ PointGroups TopologyEditor::groupAt(const Index3& p, const std::array<std::uint6
   std::array<std::uint64_t, 8> cubes{};
   std::size_t cubeCount = 0;
   for (std::uint64_t k : around)
-    if (k != kNoKey && std::find(cubes.begin(), cubes.begin() + static_cast<std::ptrdiff_t>(cubeCount), k) ==
-                           cubes.begin() + static_cast<std::ptrdiff_t>(cubeCount))
+    if (k != kNoKey &&
+        std::find(cubes.begin(), cubes.begin() + static_cast<std::ptrdiff_t>(cubeCount), k) ==
+            cubes.begin() + static_cast<std::ptrdiff_t>(cubeCount))
       cubes[cubeCount++] = k;
   std::vector<std::uint32_t>& members = scratch.members;
   members.clear();
@@ -111,24 +120,13 @@ PointGroups TopologyEditor::groupAt(const Index3& p, const std::array<std::uint6
   if (members.empty()) return out;
   auto localIndex = [&](std::size_t cube, std::uint32_t copy) {
     for (std::size_t m = firstOf[cube]; m < firstOf[cube + 1]; ++m)
-      if (members[m] == copy) return static_cast<int>(m);
+      if (members[m] == copy) return static_cast<std::uint32_t>(m);
     VOXCUT_ASSERT(false, "voxel owner is not a copy of its cube");
-    return -1;
+    return std::uint32_t{0};
   };
-  // Union-find over the members (roots are the lowest index of their set).
-  std::vector<int>& parent = scratch.parent;
-  parent.resize(members.size());
-  for (std::size_t m = 0; m < members.size(); ++m) parent[m] = static_cast<int>(m);
-  auto find = [&](int a) {
-    while (parent[static_cast<std::size_t>(a)] != a)
-      a = parent[static_cast<std::size_t>(a)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(a)])];
-    return a;
-  };
-  auto unite = [&](int a, int b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
-  };
+  // Members joined through connected links (roots are the lowest index of their set).
+  UnionFind& sets = scratch.sets;
+  sets.reset(members.size());
   const Index3 gd = grid_.dims();
   for (std::size_t i = 0; i < cubeCount; ++i)
     for (std::size_t j = i + 1; j < cubeCount; ++j) {
@@ -157,8 +155,11 @@ PointGroups TopologyEditor::groupAt(const Index3& p, const std::array<std::uint6
       if (c[axis] + 1 >= gd[axis]) continue;
       // With one copy on each side the first connected link settles the pair, and nothing is
       // left to find when the two are joined already.
-      const bool single = firstOf[low + 1] - firstOf[low] == 1 && firstOf[high + 1] - firstOf[high] == 1;
-      if (single && find(static_cast<int>(firstOf[low])) == find(static_cast<int>(firstOf[high]))) continue;
+      const bool single =
+          firstOf[low + 1] - firstOf[low] == 1 && firstOf[high + 1] - firstOf[high] == 1;
+      if (single && sets.same(static_cast<std::uint32_t>(firstOf[low]),
+                              static_cast<std::uint32_t>(firstOf[high])))
+        continue;
       bool done = false;
       for (c[w] = lo[w]; c[w] < std::min(hi[w], gd[w]) && !done; ++c[w])
         for (c[u] = lo[u]; c[u] < std::min(hi[u], gd[u]); ++c[u]) {
@@ -166,7 +167,8 @@ PointGroups TopologyEditor::groupAt(const Index3& p, const std::array<std::uint6
           if (!grid_.occupied(x) || !grid_.connected(x, axis)) continue;
           const std::size_t y = x + grid_.stride(axis);
           if (!grid_.occupied(y)) continue;
-          unite(localIndex(low, oc_.embedding_[x].element), localIndex(high, oc_.embedding_[y].element));
+          sets.unite(localIndex(low, oc_.embedding_[x].element),
+                     localIndex(high, oc_.embedding_[y].element));
           if (single) {
             done = true;
             break;
@@ -185,7 +187,7 @@ PointGroups TopologyEditor::groupAt(const Index3& p, const std::array<std::uint6
     const int s = 1 << keyLevel(cubes[c]);
     cornerOf[c] = interiorAxes(f, s, p) == 0 ? cornerIndex(f, s, p) : -1;
     for (std::size_t m = firstOf[c]; m < firstOf[c + 1]; ++m) {
-      const auto r = static_cast<std::size_t>(find(static_cast<int>(m)));
+      const std::size_t r = sets.find(static_cast<std::uint32_t>(m));
       if (groupOf[r] < 0) groupOf[r] = groupCount++;
       memberGroup[m] = groupOf[r];
     }
@@ -201,8 +203,10 @@ PointGroups TopologyEditor::groupAt(const Index3& p, const std::array<std::uint6
           out.members.push_back({members[m], static_cast<std::int8_t>(cornerOf[c]), false});
           corner = corner || cornerOf[c] >= 0;
         }
-    if (!corner) out.members.resize(begin);
-    else out.members.back().last = true;
+    if (!corner)
+      out.members.resize(begin);
+    else
+      out.members.back().last = true;
   }
   return out;
 }
@@ -219,8 +223,10 @@ void TopologyEditor::assignTempNodes() {
         if (gm.corner >= 0) {
           auto [it, fresh] = cornerNodes_.try_emplace(gm.copy);
           if (fresh) {
-            if (gm.copy < oldElements_) it->second = oc_.elements_[gm.copy].nodes;
-            else it->second.fill(kNoElement);
+            if (gm.copy < oldElements_)
+              it->second = oc_.elements_[gm.copy].nodes;
+            else
+              it->second.fill(kNoElement);
           }
           it->second[static_cast<std::size_t>(gm.corner)] = t;
         }
@@ -267,8 +273,10 @@ std::vector<std::uint64_t> TopologyEditor::ambiguousCubes() const {
           m.emplace_back(pointKey(cornerPoint(f, s, mc[static_cast<std::size_t>(i)])),
                          cornerNode(copy, mc[static_cast<std::size_t>(i)]));
         std::sort(m.begin(), m.end());
-        if (ref.empty()) ref = m;
-        else if (m != ref) same = false;
+        if (ref.empty())
+          ref = m;
+        else if (m != ref)
+          same = false;
       }
       if (!same)
         for (std::uint32_t copy : coarse) out.push_back(keyOf(copy));
@@ -313,273 +321,6 @@ TopologyChange TopologyEditor::run() {
     for (std::uint64_t k : ambiguous) split(k);
   }
   return finalize();
-}
-
-TopologyChange TopologyEditor::finalize() {
-  std::vector<OctreeElement>& E = oc_.elements_;
-  TopologyChange tc;
-
-  // 1. New nodes, from the old state: a member's old element's node at p when p is one of
-  //    its corners, else that element's trilinear map at p (p was made by refinement).
-  struct TempNode {
-    Index3 p;
-    NodeSource src;
-    Vec3d pos = Vec3d::Zero();
-    std::uint32_t coarse = kNoElement;
-  };
-  std::vector<TempNode> temp(tempNodes_.size());
-  for (std::size_t t = 0; t < temp.size(); ++t) {
-    const PointGroups& pg = points_[tempNodes_[t].first];
-    TempNode& tn = temp[t];
-    tn.p = pg.p;
-    for (std::size_t b = tempNodes_[t].second;; ++b) {
-      if (pg.members[b].corner < 0) {
-        tn.coarse = pg.members[b].copy;
-        break;
-      }
-      if (pg.members[b].last) break;
-    }
-    std::uint32_t fallback = kNoElement;
-    for (std::size_t b = tempNodes_[t].second;; ++b) {
-      const GroupMember& gm = pg.members[b];
-      if (gm.corner < 0) {
-        if (gm.last) break;
-        continue;
-      }
-      const std::uint32_t copy = gm.copy;
-      const OctreeElement& oe = E[origin(copy)];
-      if (interiorAxes(oe.firstVoxel(), oe.size(), pg.p) == 0) {
-        tn.src.count = 1;
-        tn.src.nodes[0] = oe.nodes[static_cast<std::size_t>(cornerIndex(oe.firstVoxel(), oe.size(), pg.p))];
-        tn.src.weights[0] = 1.0;
-        break;
-      }
-      if (fallback == kNoElement) fallback = origin(copy);
-      if (gm.last) break;
-    }
-    if (tn.src.count == 0) {
-      const OctreeElement& oe = E[fallback];
-      const Index3 f = oe.firstVoxel();
-      const double inv = 1.0 / static_cast<double>(oe.size());
-      const Vec3d x((pg.p.x - f.x) * inv, (pg.p.y - f.y) * inv, (pg.p.z - f.z) * inv);
-      for (int c = 0; c < 8; ++c) {
-        const double w = ((c & 1) ? x.x() : 1 - x.x()) * ((c & 2) ? x.y() : 1 - x.y()) *
-                         ((c & 4) ? x.z() : 1 - x.z());
-        if (w == 0.0) continue;
-        tn.src.nodes[tn.src.count] = oe.nodes[static_cast<std::size_t>(c)];
-        tn.src.weights[tn.src.count++] = w;
-      }
-    }
-    for (int i = 0; i < tn.src.count; ++i)
-      tn.pos += tn.src.weights[static_cast<std::size_t>(i)] * oc_.positions_[tn.src.nodes[static_cast<std::size_t>(i)]];
-  }
-
-  // 2. Element slots: a copy equal to an old one keeps its slot; the others fill the freed
-  //    slots in order of their lowest voxel, then are appended.
-  std::vector<char> freedElement(oldElements_, 0), taken(oldElements_, 0);
-  for (std::uint32_t e : removed_) freedElement[e] = 1;
-  std::vector<std::uint32_t> alive;
-  for (std::uint32_t i = 0; i < copies_.size(); ++i)
-    if (copies_[i].alive) alive.push_back(i);
-  std::sort(alive.begin(), alive.end(),
-            [&](std::uint32_t a, std::uint32_t b) { return copies_[a].minVoxel < copies_[b].minVoxel; });
-  std::vector<std::uint32_t> finalId(copies_.size(), kNoElement);
-  for (std::uint32_t i : alive)
-    if (copies_[i].sameAs != kNoElement) {
-      finalId[i] = copies_[i].sameAs;
-      taken[copies_[i].sameAs] = 1;
-    }
-  std::vector<std::uint32_t> freeSlots;
-  for (std::uint32_t e : removed_)
-    if (!taken[e]) freeSlots.push_back(e);
-  std::sort(freeSlots.begin(), freeSlots.end());
-  std::size_t next = 0;
-  std::uint32_t appended = 0;
-  bool changed = false;
-  for (std::uint32_t i : alive) {
-    if (finalId[i] != kNoElement) continue;
-    changed = true;
-    finalId[i] = next < freeSlots.size() ? freeSlots[next++] : oldElements_ + appended++;
-  }
-  VOXCUT_ASSERT(next == freeSlots.size(), "fewer element copies than before");
-  auto finalOf = [&](std::uint32_t copy) { return copy < oldElements_ ? copy : finalId[copy - oldElements_]; };
-
-  // 3. Node slots: nodes at the regrouped points are freed; a new node reuses the slot of its
-  //    single source when that sits at the same point, else the lowest free slot.
-  std::vector<char> freedNode(oldNodes_, 0), claimed(oldNodes_, 0);
-  for (std::uint32_t e : removed_)
-    for (std::uint32_t n : E[e].nodes) freedNode[n] = 1;
-  for (const PointGroups& pg : points_)
-    for (const GroupMember& gm : pg.members)
-      if (gm.corner >= 0 && gm.copy < oldElements_) freedNode[E[gm.copy].nodes[static_cast<std::size_t>(gm.corner)]] = 1;
-  std::vector<std::uint32_t> nodeId(temp.size(), kNoElement);
-  for (std::size_t t = 0; t < temp.size(); ++t) {
-    const std::uint32_t s = temp[t].src.nodes[0];
-    if (temp[t].src.count == 1 && freedNode[s] && !claimed[s] && oc_.nodeCoords_[s] == temp[t].p) {
-      nodeId[t] = s;
-      claimed[s] = 1;
-    }
-  }
-  std::vector<std::uint32_t> freeNodes;
-  for (std::uint32_t n = 0; n < oldNodes_; ++n)
-    if (freedNode[n] && !claimed[n]) freeNodes.push_back(n);
-  next = 0;
-  std::uint32_t appendedNodes = 0;
-  for (std::size_t t = 0; t < temp.size(); ++t) {
-    if (nodeId[t] != kNoElement) continue;
-    changed = true;
-    nodeId[t] = next < freeNodes.size() ? freeNodes[next++] : oldNodes_ + appendedNodes++;
-  }
-  const std::vector<std::uint32_t> holes(freeNodes.begin() + static_cast<std::ptrdiff_t>(next), freeNodes.end());
-  changed = changed || !holes.empty() || appended > 0;
-
-  // 4. Node arrays and sources.
-  std::size_t nodeCount = oldNodes_ + appendedNodes;
-  oc_.nodeCoords_.resize(nodeCount);
-  oc_.restPositions_.resize(nodeCount);
-  oc_.positions_.resize(nodeCount);
-  tc.nodeSource.resize(nodeCount);
-  for (std::uint32_t n = 0; n < oldNodes_; ++n) {
-    tc.nodeSource[n].count = 1;
-    tc.nodeSource[n].nodes[0] = n;
-    tc.nodeSource[n].weights[0] = 1.0;
-  }
-  for (std::size_t t = 0; t < temp.size(); ++t) {
-    const std::uint32_t id = nodeId[t];
-    oc_.nodeCoords_[id] = temp[t].p;
-    oc_.restPositions_[id] = oc_.nodeGridPosition(temp[t].p);
-    oc_.positions_[id] = temp[t].pos;
-    tc.nodeSource[id] = temp[t].src;
-  }
-
-  // 5. Elements: corners of untouched copies at regrouped points, then the new copies.
-  auto resolve = [&](std::uint32_t ref) { return (ref & kTempNode) ? nodeId[ref & ~kTempNode] : ref; };
-  auto resolved = [&](const std::array<std::uint32_t, 8>& refs) {
-    std::array<std::uint32_t, 8> out{};
-    for (std::size_t c = 0; c < 8; ++c) out[c] = resolve(refs[c]);
-    return out;
-  };
-  E.resize(oldElements_ + appended);
-  for (const auto& [copy, refs] : cornerNodes_) {
-    if (copy >= oldElements_) continue;
-    const auto nodes = resolved(refs);
-    changed = changed || nodes != E[copy].nodes;
-    E[copy].nodes = nodes;
-  }
-  for (std::uint32_t i : alive) {
-    const std::uint32_t id = finalId[i];
-    OctreeElement el;
-    el.level = keyLevel(copies_[i].key);
-    const Index3 f = keyFirstVoxel(copies_[i].key);
-    el.coord = {f.x >> el.level, f.y >> el.level, f.z >> el.level};
-    el.nodes = resolved(cornerNodes_.at(oldElements_ + i));
-    changed = changed || id >= oldElements_ || el.nodes != E[id].nodes;
-    E[id] = el;
-  }
-
-  // 6. Embedding of the partitioned cubes' voxels: provisional ids to final ones.
-  std::vector<std::uint64_t> keys;
-  for (const auto& kv : partitioned_) keys.push_back(kv.first);
-  std::sort(keys.begin(), keys.end());
-  const Index3 gd = grid_.dims();
-  parallelFor(
-      0, keys.size(), 4,
-      [&](std::size_t b, std::size_t e) {
-        for (std::size_t i = b; i < e; ++i) {
-          const Index3 f = keyFirstVoxel(keys[i]);
-          const int s = 1 << keyLevel(keys[i]);
-          for (int z = f.z; z < std::min(f.z + s, gd.z); ++z)
-            for (int y = f.y; y < std::min(f.y + s, gd.y); ++y)
-              for (int x = f.x; x < std::min(f.x + s, gd.x); ++x) {
-                VoxelEmbedding& em = oc_.embedding_[grid_.index(x, y, z)];
-                if (em.element != kNoElement) em.element = finalOf(em.element);
-              }
-        }
-      },
-      threaded_);
-
-  // 7. Cube index.
-  oc_.nextCopy_.resize(E.size(), kNoElement);
-  for (std::uint64_t k : keys) {
-    std::vector<std::uint32_t> ids;
-    for (std::uint32_t copy : partitioned_.at(k)) ids.push_back(finalOf(copy));
-    std::sort(ids.begin(), ids.end());
-    oc_.cubeFirst_[k] = ids.front();
-    for (std::size_t j = 0; j < ids.size(); ++j)
-      oc_.nextCopy_[ids[j]] = j + 1 < ids.size() ? ids[j + 1] : kNoElement;
-  }
-
-  // 8. Hanging nodes: the old ones away from the regrouped points, and the new ones.
-  std::vector<HangingNode> hanging;
-  for (const HangingNode& h : oc_.hanging_)
-    if (!freedNode[h.node]) hanging.push_back(h);
-  for (std::size_t t = 0; t < temp.size(); ++t)
-    if (temp[t].coarse != kNoElement) {
-      HangingNode h;
-      h.node = nodeId[t];
-      h.element = finalOf(temp[t].coarse);
-      hanging.push_back(h);
-    }
-
-  // 9. Fill node slots left free with the last nodes.
-  if (!holes.empty()) {
-    std::vector<std::uint32_t> remap(nodeCount);
-    for (std::uint32_t n = 0; n < nodeCount; ++n) remap[n] = n;
-    std::vector<char> hole(nodeCount, 0);
-    for (std::uint32_t h : holes) hole[h] = 1;
-    for (std::uint32_t h : holes) {
-      while (nodeCount > 0 && hole[nodeCount - 1]) --nodeCount;
-      if (h >= nodeCount) break;
-      const std::size_t last = nodeCount - 1;
-      oc_.nodeCoords_[h] = oc_.nodeCoords_[last];
-      oc_.restPositions_[h] = oc_.restPositions_[last];
-      oc_.positions_[h] = oc_.positions_[last];
-      tc.nodeSource[h] = tc.nodeSource[last];
-      remap[last] = h;
-      hole[h] = 0;
-      hole[last] = 1;
-      --nodeCount;
-    }
-    while (nodeCount > 0 && hole[nodeCount - 1]) --nodeCount;
-    oc_.nodeCoords_.resize(nodeCount);
-    oc_.restPositions_.resize(nodeCount);
-    oc_.positions_.resize(nodeCount);
-    tc.nodeSource.resize(nodeCount);
-    for (OctreeElement& el : E)
-      for (std::uint32_t& n : el.nodes) n = remap[n];
-    for (HangingNode& h : hanging) h.node = remap[h.node];
-  }
-
-  // 10. Masters from the coarse copies' corners, coarse first.
-  for (HangingNode& h : hanging) {
-    const OctreeElement& ce = E[h.element];
-    std::array<int, 4> mc{};
-    h.masterCount = static_cast<std::uint8_t>(masterCorners(ce.firstVoxel(), ce.size(), oc_.nodeCoords_[h.node], mc));
-    h.coarseLevel = static_cast<std::uint8_t>(ce.level);
-    for (int m = 0; m < h.masterCount; ++m)
-      h.masters[static_cast<std::size_t>(m)] = ce.nodes[static_cast<std::size_t>(mc[static_cast<std::size_t>(m)])];
-  }
-  std::sort(hanging.begin(), hanging.end(), [](const HangingNode& a, const HangingNode& b) {
-    return a.coarseLevel != b.coarseLevel ? a.coarseLevel > b.coarseLevel : a.node < b.node;
-  });
-  if (!changed) {
-    changed = hanging.size() != oc_.hanging_.size();
-    for (std::size_t i = 0; i < hanging.size() && !changed; ++i)
-      changed = hanging[i].node != oc_.hanging_[i].node || hanging[i].masters != oc_.hanging_[i].masters ||
-                hanging[i].element != oc_.hanging_[i].element;
-  }
-  oc_.hanging_ = std::move(hanging);
-  oc_.hangingFlag_.assign(nodeCount, 0);
-  for (const HangingNode& h : oc_.hanging_) oc_.hangingFlag_[h.node] = 1;
-
-  // 11. Element map.
-  tc.elementSource.resize(E.size());
-  for (std::uint32_t e = 0; e < E.size(); ++e)
-    tc.elementSource[e] = e < oldElements_ && !freedElement[e] ? e : kNewElement;
-  for (std::uint32_t i : alive)
-    if (copies_[i].sameAs != kNoElement) tc.elementSource[finalId[i]] = copies_[i].sameAs;
-  tc.changed = changed;
-  return tc;
 }
 
 }  // namespace voxcut

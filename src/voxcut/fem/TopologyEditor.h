@@ -11,6 +11,8 @@
 #include <vector>
 
 #include "voxcut/core/Error.h"
+#include "voxcut/core/FlatHashMap.h"
+#include "voxcut/core/UnionFind.h"
 #include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/fem/TopologyChange.h"
 #include "voxcut/voxel/VoxelGrid.h"
@@ -22,7 +24,9 @@ constexpr std::uint64_t kNoKey = ~std::uint64_t{0};
 /// Flags a node made by this update in a corner array; the low bits index the new nodes.
 constexpr std::uint32_t kTempNode = 0x80000000u;
 
-inline int keyLevel(std::uint64_t k) { return static_cast<int>(k >> 60); }
+inline int keyLevel(std::uint64_t k) {
+  return static_cast<int>(k >> 60);
+}
 inline Index3 keyFirstVoxel(std::uint64_t k) {
   const std::uint64_t m = (std::uint64_t{1} << 20) - 1;
   const int L = keyLevel(k);
@@ -59,9 +63,11 @@ inline Index3 cornerPoint(const Index3& f, int s, int c) {
 inline int masterCorners(const Index3& f, int s, const Index3& p, std::array<int, 4>& out) {
   int fixed = 0, freeMask = 0;
   for (int k = 0; k < 3; ++k) {
-    if (p[k] == f[k] + s) fixed |= 1 << k;
+    if (p[k] == f[k] + s)
+      fixed |= 1 << k;
     else if (p[k] != f[k]) {
-      VOXCUT_ASSERT(2 * (p[k] - f[k]) == s, "hanging node off a coarse edge midpoint or face centre");
+      VOXCUT_ASSERT(2 * (p[k] - f[k]) == s,
+                    "hanging node off a coarse edge midpoint or face centre");
       freeMask |= 1 << k;
     }
   }
@@ -70,106 +76,6 @@ inline int masterCorners(const Index3& f, int s, const Index3& p, std::array<int
     if ((c & ~freeMask) == fixed) out[static_cast<std::size_t>(n++)] = c;
   return n;
 }
-
-struct UnionFind {
-  std::vector<int> parent;
-  explicit UnionFind(std::size_t n) : parent(n) {
-    for (std::size_t i = 0; i < n; ++i) parent[i] = static_cast<int>(i);
-  }
-  int find(int a) {
-    while (parent[static_cast<std::size_t>(a)] != a)
-      a = parent[static_cast<std::size_t>(a)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(a)])];
-    return a;
-  }
-  void unite(int a, int b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
-  }
-};
-
-/// Open-addressing hash map from 64-bit keys (cube or point keys; never the two highest
-/// values) to 32-bit values. The editor probes it several times per node-grid point, where a
-/// flat table with a multiplicative hash is much cheaper than the node-based std::unordered_map.
-/// Const members may run concurrently.
-class KeyTable {
- public:
-  explicit KeyTable(std::size_t expected = 0) { rehash(2 * expected + 16); }
-  /// Copies `from` (O(#entries)).
-  explicit KeyTable(const std::unordered_map<std::uint64_t, std::uint32_t>& from) : KeyTable(from.size()) {
-    for (const auto& [k, v] : from) set(k, v);
-  }
-  /// The value of key k, nullptr when absent.
-  [[nodiscard]] const std::uint32_t* find(std::uint64_t k) const {
-    const std::size_t i = position(k);
-    return i == kAbsent ? nullptr : &values_[i];
-  }
-  [[nodiscard]] bool contains(std::uint64_t k) const { return position(k) != kAbsent; }
-  /// The value of key k, which must be present.
-  [[nodiscard]] std::uint32_t at(std::uint64_t k) const {
-    const std::size_t i = position(k);
-    VOXCUT_ASSERT(i != kAbsent, "key not in the table");
-    return values_[i];
-  }
-  /// Inserts k or overwrites its value.
-  void set(std::uint64_t k, std::uint32_t v) {
-    if (const std::size_t i = position(k); i != kAbsent) {
-      values_[i] = v;
-      return;
-    }
-    if (2 * (used_ + 1) > keys_.size()) rehash(2 * keys_.size());
-    std::size_t i = slot(k);
-    while (keys_[i] != kEmpty && keys_[i] != kErased) i = (i + 1) & mask_;
-    used_ += keys_[i] == kEmpty;
-    keys_[i] = k;
-    values_[i] = v;
-  }
-  /// Inserts (k, v) when k is absent; returns whether it did.
-  bool insert(std::uint64_t k, std::uint32_t v = 0) {
-    if (contains(k)) return false;
-    set(k, v);
-    return true;
-  }
-  void erase(std::uint64_t k) {
-    if (const std::size_t i = position(k); i != kAbsent) keys_[i] = kErased;
-  }
-
- private:
-  // Cube keys have their level (< 8) in bits 60..63 and point keys use 63 bits, so these two
-  // are never keys.
-  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0}, kErased = kEmpty - 1;
-  static constexpr std::size_t kAbsent = ~std::size_t{0};
-  [[nodiscard]] std::size_t position(std::uint64_t k) const {
-    for (std::size_t i = slot(k);; i = (i + 1) & mask_) {
-      if (keys_[i] == k) return i;
-      if (keys_[i] == kEmpty) return kAbsent;
-    }
-  }
-  [[nodiscard]] std::size_t slot(std::uint64_t k) const {
-    return static_cast<std::size_t>((k * 0x9E3779B97F4A7C15ull) >> shift_);
-  }
-  void rehash(std::size_t atLeast) {
-    std::size_t n = 16;
-    int bits = 4;
-    while (n < atLeast) {
-      n *= 2;
-      ++bits;
-    }
-    std::vector<std::uint64_t> oldKeys = std::move(keys_);
-    std::vector<std::uint32_t> oldValues = std::move(values_);
-    keys_.assign(n, kEmpty);
-    values_.assign(n, 0);
-    mask_ = n - 1;
-    shift_ = 64 - bits;
-    used_ = 0;
-    for (std::size_t i = 0; i < oldKeys.size(); ++i)
-      if (oldKeys[i] != kEmpty && oldKeys[i] != kErased) set(oldKeys[i], oldValues[i]);
-  }
-  std::vector<std::uint64_t> keys_;
-  std::vector<std::uint32_t> values_;
-  std::size_t mask_ = 0, used_ = 0;  ///< used_: slots not empty (tombstones included)
-  int shift_ = 64;
-};
 
 /// A provisional element copy: one connected part of a cube partitioned by this update.
 struct NewCopy {
@@ -203,7 +109,38 @@ struct PointGroups {
 /// Buffers reused by groupAt across the points of one task.
 struct GroupScratch {
   std::vector<std::uint32_t> members;
-  std::vector<int> parent, groupOf;
+  UnionFind sets;
+  std::vector<int> groupOf;
+};
+
+/// A node made by this update: its node-grid point, where it comes from in the old state, its
+/// position, and the coarse copy it hangs on (kNoElement: none).
+struct TempNode {
+  Index3 p;
+  NodeSource src;
+  Vec3d pos = Vec3d::Zero();
+  std::uint32_t coarse = kNoElement;
+};
+
+/// What the phases of TopologyEditor::finalize hand on to each other.
+struct Finalization {
+  std::vector<TempNode> temp;          ///< the nodes made by this update
+  std::vector<char> freedElement;      ///< per old element: its slot was freed
+  std::vector<char> freedNode;         ///< per old node: its slot was freed
+  std::vector<std::uint32_t> alive;    ///< provisional copies kept, by lowest voxel
+  std::vector<std::uint32_t> finalId;  ///< per provisional copy: its element slot
+  std::vector<std::uint32_t> nodeId;   ///< per new node: its node slot
+  std::vector<std::uint32_t> holes;    ///< node slots left free, to fill with the last nodes
+  std::uint32_t appended = 0;          ///< elements added after the old ones
+  std::uint32_t appendedNodes = 0;     ///< nodes added after the old ones
+  std::size_t nodeCount = 0;           ///< nodes after the update
+  std::vector<std::uint64_t> cubes;    ///< the partitioned cubes, ascending
+  bool changed = false;                ///< anything differs from the old octree
+  TopologyChange change;
+  /// The final element id of element copy `copy` (old ids stay).
+  [[nodiscard]] std::uint32_t finalOf(std::uint32_t copy, std::uint32_t oldElements) const {
+    return copy < oldElements ? copy : finalId[copy - oldElements];
+  }
 };
 
 }  // namespace topology_detail
@@ -217,7 +154,9 @@ class TopologyEditor {
         threaded_(threaded),
         oldElements_(static_cast<std::uint32_t>(oc.elements_.size())),
         oldNodes_(static_cast<std::uint32_t>(oc.nodeCoords_.size())),
-        leaves_(oc.cubeFirst_) {
+        leaves_() {
+    leaves_.reserve(oc.cubeFirst_.size() + 8);
+    for (const auto& [key, first] : oc.cubeFirst_) leaves_.set(key, first);
     VOXCUT_ASSERT(grid.dims() == oc.dims_, "octree and grid differ");
     const Index3 gd = grid.dims();
     tileDims_ = {(gd.x >> kTileLevel) + 2, (gd.y >> kTileLevel) + 2, (gd.z >> kTileLevel) + 2};
@@ -253,7 +192,8 @@ class TopologyEditor {
   /// The node-grid points to regroup (keys ascending) and the leaves around each: the points
   /// of the partitioned and removed cubes, and the edge midpoints and face centres of the
   /// leaves touching those. Builds the tiles they read.
-  void dirtyPoints(std::vector<std::uint64_t>& keys, std::vector<std::array<std::uint64_t, 8>>& around);
+  void dirtyPoints(std::vector<std::uint64_t>& keys,
+                   std::vector<std::array<std::uint64_t, 8>>& around);
   /// The leaves holding the 8 voxels around node-grid point p (kNoKey where none), in the
   /// order of the offsets (d & 1, (d >> 1) & 1, d >> 2) - 1.
   [[nodiscard]] std::array<std::uint64_t, 8> leavesAround(const Index3& p) const;
@@ -263,7 +203,20 @@ class TopologyEditor {
   void assignTempNodes();
   [[nodiscard]] std::uint32_t cornerNode(std::uint32_t copy, int c) const;
   [[nodiscard]] std::vector<std::uint64_t> ambiguousCubes() const;
+  /// Writes the octree from the settled groups, in the phases below (in this order).
   TopologyChange finalize();
+  [[nodiscard]] std::vector<topology_detail::TempNode> makeTempNodes() const;
+  void assignElementSlots(topology_detail::Finalization& state) const;
+  void assignNodeSlots(topology_detail::Finalization& state) const;
+  void writeNodes(topology_detail::Finalization& state);
+  void writeElements(topology_detail::Finalization& state);
+  void renumberEmbedding(const topology_detail::Finalization& state);
+  void writeCubeIndex(const topology_detail::Finalization& state);
+  [[nodiscard]] std::vector<HangingNode> keptAndNewHangingNodes(
+      const topology_detail::Finalization& state) const;
+  void fillNodeHoles(topology_detail::Finalization& state, std::vector<HangingNode>& hanging);
+  void writeHangingNodes(topology_detail::Finalization& state, std::vector<HangingNode> hanging);
+  void writeElementSources(topology_detail::Finalization& state) const;
 
   DeformationOctree& oc_;
   const VoxelGrid& grid_;
@@ -271,7 +224,7 @@ class TopologyEditor {
   std::uint32_t oldElements_, oldNodes_;
   /// The leaves: oc_.cubeFirst_ kept in step, except that a partitioned leaf maps to its first
   /// provisional copy (its copies are consecutive in copies_).
-  topology_detail::KeyTable leaves_;
+  FlatHashMap<std::uint32_t> leaves_;
   /// Level of the leaf holding each voxel (-1: none), in tiles of 8^3 voxels built on demand:
   /// tileIndex_ is -1 or the tile's block of 512 entries in tileLevels_ (x fastest).
   static constexpr int kTileLevel = 3, kTileSize = 1 << kTileLevel;
@@ -284,9 +237,10 @@ class TopologyEditor {
   std::vector<topology_detail::NewCopy> copies_;
   std::vector<std::uint32_t> removed_;       ///< old elements whose slots are freed
   std::vector<std::uint64_t> removedCubes_;  ///< old leaves split or repartitioned
-  std::vector<std::uint64_t> seenPoints_;  ///< dirtyPoints' bitmap over the node grid, clear between calls
+  std::vector<std::uint64_t>
+      seenPoints_;  ///< dirtyPoints' bitmap over the node grid, clear between calls
   std::vector<topology_detail::PointGroups> points_;
-  std::vector<std::uint64_t> lastPoints_;                ///< keys of points_, ascending
+  std::vector<std::uint64_t> lastPoints_;                 ///< keys of points_, ascending
   std::vector<std::array<std::uint64_t, 8>> lastAround_;  ///< their leaves
   std::unordered_map<std::uint32_t, std::array<std::uint32_t, 8>> cornerNodes_;
   /// (point, its group's first member) of each node made by this update.

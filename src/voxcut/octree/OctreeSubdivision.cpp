@@ -11,386 +11,24 @@
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/core/Timer.h"
+#include "voxcut/octree/SubdivisionWorker.h"
 
 namespace voxcut {
-namespace {
 
-// Link bits are shared by neighbouring cubes' tasks (one byte holds a voxel's three links), so
-// in this phase every access goes through VoxelGrid's atomic connectedShared/disconnectShared.
-// Calls fn(cube) for the cube (level >= 1) over each of the unit cells that link (voxel, a)
-// borders, where one is stored.
-template <class Fn>
-void forEachCubeAroundLink(const VoxelOctree& oct, const VoxelGrid& grid, const Index3& voxel,
-                           int a, Fn&& fn) {
-  forEachCellAroundLink(grid.dims(), voxel, a, [&](const Index3& cell) {
-    const std::int32_t cube = oct.cellCube[grid.index(cell)];
-    if (cube >= 0) fn(static_cast<std::size_t>(cube));
-  });
-}
+using namespace subdivision_detail;
 
-struct CubeBox {
-  Index3 o;
-  int level;
-  [[nodiscard]] int size() const { return 1 << level; }
-};
-
-struct CutLink {
-  Index3 p;
-  int a;
-};
-
-// The memory of a worker (below) that outlives a subdivision run: its vectors keep their
-// capacity from one run (frame) to the next, so a frame does not grow them from nothing.
-struct WorkerMemory {
-  // Findings, cleared at the start of each phase.
-  std::vector<LinkCut> cuts;   // links this worker cut this round
-  std::vector<CutLink> found;  // the same, as positions, for the sub-cube test
-  // The faces phase's cuts on faces not shared whole with a cube split in the same round that
-  // border a cube outside the round: next round's newly cut links.
-  std::vector<std::uint64_t> outward;
-  std::vector<Index3> opened;   // level-1 cubes split (listed in octree.openedCubes)
-  std::vector<CubeBox> leaves;  // sub-cubes kept, cube after cube
-  std::vector<std::array<std::uint32_t, 3>> leafRanges;  // (cube slot, begin, end) in leaves
-  // Scratch.
-  std::vector<std::pair<int, int>> cells;       // traceSquare: cells to visit
-  std::vector<std::uint8_t> visited, examined;  // traceSquare: per cell, per link
-  // Per level: the cut links on each of the 8 sub-cubes' boundaries, and the boundary points
-  // near the sub-cube being split (reused between calls).
-  std::vector<std::array<std::vector<CutLink>, 8>> childCuts;
-  std::vector<std::vector<Vec3d>> childPoints;
-  std::vector<Vec3d> cubePoints;  // the boundary points near the cube a task resolves
-  std::vector<CutLink> boundary;  // the cut links on a split cube's faces
-};
-
-// A thread's worker: its findings in the current phase, and scratch memory reused by every
-// task it runs in one subdivision run (the position cache stays valid for the whole run:
-// positions do not change during it). One task runs on a thread at a time, so a worker is
-// never used by two at once; whatever the workers find is merged in an order-independent
-// way (each cut is recorded by one task, counts are summed, leaves kept per cube).
-struct Worker : WorkerMemory {
-  VoxelOctree& oct;
-  VoxelGrid& grid;
-  const SubdivisionHooks& hooks;
-  std::size_t tested = 0;
-  bool recordOutward = false;
-  // The round's slot of each cube, -1 if none (for the outward cuts).
-  const std::vector<std::int32_t>* listed = nullptr;
-  VoxelPositionCache positions;  // for the link test
-
-  Worker(VoxelOctree& o, VoxelGrid& g, const SubdivisionHooks& h, WorkerMemory&& memory)
-      : WorkerMemory(std::move(memory)), oct(o), grid(g), hooks(h) {
-    cuts.clear();
-    clearFindings();
-  }
-
-  // Per phase; the cuts are kept for the whole round (stored at its end).
-  void clearFindings() {
-    outward.clear();
-    found.clear();
-    tested = 0;
-    opened.clear();
-    leaves.clear();
-    leafRanges.clear();
-  }
-
-  // The disconnected links on the faces of `cube`. A cube exists only where every link was
-  // connected when it was made, and a cube with a cut on its boundary is split in the same
-  // frame, so these are exactly this frame's cuts on its boundary. During the split phase
-  // other tasks only cut links inside their own cubes, so these bits do not change.
-  void gatherBoundaryCuts(const CubeBox& cube) {
-    boundary.clear();
-    const int s = cube.size();
-    for (int a = 0; a < 3; ++a) {
-      const int u = (a + 1) % 3, w = (a + 2) % 3;
-      for (int j = 0; j <= s; ++j) {
-        const bool rim = j == 0 || j == s;
-        for (int i = 0; i <= s; i += (rim || i == s) ? 1 : s) {
-          Index3 p = cube.o;
-          p[u] += i;
-          p[w] += j;
-          std::size_t v = grid.index(p);
-          const std::size_t step = grid.stride(a);
-          for (int k = 0; k < s; ++k, v += step)
-            if (!grid.connectedShared(v, a)) {
-              Index3 q = p;
-              q[a] += k;
-              boundary.push_back({q, a});
-            }
-        }
-      }
-    }
-  }
-
-  // Tests link (v, a) at grid point p (computed on a hit) if it is still connected; it counts
-  // as tested either way, so the count does not depend on scheduling. A crossed link is
-  // disconnected at once and recorded by the task that disconnects it.
-  template <class Point>
-  void testLink(std::size_t v, int a, Point&& p) {
-    ++tested;
-    if (!grid.connectedShared(v, a)) return;
-    const std::optional<Hermite> hit = hooks.testLink(v, a, positions);
-    // Two tasks that resolve a face they share may both find one of its links crossed: only
-    // the one that disconnects it (disconnectShared says so) records the cut.
-    if (!hit || !grid.disconnectShared(v, a)) return;
-    cuts.push_back({VoxelGrid::linkId(v, a), *hit, std::nullopt});
-    const Index3 q = p();
-    found.push_back({q, a});
-    if (recordOutward && bordersUnlistedCube(q, a)) outward.push_back(VoxelGrid::linkId(v, a));
-  }
-
-  // Whether a cube outside this round's list borders link (q, a). The cubes of the list are
-  // split this round around every cut on their faces, so their sub-cubes have none on theirs.
-  [[nodiscard]] bool bordersUnlistedCube(const Index3& q, int a) const {
-    bool unlisted = false;
-    forEachCubeAroundLink(oct, grid, q, a,
-                          [&](std::size_t cube) { unlisted = unlisted || (*listed)[cube] < 0; });
-    return unlisted;
-  }
-
-  // The links inside the square of side m at `o` in the plane normal to f, spanned by axes
-  // u = (f+1)%3 and w = (f+2)%3, whose border links are decided already. The blade crosses
-  // the square along its trace, which enters through the border: the trace is followed from
-  // every cut border link, unit cell by unit cell; a cell's links not yet examined are tested,
-  // and the cells across its cut links come next. The work grows with the length of the trace
-  // (a few tests per link it crosses, counting the centre-line links two mid-planes share),
-  // not with the square's area. A square with no cut on its border holds none inside.
-  //
-  // Where the sweep's boundary (the blade's edge, the path of its tips) crosses the square, the
-  // trace may end inside it without reaching the border: `points` (rest voxel coordinates of
-  // the boundary, sampled densely) seed the trace too, at the cells around every point within
-  // one voxel of the square's plane.
-  void traceSquare(const Index3& o, int f, int m, const std::vector<Vec3d>* points = nullptr) {
-    if (m < 2) return;  // no link inside
-    const int u = (f + 1) % 3, w = (f + 2) % 3;
-    const std::size_t base = grid.index(o), su = grid.stride(u), sw = grid.stride(w);
-    const auto mz = static_cast<std::size_t>(m);
-    // Point (i, j) of the square; u-link (i, j) runs from it along u (i < m, j <= m), w-link
-    // (i, j) along w (i <= m, j < m).
-    const auto voxelAt = [&](int i, int j) {
-      return base + static_cast<std::size_t>(i) * su + static_cast<std::size_t>(j) * sw;
-    };
-    const auto pointAt = [&](int i, int j) {
-      return [&o, u, w, i, j] {
-        Index3 p = o;
-        p[u] += i;
-        p[w] += j;
-        return p;
-      };
-    };
-    cells.clear();
-    forEachBorderCut(o, f, m, [&](int i, int j) { cells.push_back({i, j}); });
-    if (points != nullptr)
-      for (const Vec3d& q : *points) {
-        if (std::abs(q[f] - o[f]) > 1.0) continue;
-        const int ci = static_cast<int>(std::floor(q[u])) - o[u];
-        const int cj = static_cast<int>(std::floor(q[w])) - o[w];
-        for (int dj = -1; dj <= 1; ++dj)
-          for (int di = -1; di <= 1; ++di)
-            if (ci + di >= 0 && ci + di < m && cj + dj >= 0 && cj + dj < m)
-              cells.push_back({ci + di, cj + dj});
-      }
-    if (cells.empty()) return;
-    if (m == 2) {
-      // Two by two cells (a level-1 cube's face): the 4 inside links meet at the centre
-      // point and are all tested once a border link is cut; following the trace would test
-      // nearly as many, at a higher cost per link.
-      testLink(voxelAt(0, 1), u, pointAt(0, 1));
-      testLink(voxelAt(1, 1), u, pointAt(1, 1));
-      testLink(voxelAt(1, 0), w, pointAt(1, 0));
-      testLink(voxelAt(1, 1), w, pointAt(1, 1));
-      return;
-    }
-    visited.assign(mz * mz, 0);
-    examined.assign(2 * mz * (mz + 1), 0);  // u-links, then w-links
-    // Examines the interior link (a u-link when `alongU`) and says whether it is cut.
-    const auto cut = [&](bool alongU, int i, int j) {
-      const std::size_t slot =
-          alongU ? static_cast<std::size_t>(j) * mz + static_cast<std::size_t>(i)
-                 : mz * (mz + 1) + static_cast<std::size_t>(i) * mz + static_cast<std::size_t>(j);
-      const int axis = alongU ? u : w;
-      const std::size_t v = voxelAt(i, j);
-      if (!examined[slot]) {
-        examined[slot] = 1;
-        testLink(v, axis, pointAt(i, j));
-      }
-      return !grid.connectedShared(v, axis);
-    };
-    while (!cells.empty()) {
-      const auto [i, j] = cells.back();
-      cells.pop_back();
-      std::uint8_t& seen = visited[static_cast<std::size_t>(j) * mz + static_cast<std::size_t>(i)];
-      if (seen) continue;
-      seen = 1;
-      if (j > 0 && cut(true, i, j)) cells.push_back({i, j - 1});
-      if (j + 1 < m && cut(true, i, j + 1)) cells.push_back({i, j + 1});
-      if (i > 0 && cut(false, i, j)) cells.push_back({i - 1, j});
-      if (i + 1 < m && cut(false, i + 1, j)) cells.push_back({i + 1, j});
-    }
-  }
-
-  // Calls cell(i, j) for each cut link on the border of the square of side m at o in the plane
-  // normal to f, spanned by u = (f+1)%3 and w = (f+2)%3, with the square's unit cell (i, j) that
-  // the link borders.
-  template <class Cell>
-  void forEachBorderCut(const Index3& o, int f, int m, Cell&& cell) const {
-    const int u = (f + 1) % 3, w = (f + 2) % 3;
-    const std::size_t base = grid.index(o), su = grid.stride(u), sw = grid.stride(w);
-    const auto voxelAt = [&](int i, int j) {
-      return base + static_cast<std::size_t>(i) * su + static_cast<std::size_t>(j) * sw;
-    };
-    for (int i = 0; i < m; ++i) {
-      if (!grid.connectedShared(voxelAt(i, 0), u)) cell(i, 0);
-      if (!grid.connectedShared(voxelAt(i, m), u)) cell(i, m - 1);
-      if (!grid.connectedShared(voxelAt(0, i), w)) cell(0, i);
-      if (!grid.connectedShared(voxelAt(m, i), w)) cell(m - 1, i);
-    }
-  }
-
-  // Whether a link on the border of the mid-plane across axis f of the level-1 cube at o is
-  // cut: the 8 links of the cube's faces that lie in that plane (the cube's edges are not in
-  // it).
-  bool midPlaneBorderCut(const Index3& o, int f) const {
-    Index3 q = o;
-    ++q[f];
-    bool cut = false;
-    forEachBorderCut(q, f, 2, [&](int, int) { cut = true; });
-    return cut;
-  }
-
-  // The sweep's boundary points (rest voxel coordinates) within `margin` of the box of side
-  // `size` at `o`, from `from`.
-  static void pointsNear(const std::vector<Vec3d>& from, const Index3& o, int size,
-                         double margin, std::vector<Vec3d>& out) {
-    out.clear();
-    for (const Vec3d& q : from) {
-      bool near = true;
-      for (int k = 0; k < 3 && near; ++k)
-        near = q[k] >= o[k] - margin && q[k] <= o[k] + size + margin;
-      if (near) out.push_back(q);
-    }
-  }
-
-  // Sub-steps (5-1)-(5-6) on one cube; `cutsOnBoundary` lists the cut links on its faces.
-  //
-  // `points`: the sweep's boundary points near the cube (empty for most cubes). A sub-cube
-  // with such a point is split too, even with no cut on its faces; where that finds no cut at
-  // all, the cube stays whole (kept as one leaf). Returns whether it stayed whole.
-  // `cutOnBoundary`: whether a link on its faces is cut (for a top-level level-1 cube,
-  // cutsOnBoundary is not gathered).
-  bool split(const CubeBox& cube, const std::vector<CutLink>& cutsOnBoundary,
-             const std::vector<Vec3d>& points, bool cutOnBoundary) {
-    const int s = cube.size(), h = s / 2;
-    const std::size_t before = found.size(), leavesBefore = leaves.size();
-    if (cube.level == 1) {
-      // (5-1), (5-2) between the 8 voxel cells of a level-1 cube lie only the 6 links at its
-      // centre voxel, two along each axis a, inside the two mid-planes across the other axes.
-      // The blade's trace through a cut one crosses both mid-planes' borders (their links on
-      // the cube's faces, decided already), so a pair is tested only when both borders hold a
-      // cut, which skips most pairs (a blade crossing a cube cuts the centre links of one or
-      // two axes). Where the sweep's boundary comes near
-      // (`points`), the blade's edge may end inside the cube and leave a mid-plane's border
-      // uncut: all 6 are tested. (5-3) the cube opens up completely: recorded here
-      // (VoxelOctree::openedCubes); its 27 voxels and 54 links, the frames of its level-0
-      // sub-cubes, are activated with the other new frames in deferred update (b), since this
-      // frame's cutting does not read them (the subdivision reads the link bits only).
-      const Index3 c{cube.o.x + 1, cube.o.y + 1, cube.o.z + 1};
-      const std::size_t centre = grid.index(c);
-      bool crossed[3];  // per mid-plane (by its normal axis): a cut on its border
-      for (int f = 0; f < 3; ++f) crossed[f] = !points.empty() || midPlaneBorderCut(cube.o, f);
-      for (int a = 0; a < 3; ++a) {
-        if (!crossed[(a + 1) % 3] || !crossed[(a + 2) % 3]) continue;
-        testLink(centre - grid.stride(a), a, [&] {
-          Index3 p = c;
-          --p[a];
-          return p;
-        });
-        testLink(centre, a, [&] { return c; });
-      }
-      if (!cutOnBoundary && found.size() == before) {
-        leaves.push_back(cube);
-        return true;
-      }
-      opened.push_back(cube.o);
-      return false;
-    }
-    // (5-1), (5-2) between the sub-cubes: the links of the three mid-planes, the three centre
-    // lines where they meet among them, followed along the blade's trace from the cube's faces
-    // (a centre-line link is inside two mid-planes: the second sees it cut, or tests it again).
-    for (int f = 0; f < 3; ++f) {
-      Index3 o = cube.o;
-      o[f] += h;
-      traceSquare(o, f, s, points.empty() ? nullptr : &points);
-    }
-    // (5-4) eight sub-cubes; (5-5) split those with a cut link on their boundary (the cube had
-    // none inside before this frame, so they are on its faces or found just now); (5-6).
-    // Sized by the first (largest) cube; the recursion only goes down, so `sub` stays valid.
-    if (childCuts.size() < static_cast<std::size_t>(cube.level) + 1) {
-      childCuts.resize(static_cast<std::size_t>(cube.level) + 1);
-      childPoints.resize(static_cast<std::size_t>(cube.level) + 1);
-    }
-    auto& sub = childCuts[static_cast<std::size_t>(cube.level)];
-    auto& near = childPoints[static_cast<std::size_t>(cube.level)];
-    for (auto& list : sub) list.clear();
-    const auto distribute = [&](const CutLink& c) {
-      // A link lies on the boundary of every sub-cube whose box holds it: it lies on one of
-      // the cube's faces or mid-planes. Along each axis f other than its own, a link on the
-      // mid-plane belongs to both halves; along its own axis, to the half it spans.
-      int lo[3], hi[3];
-      for (int f = 0; f < 3; ++f) {
-        const int rel = c.p[f] - cube.o[f];
-        if (f == c.a) {
-          lo[f] = hi[f] = rel >= h ? 1 : 0;
-        } else {
-          lo[f] = rel > h ? 1 : 0;
-          hi[f] = rel >= h ? 1 : 0;
-        }
-      }
-      for (int z = lo[2]; z <= hi[2]; ++z)
-        for (int y = lo[1]; y <= hi[1]; ++y)
-          for (int x = lo[0]; x <= hi[0]; ++x)
-            sub[static_cast<std::size_t>(x | (y << 1) | (z << 2))].push_back(c);
-    };
-    for (const CutLink& c : cutsOnBoundary) distribute(c);
-    for (std::size_t i = before; i < found.size(); ++i) distribute(found[i]);
-    bool whole = !cutOnBoundary && found.size() == before;
-    for (int k = 0; k < 8; ++k) {
-      const CubeBox child{
-          {cube.o.x + (k & 1) * h, cube.o.y + ((k >> 1) & 1) * h, cube.o.z + (k >> 2) * h},
-          cube.level - 1};
-      near.clear();
-      if (!points.empty()) pointsNear(points, child.o, child.size(), 1.0, near);
-      if (sub[static_cast<std::size_t>(k)].empty() && near.empty())
-        leaves.push_back(child);
-      else
-        whole = split(child, sub[static_cast<std::size_t>(k)], near,
-                      !sub[static_cast<std::size_t>(k)].empty()) &&
-                whole;
-    }
-    if (whole) {
-      // Only boundary points brought it here, and nothing in it is cut.
-      leaves.resize(leavesBefore);
-      leaves.push_back(cube);
-    }
-    return whole;
-  }
-};
-
-}  // namespace
-
-void storeHermite(HermiteMap& hermite, LinkCut* first, LinkCut* last) {
-  for (LinkCut* c = first; c != last; ++c) {
-    if (last - c > static_cast<std::ptrdiff_t>(HermiteMap::kPrefetchAhead))
-      hermite.prefetch(c[HermiteMap::kPrefetchAhead].link);
-    c->previous = hermite.exchange(c->link, c->hermite);
-  }
-}
+SubdivisionWorkspace::SubdivisionWorkspace() = default;
+SubdivisionWorkspace::~SubdivisionWorkspace() = default;
+SubdivisionWorkspace::SubdivisionWorkspace(SubdivisionWorkspace&&) noexcept = default;
+SubdivisionWorkspace& SubdivisionWorkspace::operator=(SubdivisionWorkspace&&) noexcept = default;
 
 void markCubesAroundLink(const VoxelOctree& oct, const VoxelGrid& grid, std::uint64_t link,
                          std::vector<std::uint8_t>& marked) {
   const auto v = static_cast<std::size_t>(link / 3);
-  forEachCubeAroundLink(oct, grid, grid.coord(v), static_cast<int>(link % 3), [&](std::size_t cube) {
-    std::atomic_ref<std::uint8_t>(marked[cube]).store(1, std::memory_order_relaxed);
-  });
+  forEachCubeAroundLink(
+      oct, grid, grid.coord(v), static_cast<int>(link % 3), [&](std::size_t cube) {
+        std::atomic_ref<std::uint8_t>(marked[cube]).store(1, std::memory_order_relaxed);
+      });
 }
 
 void prefetchCubesAroundLink(const VoxelOctree& oct, const VoxelGrid& grid, std::uint64_t link) {
@@ -404,157 +42,305 @@ void prefetchCubesAroundLink(const VoxelOctree& oct, const VoxelGrid& grid, std:
   if (v >= su + sw) __builtin_prefetch(cells + (v - su - sw));
 }
 
-SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vector<LinkCut>& cuts,
-                                   const SubdivisionHooks& hooks, bool threaded,
-                                   const SweepBoundary& boundary, bool givenStored,
-                                   std::vector<std::uint8_t>* givenMarked) {
+namespace {
+
+// One run of subdivideCutCubes: its inputs, what lasts from round to round, and the phases of a
+// round (run() calls them in order).
+struct SubdivisionRun {
+  SubdivisionRun(VoxelOctree& octree, VoxelGrid& voxels, std::vector<LinkCut>& allCuts,
+                 const SubdivisionHooks& linkHooks, SubdivisionWorkspace& workspace, bool parallel,
+                 const SweepBoundary& sweepBoundary, bool givenStored,
+                 std::vector<std::uint8_t>* marked);
+  SubdivisionStats run();
+
+  // (1) marks the cubes around the newly cut links in `affected`.
+  void markAffected();
+  // Lists the affected cubes in space order (list, slot); false when there are none.
+  bool listAffected();
+  // Whether listed cube i is one the sweep's boundary reaches into (first round only).
+  [[nodiscard]] bool isReached(std::size_t i) const { return firstRound && reached[list[i]] != 0; }
+  // Runs fn(worker, i) for every listed cube i, in parallel, each task with its thread's
+  // worker, whose findings of the phase start empty; `side`, if set, runs as one more task
+  // (first: the calling thread starts it while the others take cubes).
+  template <class Fn, class Side>
+  void forEachCube(Fn&& fn, Side&& side);
+  // After each phase: the tested links counted, the cuts appended to `cuts` (from roundBegin
+  // on, the faces phase's up to facesEnd).
+  void mergeFindings();
+  // Hermite data for cuts[b, e) (each cut was recorded once, by the task that disconnected it;
+  // the table's contents do not depend on the order). Runs beside other work that does not
+  // touch the table.
+  void storeCuts(std::size_t b, std::size_t e) {
+    storeHermite(grid.hermite(), cuts.data() + b, cuts.data() + e);
+  }
+  // (2)-(4) on the faces of listed cube i.
+  void traceFaces(Worker& w, std::size_t i);
+  // (5) on listed cube i.
+  void splitCube(Worker& w, std::size_t i);
+  // (6) the split cubes' leaves into the octree.
+  void storeSubCubes(bool mapNow);
+
+  VoxelOctree& oct;
+  VoxelGrid& grid;
+  std::vector<LinkCut>& cuts;
+  const SubdivisionHooks& hooks;
+  const bool threaded;
+  const SweepBoundary& boundary;
+  std::vector<std::uint8_t>* givenMarked;
+  const Index3 d;
   SubdivisionStats stats;
-  const Index3 d = grid.dims();
-  std::vector<std::uint64_t> pending;
+  std::vector<std::uint64_t> pending;  // the links cut last round (first: the given cuts)
+  std::size_t givenUnstored;           // cuts[0, this) lack their data
+  std::vector<std::uint8_t> affected;  // per cube: 1 a cut link around it; 2 only the boundary
+  std::vector<WorkerMemory>& kept;
+  std::vector<std::unique_ptr<Worker>> workers;
+  std::vector<std::uint8_t> reached;  // cubes the sweep's boundary reaches into
+  // This round's: the affected cubes in space order, the slot of each cube in that list (-1
+  // if none), whether it is the first round, and where its cuts begin in `cuts`.
+  std::vector<std::uint32_t> list;
+  std::vector<std::int32_t> slot;
+  bool firstRound = true;
+  std::size_t roundBegin = 0;
+};
+
+SubdivisionRun::SubdivisionRun(VoxelOctree& octree, VoxelGrid& voxels,
+                               std::vector<LinkCut>& allCuts, const SubdivisionHooks& linkHooks,
+                               SubdivisionWorkspace& workspace, bool parallel,
+                               const SweepBoundary& sweepBoundary, bool givenStored,
+                               std::vector<std::uint8_t>* marked)
+    : oct(octree),
+      grid(voxels),
+      cuts(allCuts),
+      hooks(linkHooks),
+      threaded(parallel),
+      boundary(sweepBoundary),
+      givenMarked(marked),
+      d(voxels.dims()),
+      givenUnstored(givenStored ? 0 : allCuts.size()),
+      // The workers' memory comes from the workspace and goes back to it (a run's workers are
+      // indexed by the thread slots of its parallel loops, unique among the threads running at
+      // once).
+      kept(workspace.workers),
+      workers(static_cast<std::size_t>(threadSlots())),
+      reached(octree.cubes.size(), 0) {
   for (const LinkCut& c : cuts) pending.push_back(c.link);
-  std::size_t givenUnstored = givenStored ? 0 : cuts.size();  // cuts[0, this) lack their data
-  std::vector<std::uint8_t> affected;
-  // The workers' memory is kept per calling thread between runs (a run's workers are indexed
-  // by the thread slots of its parallel loops, unique among the threads running at once).
-  // (A reference: in a task on another thread, the name would mean that thread's own.)
-  thread_local std::vector<WorkerMemory> keptHere;
-  std::vector<WorkerMemory>& kept = keptHere;
   kept.resize(std::max(kept.size(), static_cast<std::size_t>(threadSlots())));
-  std::vector<std::unique_ptr<Worker>> workers(static_cast<std::size_t>(threadSlots()));
   // Cubes the sweep's boundary reaches into (the first round only; see the header).
-  std::vector<std::uint8_t> reached(oct.cubes.size(), 0);
   for (const std::uint32_t c : boundary.cubes) {
     VOXCUT_ASSERT(c < oct.cubes.size() && !oct.cubes[c].deleted, "boundary: not a live cube");
     reached[c] = 1;
   }
-  VOXCUT_ASSERT(oct.unmappedCubes.empty(),
-                "the deferred updates of the last subdivision have not run (activateNewCubeFrames)");
-  // Hermite data for cuts[b, e) (each cut was recorded once, by the task that disconnected it;
-  // the table's contents do not depend on the order). Runs beside other work that does not
-  // touch the table.
-  const auto storeCuts = [&](std::size_t b, std::size_t e) {
-    storeHermite(grid.hermite(), cuts.data() + b, cuts.data() + e);
+  VOXCUT_ASSERT(
+      oct.unmappedCubes.empty(),
+      "the deferred updates of the last subdivision have not run (activateNewCubeFrames)");
+}
+
+void SubdivisionRun::markAffected() {
+  // (1) mark the cubes around the newly cut links (raising a raised flag is harmless); the
+  // caller may have marked those of the given cuts.
+  if (stats.rounds == 0 && givenMarked != nullptr) {
+    VOXCUT_ASSERT(givenMarked->size() == oct.cubes.size(), "one mark per cube");
+    affected = std::move(*givenMarked);
+  } else {
+    affected.assign(oct.cubes.size(), 0);
+    parallelFor(
+        0, pending.size(), 256,
+        [&](std::size_t b, std::size_t e) {
+          for (std::size_t i = b; i < e; ++i) {
+            if (i + 16 < e) prefetchCubesAroundLink(oct, grid, pending[i + 16]);
+            markCubesAroundLink(oct, grid, pending[i], affected);
+          }
+        },
+        threaded);
+  }
+  // 1: a cut link around it; 2: only the sweep's boundary reaches into it.
+  if (stats.rounds == 0)
+    for (const std::uint32_t c : boundary.cubes)
+      if (affected[c] == 0) affected[c] = 2;
+}
+
+bool SubdivisionRun::listAffected() {
+  // In space order (z, y, x of the origins, by their voxel index): the parallel loops hand
+  // each thread runs of neighbouring cubes, which share face voxels and links.
+  std::vector<std::pair<std::size_t, std::uint32_t>> order;
+  for (std::size_t c = 0; c < affected.size(); ++c)
+    if (affected[c])
+      order.emplace_back(grid.index(oct.cubes[c].origin), static_cast<std::uint32_t>(c));
+  if (order.empty()) return false;
+  std::sort(order.begin(), order.end());
+  list.assign(order.size(), 0);
+  slot.assign(oct.cubes.size(), -1);
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    list[i] = order[i].second;
+    slot[list[i]] = static_cast<std::int32_t>(i);
+  }
+  firstRound = stats.rounds == 0;
+  ++stats.rounds;
+  stats.affectedCubes += list.size();
+  if (firstRound) stats.boundaryCubes = boundary.cubes.size();
+  return true;
+}
+
+template <class Fn, class Side>
+void SubdivisionRun::forEachCube(Fn&& fn, Side&& side) {
+  for (auto& w : workers)
+    if (w) w->clearFindings();
+  constexpr bool hasSide = !std::is_same_v<std::decay_t<Side>, std::nullptr_t>;
+  const std::size_t first = hasSide ? 1 : 0;
+  parallelFor(
+      0, list.size() + first, 1,
+      [&](std::size_t b, std::size_t e) {
+        if constexpr (hasSide)
+          if (b == 0) {
+            side();
+            ++b;
+          }
+        if (b == e) return;
+        std::unique_ptr<Worker>& w = workers[static_cast<std::size_t>(threadSlot())];
+        if (!w)
+          w = std::make_unique<Worker>(oct, grid, hooks,
+                                       std::move(kept[static_cast<std::size_t>(threadSlot())]));
+        for (std::size_t i = b; i < e; ++i) fn(*w, i - first);
+      },
+      threaded);
+}
+
+void SubdivisionRun::mergeFindings() {
+  for (const auto& w : workers) {
+    if (!w) continue;
+    stats.testedLinks += w->tested;
+    cuts.insert(cuts.end(), w->cuts.begin(), w->cuts.end());
+    w->cuts.clear();
+  }
+}
+
+void SubdivisionRun::traceFaces(Worker& w, std::size_t i) {
+  const OctreeCube& oc = oct.cubes[list[i]];
+  const int s = 1 << oc.level;
+  const bool seeded = isReached(i);
+  w.listed = &slot;
+  if (seeded) Worker::pointsNear(boundary.points, oc.origin, s, 2.0, w.cubePoints);
+  for (int f = 0; f < 6; ++f) {
+    Index3 o = oc.origin;
+    o[f / 2] += (f & 1) * s;
+    // A face shared whole with another affected cube of the same size is resolved once,
+    // by the cube listed first; its cuts border only cubes split in this round. A face
+    // that lies inside a face of a larger affected cube is left to that cube: its trace,
+    // followed from its own border, crosses this face wherever the blade does (a trace
+    // reaches the border of every face it crosses, short of the sweep's boundary).
+    Index3 across = oc.origin;
+    across[f / 2] += (f & 1) ? s : -1;
+    bool shared = false;
+    if (across[f / 2] >= 0 && across[f / 2] + 1 < d[f / 2]) {
+      const std::int32_t other = oct.cellCube[grid.index(across)];
+      // (A cube the boundary reaches into traces its faces itself, seeded.)
+      if (other >= 0 && slot[static_cast<std::size_t>(other)] >= 0 && !seeded &&
+          !isReached(static_cast<std::size_t>(slot[static_cast<std::size_t>(other)]))) {
+        const int otherLevel = oct.cubes[static_cast<std::size_t>(other)].level;
+        if (otherLevel > oc.level) continue;
+        shared = otherLevel == oc.level;
+        if (shared && slot[static_cast<std::size_t>(other)] < static_cast<std::int32_t>(i))
+          continue;
+      }
+    }
+    w.recordOutward = !shared;
+    w.traceSquare(o, f / 2, s, seeded ? &w.cubePoints : nullptr);
+    w.recordOutward = false;
+  }
+}
+
+void SubdivisionRun::splitCube(Worker& w, std::size_t i) {
+  const OctreeCube& oc = oct.cubes[list[i]];
+  const CubeBox cube{oc.origin, oc.level};
+  const auto begin = static_cast<std::uint32_t>(w.leaves.size());
+  // A level-1 cube tests the links at its centre whatever its faces hold; one listed for
+  // a cut around it has one on its faces, so they are gathered only for one listed for
+  // the sweep's boundary alone (which stays whole if none of its links is cut).
+  const bool cutAround = affected[list[i]] == 1;
+  w.boundary.clear();
+  if (cube.level > 1 || !cutAround) w.gatherBoundaryCuts(cube);
+  w.cubePoints.clear();
+  if (isReached(i)) Worker::pointsNear(boundary.points, cube.o, cube.size(), 1.0, w.cubePoints);
+  const bool cutOnBoundary = cube.level > 1 || !cutAround ? !w.boundary.empty() : true;
+  w.split(cube, w.boundary, w.cubePoints, cutOnBoundary);
+  w.leafRanges.push_back(
+      {static_cast<std::uint32_t>(i), begin, static_cast<std::uint32_t>(w.leaves.size())});
+}
+
+// The split level-1 cubes are listed for the frame activation (oct.openedCubes, in any
+// order) and the sub-cubes stored (oct.cubes, oct.newCubes): the first sub-cube takes the
+// split cube's slot, the others are appended in list order.
+//
+// The cube map (oct.cellCube): a split cube's leaves and its opened level-1 cubes tile it (a
+// split ends in one or the other) and its cells hold its id, which its first leaf keeps; so
+// only the other leaves' cells (their new ids) and the opened cubes' cells (none) change.
+// Only the next round's marking reads the map in this frame: with none to follow, the
+// writes are left to deferred update (b) (activateNewCubeFrames), like the frames.
+void SubdivisionRun::storeSubCubes(bool mapNow) {
+  for (const auto& w : workers)
+    if (w) oct.openedCubes.insert(oct.openedCubes.end(), w->opened.begin(), w->opened.end());
+  std::vector<const CubeBox*> leafBegin(list.size()), leafEnd(list.size());
+  std::size_t leafCount = 0;
+  for (const auto& w : workers)
+    if (w) leafCount += w->leaves.size();
+  // Room for them at once, growing geometrically (a scene splits cubes frame after frame).
+  const auto makeRoom = [leafCount](auto& v) {
+    if (v.size() + leafCount > v.capacity())
+      v.reserve(std::max(v.size() + leafCount, 2 * v.capacity()));
   };
+  makeRoom(oct.cubes);
+  makeRoom(oct.newCubes);
+  if (!mapNow) makeRoom(oct.unmappedCubes);
+  for (const auto& w : workers)
+    if (w)
+      for (const auto& [i, b, e] : w->leafRanges) {
+        leafBegin[i] = w->leaves.data() + b;
+        leafEnd[i] = w->leaves.data() + e;
+      }
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const std::uint32_t id = list[i];
+    if (leafBegin[i] == leafEnd[i]) {
+      oct.cubes[id].deleted = true;
+      continue;
+    }
+    for (const CubeBox* leaf = leafBegin[i]; leaf != leafEnd[i]; ++leaf) {
+      const OctreeCube sub{leaf->o, static_cast<std::uint8_t>(leaf->level), false};
+      if (leaf == leafBegin[i]) {
+        oct.cubes[id] = sub;
+        oct.newCubes.push_back(id);
+        continue;
+      }
+      const auto newId = static_cast<std::uint32_t>(oct.cubes.size());
+      if (mapNow)
+        oct.setCubeCells(leaf->o, leaf->level, static_cast<std::int32_t>(newId));
+      else
+        oct.unmappedCubes.push_back(newId);
+      oct.newCubes.push_back(newId);
+      oct.cubes.push_back(sub);
+    }
+  }
+  if (mapNow)
+    for (const auto& w : workers)
+      if (w)
+        for (const Index3& o : w->opened) oct.setCubeCells(o, 1, -1);
+}
+
+SubdivisionStats SubdivisionRun::run() {
   Timer total;
   while (!pending.empty() || (stats.rounds == 0 && !boundary.cubes.empty())) {
-    // (1) mark the cubes around the newly cut links (raising a raised flag is harmless); the
-    // caller may have marked those of the given cuts.
-    if (stats.rounds == 0 && givenMarked != nullptr) {
-      VOXCUT_ASSERT(givenMarked->size() == oct.cubes.size(), "one mark per cube");
-      affected = std::move(*givenMarked);
-    } else {
-      affected.assign(oct.cubes.size(), 0);
-      parallelFor(
-          0, pending.size(), 256,
-          [&](std::size_t b, std::size_t e) {
-            for (std::size_t i = b; i < e; ++i) {
-              if (i + 16 < e) prefetchCubesAroundLink(oct, grid, pending[i + 16]);
-              markCubesAroundLink(oct, grid, pending[i], affected);
-            }
-          },
-          threaded);
-    }
-    // 1: a cut link around it; 2: only the sweep's boundary reaches into it.
-    if (stats.rounds == 0)
-      for (const std::uint32_t c : boundary.cubes)
-        if (affected[c] == 0) affected[c] = 2;
-    // In space order (z, y, x of the origins, by their voxel index): the parallel loops hand
-    // each thread runs of neighbouring cubes, which share face voxels and links.
-    std::vector<std::pair<std::size_t, std::uint32_t>> order;
-    for (std::size_t c = 0; c < affected.size(); ++c)
-      if (affected[c]) order.emplace_back(grid.index(oct.cubes[c].origin), static_cast<std::uint32_t>(c));
-    if (order.empty()) break;
-    std::sort(order.begin(), order.end());
-    std::vector<std::uint32_t> list(order.size());
-    std::vector<std::int32_t> slot(oct.cubes.size(), -1);
-    for (std::size_t i = 0; i < order.size(); ++i) {
-      list[i] = order[i].second;
-      slot[list[i]] = static_cast<std::int32_t>(i);
-    }
-    const bool firstRound = stats.rounds == 0;
-    const auto isReached = [&](std::size_t i) { return firstRound && reached[list[i]] != 0; };
-    ++stats.rounds;
-    stats.affectedCubes += list.size();
-    if (firstRound) stats.boundaryCubes = boundary.cubes.size();
-
-    // Runs fn(worker, i) for every listed cube i, in parallel, each task with its thread's
-    // worker, whose findings of the phase start empty; `side`, if set, runs as one more task
-    // (first: the calling thread starts it while the others take cubes).
-    auto forEachCube = [&](auto&& fn, auto&& side) {
-      for (auto& w : workers)
-        if (w) w->clearFindings();
-      constexpr bool hasSide = !std::is_same_v<std::decay_t<decltype(side)>, std::nullptr_t>;
-      const std::size_t first = hasSide ? 1 : 0;
-      parallelFor(
-          0, list.size() + first, 1,
-          [&](std::size_t b, std::size_t e) {
-            if constexpr (hasSide)
-              if (b == 0) {
-                side();
-                ++b;
-              }
-            if (b == e) return;
-            std::unique_ptr<Worker>& w = workers[static_cast<std::size_t>(threadSlot())];
-            if (!w)
-              w = std::make_unique<Worker>(oct, grid, hooks,
-                                           std::move(kept[static_cast<std::size_t>(threadSlot())]));
-            for (std::size_t i = b; i < e; ++i) fn(*w, i - first);
-          },
-          threaded);
-    };
-    // After each phase: the tested links counted, the cuts appended to `cuts` (from roundBegin
-    // on, the faces phase's up to facesEnd).
-    const std::size_t roundBegin = cuts.size();
-    auto mergeFindings = [&] {
-      for (const auto& w : workers) {
-        if (!w) continue;
-        stats.testedLinks += w->tested;
-        cuts.insert(cuts.end(), w->cuts.begin(), w->cuts.end());
-        w->cuts.clear();
-      }
-    };
+    markAffected();
+    if (!listAffected()) break;
+    roundBegin = cuts.size();
     // (2)-(4) the faces of the affected cubes: their voxels are positioned and their links
     // tested along the blade's trace (a face that two affected cubes of different sizes share
     // in part is resolved by both, with the same results). A face's border is the cube's
     // frame, or lines of the mid-planes of the cube it was split from: decided already.
     Timer phase;
-    forEachCube([&](Worker& w, std::size_t i) {
-      const OctreeCube& oc = oct.cubes[list[i]];
-      const int s = 1 << oc.level;
-      const bool seeded = isReached(i);
-      w.listed = &slot;
-      if (seeded) Worker::pointsNear(boundary.points, oc.origin, s, 2.0, w.cubePoints);
-      for (int f = 0; f < 6; ++f) {
-        Index3 o = oc.origin;
-        o[f / 2] += (f & 1) * s;
-        // A face shared whole with another affected cube of the same size is resolved once,
-        // by the cube listed first; its cuts border only cubes split in this round. A face
-        // that lies inside a face of a larger affected cube is left to that cube: its trace,
-        // followed from its own border, crosses this face wherever the blade does (a trace
-        // reaches the border of every face it crosses, short of the sweep's boundary).
-        Index3 across = oc.origin;
-        across[f / 2] += (f & 1) ? s : -1;
-        bool shared = false;
-        if (across[f / 2] >= 0 && across[f / 2] + 1 < d[f / 2]) {
-          const std::int32_t other = oct.cellCube[grid.index(across)];
-          // (A cube the boundary reaches into traces its faces itself, seeded.)
-          if (other >= 0 && slot[static_cast<std::size_t>(other)] >= 0 && !seeded &&
-              !isReached(static_cast<std::size_t>(slot[static_cast<std::size_t>(other)]))) {
-            const int otherLevel = oct.cubes[static_cast<std::size_t>(other)].level;
-            if (otherLevel > oc.level) continue;
-            shared = otherLevel == oc.level;
-            if (shared && slot[static_cast<std::size_t>(other)] < static_cast<std::int32_t>(i))
-              continue;
-          }
-        }
-        w.recordOutward = !shared;
-        w.traceSquare(o, f / 2, s, seeded ? &w.cubePoints : nullptr);
-        w.recordOutward = false;
-      }
-    }, [&] {
-      storeCuts(0, givenUnstored);
-      givenUnstored = 0;
-    });
+    forEachCube([&](Worker& w, std::size_t i) { traceFaces(w, i); },
+                [&] {
+                  storeCuts(0, givenUnstored);
+                  givenUnstored = 0;
+                });
     mergeFindings();
     const std::size_t facesEnd = cuts.size();
     stats.facesMs += phase.ms();
@@ -570,90 +356,19 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     // (5) split every affected cube, in parallel: their insides are disjoint; the faces
     // phase's cuts get their Hermite data meanwhile (the split does not read it).
     phase.restart();
-    forEachCube([&](Worker& w, std::size_t i) {
-      const OctreeCube& oc = oct.cubes[list[i]];
-      const CubeBox cube{oc.origin, oc.level};
-      const auto begin = static_cast<std::uint32_t>(w.leaves.size());
-      // A level-1 cube tests the links at its centre whatever its faces hold; one listed for
-      // a cut around it has one on its faces, so they are gathered only for one listed for
-      // the sweep's boundary alone (which stays whole if none of its links is cut).
-      const bool cutAround = affected[list[i]] == 1;
-      w.boundary.clear();
-      if (cube.level > 1 || !cutAround) w.gatherBoundaryCuts(cube);
-      w.cubePoints.clear();
-      if (isReached(i)) Worker::pointsNear(boundary.points, cube.o, cube.size(), 1.0, w.cubePoints);
-      const bool cutOnBoundary = cube.level > 1 || !cutAround ? !w.boundary.empty() : true;
-      w.split(cube, w.boundary, w.cubePoints, cutOnBoundary);
-      w.leafRanges.push_back(
-          {static_cast<std::uint32_t>(i), begin, static_cast<std::uint32_t>(w.leaves.size())});
-    }, [&] { storeCuts(roundBegin, facesEnd); });
+    forEachCube([&](Worker& w, std::size_t i) { splitCube(w, i); },
+                [&] { storeCuts(roundBegin, facesEnd); });
     stats.splitMs += phase.ms();
     mergeFindings();
-    // The split level-1 cubes are listed for the frame activation (oct.openedCubes, in any
-    // order) and the sub-cubes stored (oct.cubes, oct.newCubes): the first sub-cube takes the
-    // split cube's slot, the others are appended in list order.
-    //
-    // The cube map (oct.cellCube): a split cube's leaves and its opened level-1 cubes tile it (a
-    // split ends in one or the other) and its cells hold its id, which its first leaf keeps; so
-    // only the other leaves' cells (their new ids) and the opened cubes' cells (none) change.
-    // Only the next round's marking reads the map in this frame: with none to follow, the
-    // writes are left to deferred update (b) (activateNewCubeFrames), like the frames.
+    // (6) the sub-cubes stored (storeSubCubes); the split's cuts get their Hermite data
+    // beside it.
     const bool mapNow = !pending.empty();
-    const auto storeSubCubes = [&] {
-      for (const auto& w : workers)
-        if (w) oct.openedCubes.insert(oct.openedCubes.end(), w->opened.begin(), w->opened.end());
-      std::vector<const CubeBox*> leafBegin(list.size()), leafEnd(list.size());
-      std::size_t leafCount = 0;
-      for (const auto& w : workers)
-        if (w) leafCount += w->leaves.size();
-      // Room for them at once, growing geometrically (a scene splits cubes frame after frame).
-      const auto makeRoom = [leafCount](auto& v) {
-        if (v.size() + leafCount > v.capacity())
-          v.reserve(std::max(v.size() + leafCount, 2 * v.capacity()));
-      };
-      makeRoom(oct.cubes);
-      makeRoom(oct.newCubes);
-      if (!mapNow) makeRoom(oct.unmappedCubes);
-      for (const auto& w : workers)
-        if (w)
-          for (const auto& [i, b, e] : w->leafRanges) {
-            leafBegin[i] = w->leaves.data() + b;
-            leafEnd[i] = w->leaves.data() + e;
-          }
-      for (std::size_t i = 0; i < list.size(); ++i) {
-        const std::uint32_t id = list[i];
-        if (leafBegin[i] == leafEnd[i]) {
-          oct.cubes[id].deleted = true;
-          continue;
-        }
-        for (const CubeBox* leaf = leafBegin[i]; leaf != leafEnd[i]; ++leaf) {
-          const OctreeCube sub{leaf->o, static_cast<std::uint8_t>(leaf->level), false};
-          if (leaf == leafBegin[i]) {
-            oct.cubes[id] = sub;
-            oct.newCubes.push_back(id);
-            continue;
-          }
-          const auto newId = static_cast<std::uint32_t>(oct.cubes.size());
-          if (mapNow)
-            oct.setCubeCells(leaf->o, leaf->level, static_cast<std::int32_t>(newId));
-          else
-            oct.unmappedCubes.push_back(newId);
-          oct.newCubes.push_back(newId);
-          oct.cubes.push_back(sub);
-        }
-      }
-      if (mapNow)
-        for (const auto& w : workers)
-          if (w)
-            for (const Index3& o : w->opened) oct.setCubeCells(o, 1, -1);
-    };
-    // The split's cuts get their Hermite data beside the sub-cubes' store.
     parallelFor(
         0, 2, 1,
         [&](std::size_t b, std::size_t e) {
           for (std::size_t job = b; job < e; ++job) {
             if (job == 0) storeCuts(facesEnd, cuts.size());
-            if (job == 1) storeSubCubes();
+            if (job == 1) storeSubCubes(mapNow);
           }
         },
         threaded);
@@ -664,6 +379,17 @@ SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vecto
     if (workers[k]) kept[k] = std::move(static_cast<WorkerMemory&>(*workers[k]));
   stats.bookkeepingMs = total.ms() - stats.facesMs - stats.splitMs;
   return stats;
+}
+
+}  // namespace
+
+SubdivisionStats subdivideCutCubes(VoxelOctree& oct, VoxelGrid& grid, std::vector<LinkCut>& cuts,
+                                   const SubdivisionHooks& hooks, SubdivisionWorkspace& workspace,
+                                   bool threaded, const SweepBoundary& boundary, bool givenStored,
+                                   std::vector<std::uint8_t>* givenMarked) {
+  return SubdivisionRun(oct, grid, cuts, hooks, workspace, threaded, boundary, givenStored,
+                        givenMarked)
+      .run();
 }
 
 }  // namespace voxcut

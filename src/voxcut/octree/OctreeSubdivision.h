@@ -23,21 +23,9 @@
 #include <vector>
 
 #include "voxcut/octree/VoxelOctree.h"
+#include "voxcut/voxel/LinkCut.h"
 
 namespace voxcut {
-
-/// A link the blade crossed, with its Hermite data in the rest frame.
-struct LinkCut {
-  std::uint64_t link = 0;
-  Hermite hermite;
-  /// The link's Hermite data before the cut replaced it (a material interface), if any; set
-  /// when the cut is applied, so that the cut can be undone (cutting/Fragments.h).
-  std::optional<Hermite> previous;
-};
-
-/// Sets the Hermite data of the cuts [first, last) in `hermite`, each LinkCut::previous taking
-/// the entry it replaced (the table's slots fetched ahead: they are scattered).
-void storeHermite(HermiteMap& hermite, LinkCut* first, LinkCut* last);
 
 /// Voxel positions the link test computed, kept for the next calls of the same task (the
 /// trace following meets a voxel from up to four links of a face, and from two mid-planes):
@@ -90,6 +78,26 @@ struct SweepBoundary {
   std::vector<std::uint32_t> cubes;
 };
 
+/// Memory that the subdivision's workers keep from one run to the next: their buffers keep
+/// their capacity, so a frame does not grow them from nothing. Whoever runs subdivideCutCubes
+/// frame after frame holds one and passes it to every run (its contents between runs mean
+/// nothing; a fresh workspace gives the same results). Movable, not copyable. One run at a
+/// time may use it.
+class SubdivisionWorkspace {
+ public:
+  SubdivisionWorkspace();
+  ~SubdivisionWorkspace();
+  SubdivisionWorkspace(SubdivisionWorkspace&&) noexcept;
+  SubdivisionWorkspace& operator=(SubdivisionWorkspace&&) noexcept;
+  SubdivisionWorkspace(const SubdivisionWorkspace&) = delete;
+  SubdivisionWorkspace& operator=(const SubdivisionWorkspace&) = delete;
+
+  /// One worker's buffers (defined in octree/SubdivisionWorker.h).
+  struct WorkerMemory;
+  /// Per worker of a run (a thread slot of its parallel loops).
+  std::vector<WorkerMemory> workers;
+};
+
 /// Counts of one subdivision run.
 struct SubdivisionStats {
   int rounds = 0;                 ///< passes through sub-steps (1)-(6)
@@ -110,20 +118,20 @@ void markCubesAroundLink(const VoxelOctree& octree, const VoxelGrid& grid, std::
                          std::vector<std::uint8_t>& marked);
 void prefetchCubesAroundLink(const VoxelOctree& octree, const VoxelGrid& grid, std::uint64_t link);
 
-/// Runs sub-steps (1)-(6). `cuts` holds the links cut so far this frame (already disconnected
-/// in `grid`; their Hermite data set, unless `givenStored` is false: then this step sets it,
-/// beside its first phase, which does not read it; `givenMarked`, if set, holds the cubes
-/// around them marked with markCubesAroundLink already, and is taken over); the links this
-/// step cuts are disconnected, given Hermite data and appended, each once, in an order that
-/// depends on the schedule (sort them for a deterministic order). Cubes are split in place: a
-/// split cube keeps its slot for its first remaining sub-cube, new sub-cubes are appended and
-/// listed in octree.newCubes, level-1 cubes that split are marked deleted and listed in
-/// octree.openedCubes (their 27 voxels and 54 links are activated by activateNewCubeFrames).
-/// The deferred updates (activateNewCubeFrames, then compactCubes, rebuildActiveVoxels) are
-/// left to the caller, and must run before the next call: the last round leaves the cube map
-/// of its sub-cubes (octree.unmappedCubes) and opened cubes to activateNewCubeFrames.
-/// Otherwise deterministic for any thread count: the cut set, the grid, the octree (up to the
-/// order of openedCubes) and the counts.
+/// Runs sub-steps (1)-(6), its workers' buffers taken from and left in `workspace`. `cuts` holds
+/// the links cut so far this frame (already disconnected in `grid`; their Hermite data set, unless
+/// `givenStored` is false: then this step sets it, beside its first phase, which does not read it;
+/// `givenMarked`, if set, holds the cubes around them marked with markCubesAroundLink already, and
+/// is taken over); the links this step cuts are disconnected, given Hermite data and appended, each
+/// once, in an order that depends on the schedule (sort them for a deterministic order). Cubes are
+/// split in place: a split cube keeps its slot for its first remaining sub-cube, new sub-cubes are
+/// appended and listed in octree.newCubes, level-1 cubes that split are marked deleted and listed
+/// in octree.openedCubes (their 27 voxels and 54 links are activated by activateNewCubeFrames). The
+/// deferred updates (activateNewCubeFrames, then compactCubes, rebuildActiveVoxels) are left to the
+/// caller, and must run before the next call: the last round leaves the cube map of its sub-cubes
+/// (octree.unmappedCubes) and opened cubes to activateNewCubeFrames. Otherwise deterministic for
+/// any thread count: the cut set, the grid, the octree (up to the order of openedCubes) and the
+/// counts.
 ///
 /// `boundary`: where the blade's edge or the path of its tips ends inside the model, the sweep
 /// can cross links of a cube, on its faces and inside it, without crossing any link on its
@@ -132,8 +140,9 @@ void prefetchCubesAroundLink(const VoxelOctree& octree, const VoxelGrid& grid, s
 /// and on their faces and mid-planes (and their sub-cubes') the trace also starts at the
 /// cells where the boundary's points cross the plane.
 SubdivisionStats subdivideCutCubes(VoxelOctree& octree, VoxelGrid& grid, std::vector<LinkCut>& cuts,
-                                   const SubdivisionHooks& hooks, bool threaded = true,
-                                   const SweepBoundary& boundary = {}, bool givenStored = true,
+                                   const SubdivisionHooks& hooks, SubdivisionWorkspace& workspace,
+                                   bool threaded = true, const SweepBoundary& boundary = {},
+                                   bool givenStored = true,
                                    std::vector<std::uint8_t>* givenMarked = nullptr);
 
 }  // namespace voxcut

@@ -8,6 +8,7 @@
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/cutting/Fragments.h"
+#include "voxcut/surface/VertexNormals.h"
 #include "voxcut/voxel/Pieces.h"
 
 namespace voxcut {
@@ -151,38 +152,41 @@ void Simulation::updateVertexPositions(SimBody& b) const {
 }
 
 void Simulation::stepBody(SimBody& b, std::vector<double>& ms, FrameReport& report) {
-  const double t0 = frame_ * scene_.timeStep, t1 = (frame_ + 1) * scene_.timeStep;
-  // Cutting tool collision: per moving blade, the strip of sweeps from its cut front (carried
-  // with the material since the last frame) to its new pose.
-  std::vector<std::uint64_t> cut;
+  BladeEnds ends;
+  const std::vector<std::uint64_t> cut = cutBody(b, ends, ms);
+  report.cutLinks += cut.size();
+  b.cutLinks += cut.size();
+
+  Timer timer;
+  const bool topologyChanged = updateTopology(b, cut, ends);
+  ms[kCutTopology] += timer.ms();
+
+  timer.restart();
+  if (!cut.empty()) updateSurface(b, cut, topologyChanged);
+  ms[kSurfaceUpdate] += timer.ms();
+
+  timer.restart();
+  const StepStatus status = b.solver.step(b.model, b.cut.deformation);
+  ms[kDeformation] += timer.ms();
+  recordSolve(status, report);
+
+  timer.restart();
+  updateVertexPositions(b);
+  ms[kSurfaceVertices] += timer.ms();
+}
+
+// Cutting tool collision: per moving blade, the strip of sweeps from its cut front (carried
+// with the material since the last frame) to its new pose.
+std::vector<std::uint64_t> Simulation::cutBody(SimBody& b, BladeEnds& ends,
+                                               std::vector<double>& ms) {
   std::vector<LinkCut> frameCuts;
-  const int segs = params_.bladeSegments;
-  const std::uint64_t n = static_cast<std::uint64_t>(std::max(segs, 1)) + 1;
-  const auto frame = static_cast<std::uint64_t>(frame_);
-  std::vector<std::vector<Vec3d>> ends(scene_.tools.size());
-  std::vector<std::vector<std::uint64_t>> endIds(scene_.tools.size());
+  ends.points.assign(scene_.tools.size(), {});
+  ends.ids.assign(scene_.tools.size(), {});
   for (std::size_t ti = 0; ti < scene_.tools.size(); ++ti) {
-    const SceneTool& tool = scene_.tools[ti];
-    const BladePose from = bladePoseAt(tool, t0), to = bladePoseAt(tool, t1);
-    if (samePose(from, to)) continue;
-    std::vector<BladeSweep> sweeps;
-    if (segs <= 0) {
-      sweeps.push_back(makeSweep(from, to, frame));
-    } else {
-      ends[ti] = sampleBlade(to, segs);
-      endIds[ti].resize(n);
-      for (std::uint64_t i = 0; i < n; ++i) endIds[ti][i] = (2 * frame + 1) * n + i;
-      std::vector<Vec3d> start;
-      std::vector<std::uint64_t> startIds;
-      if (b.fronts[ti].empty()) {
-        start = sampleBlade(from, segs);
-        for (std::uint64_t i = 0; i < n; ++i) startIds.push_back(2 * frame * n + i);
-      } else {
-        frontStart(b.fronts[ti], b.cut.deformation, 2 * frame * n, start, startIds);
-      }
-      sweeps = sweepStrip(start, startIds, ends[ti], endIds[ti], frame);
-    }
-    CutStepResult r = cutStep(b.cut, sweeps, params_.threaded);
+    const std::optional<std::vector<BladeSweep>> moving = toolSweeps(b, ti, ends);
+    if (!moving) continue;
+    const std::vector<BladeSweep>& sweeps = *moving;
+    CutStepResult r = cutStep(b.cut, sweeps, b.subdivision, params_.threaded);
     ms[kPositionUpdate] += r.positionUpdateMs;
     ms[kIntersectionTest] += r.intersectionMs;
     ms[kOctreeSubdivision] += r.subdivisionMs;
@@ -194,18 +198,54 @@ void Simulation::stepBody(SimBody& b, std::vector<double>& ms, FrameReport& repo
   std::sort(frameCuts.begin(), frameCuts.end(),
             [](const LinkCut& x, const LinkCut& y) { return x.link < y.link; });
   (void)healSmallFragments(b.cut.grid, frameCuts, params_.minFragmentVoxels);
+  std::vector<std::uint64_t> cut;
+  cut.reserve(frameCuts.size());
   for (const LinkCut& c : frameCuts) cut.push_back(c.link);
-  report.cutLinks += cut.size();
-  b.cutLinks += cut.size();
+  return cut;
+}
 
-  Timer timer;
+// The sweeps of tool ti this frame (nullopt when it does not move); with blade segments, its
+// end pose's samples and ids go to `ends`.
+std::optional<std::vector<BladeSweep>> Simulation::toolSweeps(SimBody& b, std::size_t ti,
+                                                              BladeEnds& ends) const {
+  const double t0 = frame_ * scene_.timeStep, t1 = (frame_ + 1) * scene_.timeStep;
+  const int segs = params_.bladeSegments;
+  const std::uint64_t n = static_cast<std::uint64_t>(std::max(segs, 1)) + 1;
+  const auto frame = static_cast<std::uint64_t>(frame_);
+  const SceneTool& tool = scene_.tools[ti];
+  const BladePose from = bladePoseAt(tool, t0), to = bladePoseAt(tool, t1);
+  if (samePose(from, to)) return std::nullopt;
+  std::vector<BladeSweep> sweeps;
+  if (segs <= 0) {
+    sweeps.push_back(makeSweep(from, to, frame));
+  } else {
+    ends.points[ti] = sampleBlade(to, segs);
+    ends.ids[ti].resize(n);
+    for (std::uint64_t i = 0; i < n; ++i) ends.ids[ti][i] = (2 * frame + 1) * n + i;
+    std::vector<Vec3d> start;
+    std::vector<std::uint64_t> startIds;
+    if (b.fronts[ti].empty()) {
+      start = sampleBlade(from, segs);
+      for (std::uint64_t i = 0; i < n; ++i) startIds.push_back(2 * frame * n + i);
+    } else {
+      frontStart(b.fronts[ti], b.cut.deformation, 2 * frame * n, start, startIds);
+    }
+    sweeps = sweepStrip(start, startIds, ends.points[ti], ends.ids[ti], frame);
+  }
+  return sweeps;
+}
+
+// After the cuts: the cut topology, the model's and solver's, and the blades' fronts embedded
+// again. Returns whether the topology changed.
+bool Simulation::updateTopology(SimBody& b, const std::vector<std::uint64_t>& cut,
+                                const BladeEnds& ends) {
   bool topologyChanged = false;
   // Fronts of blades that did not move this frame, where they are now (re-embedded after a
   // topology change, which renumbers elements but moves no material).
   std::vector<std::vector<Vec3d>> still(scene_.tools.size());
   if (!cut.empty()) {
     for (std::size_t ti = 0; ti < scene_.tools.size(); ++ti)
-      if (ends[ti].empty() && !b.fronts[ti].empty()) {
+      if (ends.points[ti].empty() && !b.fronts[ti].empty()) {
         std::vector<std::uint64_t> ids;
         frontStart(b.fronts[ti], b.cut.deformation, 0, still[ti], ids);
       }
@@ -224,30 +264,31 @@ void Simulation::stepBody(SimBody& b, std::vector<double>& ms, FrameReport& repo
     }
   }
   for (std::size_t ti = 0; ti < scene_.tools.size(); ++ti) {
-    if (!ends[ti].empty())
-      b.fronts[ti] = embedFront(ends[ti], endIds[ti], b.cut.deformation);
+    if (!ends.points[ti].empty())
+      b.fronts[ti] = embedFront(ends.points[ti], ends.ids[ti], b.cut.deformation);
     else if (topologyChanged && !b.fronts[ti].empty())
       b.fronts[ti] = embedFront(still[ti], b.fronts[ti].ids, b.cut.deformation);
   }
-  ms[kCutTopology] += timer.ms();
+  return topologyChanged;
+}
 
-  timer.restart();
-  if (!cut.empty()) {
-    const SurfaceDelta delta = b.surface.update(b.cut.grid, cut);
-    if (topologyChanged) {
-      embedVertices(b, nullptr);  // element ids moved: every vertex looks its element up again
-    } else {
-      b.embedding.resize(b.surface.vertexSlots());
-      b.vertexPositions.resize(b.surface.vertexSlots(), Vec3d::Zero());
-      for (std::int32_t v : delta.removedVertices) b.embedding[static_cast<std::size_t>(v)] = {};
-      embedVertices(b, &delta.addedVertices);
-    }
+// The surface after the cuts, its new vertices embedded (every vertex when elements were
+// renumbered).
+void Simulation::updateSurface(SimBody& b, const std::vector<std::uint64_t>& cut,
+                               bool topologyChanged) {
+  const SurfaceDelta delta = b.surface.update(b.cut.grid, cut);
+  if (topologyChanged) {
+    embedVertices(b, nullptr);  // element ids moved: every vertex looks its element up again
+  } else {
+    b.embedding.resize(b.surface.vertexSlots());
+    b.vertexPositions.resize(b.surface.vertexSlots(), Vec3d::Zero());
+    for (std::int32_t v : delta.removedVertices) b.embedding[static_cast<std::size_t>(v)] = {};
+    embedVertices(b, &delta.addedVertices);
   }
-  ms[kSurfaceUpdate] += timer.ms();
+}
 
-  timer.restart();
-  const StepStatus status = b.solver.step(b.model, b.cut.deformation);
-  ms[kDeformation] += timer.ms();
+// The solve's counts in the frame's report; a diverged solve is an error.
+void Simulation::recordSolve(const StepStatus& status, FrameReport& report) const {
   report.solverIterations += status.iterations;
   report.solverFactorisations += status.factorised ? 1 : 0;
   report.converged = report.converged && status.converged;
@@ -255,10 +296,6 @@ void Simulation::stepBody(SimBody& b, std::vector<double>& ms, FrameReport& repo
     throw InputError("frame " + std::to_string(frame_) +
                      ": a node position became non-finite (the solve diverged); try a smaller "
                      "time_step or stiffer solver settings");
-
-  timer.restart();
-  updateVertexPositions(b);
-  ms[kSurfaceVertices] += timer.ms();
 }
 
 FrameReport Simulation::step() {
@@ -289,15 +326,7 @@ SurfaceMesh Simulation::deformedSurface(std::size_t bi) const {
                            index[static_cast<std::size_t>(t[2])]});
   }
   // Normals follow the deformation: area-weighted from the deformed triangles.
-  m.normals.assign(m.positions.size(), Vec3d::Zero());
-  for (const auto& t : m.triangles) {
-    const Vec3d n = (m.positions[t[1]] - m.positions[t[0]]).cross(m.positions[t[2]] - m.positions[t[0]]);
-    for (int k = 0; k < 3; ++k) m.normals[t[k]] += n;
-  }
-  for (Vec3d& n : m.normals) {
-    const double len = n.norm();
-    n = len > 0 ? Vec3d(n / len) : Vec3d::UnitZ();
-  }
+  m.normals = vertexNormals(m.positions, m.triangles, Vec3d::UnitZ());
   return m;
 }
 

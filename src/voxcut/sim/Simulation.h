@@ -9,6 +9,7 @@
 /// Units: SI, world frame. Results (cuts, node positions, surfaces) do not depend on the thread
 /// count. Thread-safety: one call at a time; the steps run their loops in parallel.
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -54,6 +55,7 @@ struct SimBody {
   std::vector<BladeFront> fronts;          ///< per scene tool: its cut front in this body
   int finestLevel = 0;
   std::size_t cutLinks = 0;                ///< links cut so far
+  SubdivisionWorkspace subdivision;        ///< the cutting step's buffers, kept between frames
 };
 
 /// The stages of a frame, in order; FrameReport::stageMs follows this order.
@@ -97,7 +99,21 @@ class Simulation {
   [[nodiscard]] int pieces(std::size_t b) const;
 
  private:
+  /// Per moving tool: its blade's sampled end pose this frame and the samples' ids (empty
+  /// where the tool did not move or the blade is one segment).
+  struct BladeEnds {
+    std::vector<std::vector<Vec3d>> points;
+    std::vector<std::vector<std::uint64_t>> ids;
+  };
+  /// One body's frame, in the phases below.
   void stepBody(SimBody& body, std::vector<double>& stageMs, FrameReport& report);
+  /// The cutting tools' collision and the debris rule; this frame's cut link ids, ascending.
+  std::vector<std::uint64_t> cutBody(SimBody& body, BladeEnds& ends, std::vector<double>& stageMs);
+  [[nodiscard]] std::optional<std::vector<BladeSweep>> toolSweeps(SimBody& body, std::size_t tool,
+                                                                  BladeEnds& ends) const;
+  bool updateTopology(SimBody& body, const std::vector<std::uint64_t>& cut, const BladeEnds& ends);
+  void updateSurface(SimBody& body, const std::vector<std::uint64_t>& cut, bool topologyChanged);
+  void recordSolve(const StepStatus& status, FrameReport& report) const;
   void embedVertices(SimBody& body, const std::vector<std::int32_t>* only);
   void updateVertexPositions(SimBody& body) const;
   void applyFixed(SimBody& body);

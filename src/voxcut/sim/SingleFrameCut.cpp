@@ -49,11 +49,13 @@ std::vector<SingleFrameResult> runSingleFrameCuts(const std::vector<const CutBod
   std::vector<SingleFrameResult> out(n);
   std::vector<std::vector<double>> pos(n), inter(n), sub(n), def(n);
   const int repeat = std::max(1, params.repeat);
+  // One per body, kept across the repetitions as a simulation keeps it across frames.
+  std::vector<SubdivisionWorkspace> workspaces(n);
   for (int r = 0; r < repeat; ++r)
     for (std::size_t k = 0; k < n; ++k) {
       CutBody body = *prepared[k];
       out[k].activeVoxelsBefore = body.activity.activeVoxels.size();
-      CutStepResult step = cutStep(body, sweep, params.threaded);
+      CutStepResult step = cutStep(body, sweep, workspaces[k], params.threaded);
       pos[k].push_back(step.positionUpdateMs);
       inter[k].push_back(step.intersectionMs);
       sub[k].push_back(step.subdivisionMs);

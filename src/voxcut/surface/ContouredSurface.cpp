@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "voxcut/core/Parallel.h"
+#include "voxcut/surface/VertexNormals.h"
 
 namespace voxcut {
 namespace {
@@ -473,16 +474,7 @@ SurfaceMesh ContouredSurface::mesh() const {
   m.triangles.reserve(triangleCount_);
   for (const auto& t : triangles_)
     if (t[0] >= 0) m.triangles.push_back({index[t[0]], index[t[1]], index[t[2]]});
-  // Area-weighted vertex normals.
-  m.normals.assign(m.positions.size(), Vec3d::Zero());
-  for (const auto& t : m.triangles) {
-    const Vec3d n = (m.positions[t[1]] - m.positions[t[0]]).cross(m.positions[t[2]] - m.positions[t[0]]);
-    for (int k = 0; k < 3; ++k) m.normals[t[k]] += n;
-  }
-  for (auto& n : m.normals) {
-    const double l = n.norm();
-    if (l > 0) n /= l;
-  }
+  m.normals = vertexNormals(m.positions, m.triangles);
   return m;
 }
 

@@ -25,98 +25,13 @@
 #include <cstdint>
 #include <vector>
 
+#include "voxcut/core/FlatHashMap.h"
 #include "voxcut/surface/DualCell.h"
 #include "voxcut/surface/DualContour.h"
 #include "voxcut/surface/SurfaceMesh.h"
 #include "voxcut/voxel/VoxelGrid.h"
 
 namespace voxcut {
-
-namespace detail {
-
-/// A hash map from 64-bit keys (cell, face or link ids; never ~0) to small records: open
-/// addressing, linear probing, Fibonacci hashing, power-of-two capacity at most half full,
-/// backward-shift erase (no tombstones). Lookups touch one or two cache lines, where
-/// std::unordered_map chases a node per lookup. Not thread-safe for writes.
-template <class T>
-class KeyMap {
- public:
-  KeyMap() { rehash(16); }
-  [[nodiscard]] std::size_t size() const { return size_; }
-  /// The record of `key`, or nullptr. Valid until the next insertion or erase.
-  [[nodiscard]] T* find(std::uint64_t key) {
-    for (std::size_t i = home(key);; i = (i + 1) & mask_) {
-      if (keys_[i] == key) return &values_[i];
-      if (keys_[i] == kEmpty) return nullptr;
-    }
-  }
-  [[nodiscard]] const T* find(std::uint64_t key) const { return const_cast<KeyMap*>(this)->find(key); }
-  /// The record of `key`, default-constructed when absent.
-  T& operator[](std::uint64_t key) {
-    if (2 * (size_ + 1) > keys_.size()) rehash(2 * keys_.size());
-    std::size_t i = home(key);
-    for (; keys_[i] != kEmpty; i = (i + 1) & mask_)
-      if (keys_[i] == key) return values_[i];
-    keys_[i] = key;
-    values_[i] = T{};
-    ++size_;
-    return values_[i];
-  }
-  /// Removes `key` if present; returns whether it was.
-  bool erase(std::uint64_t key) {
-    std::size_t i = home(key);
-    for (; keys_[i] != key; i = (i + 1) & mask_)
-      if (keys_[i] == kEmpty) return false;
-    // Shift back each later entry of the run whose home does not lie in (i, j].
-    for (std::size_t j = (i + 1) & mask_; keys_[j] != kEmpty; j = (j + 1) & mask_) {
-      const std::size_t h = home(keys_[j]);
-      if (((j - h) & mask_) >= ((j - i) & mask_)) {
-        keys_[i] = keys_[j];
-        values_[i] = values_[j];
-        i = j;
-      }
-    }
-    keys_[i] = kEmpty;
-    --size_;
-    return true;
-  }
-  /// Pre-sizes the table for `n` entries.
-  void reserve(std::size_t n) {
-    std::size_t c = keys_.size();
-    while (c < 2 * n) c *= 2;
-    if (c > keys_.size()) rehash(c);
-  }
-
- private:
-  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
-  [[nodiscard]] std::size_t home(std::uint64_t key) const {
-    return static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> shift_);
-  }
-  void rehash(std::size_t capacity) {
-    std::vector<std::uint64_t> keys(capacity, kEmpty);
-    std::vector<T> values(capacity);
-    keys.swap(keys_);
-    values.swap(values_);
-    mask_ = capacity - 1;
-    shift_ = 64;
-    for (std::size_t c = capacity; c > 1; c /= 2) --shift_;
-    for (std::size_t i = 0; i < keys.size(); ++i) {
-      if (keys[i] == kEmpty) continue;
-      std::size_t j = home(keys[i]);
-      while (keys_[j] != kEmpty) j = (j + 1) & mask_;
-      keys_[j] = keys[i];
-      values_[j] = values[i];
-    }
-  }
-
-  std::vector<std::uint64_t> keys_;
-  std::vector<T> values_;
-  std::size_t mask_ = 0;
-  int shift_ = 64;
-  std::size_t size_ = 0;
-};
-
-}  // namespace detail
 
 /// What one ContouredSurface::update changed. Each list is sorted ascending; no id is both
 /// removed and added in one update. Removed ids were alive before the update and are dead
@@ -158,7 +73,9 @@ class ContouredSurface {
   /// Number of vertex ids in use or free (ids are 0..vertexSlots()-1).
   [[nodiscard]] std::size_t vertexSlots() const { return positions_.size(); }
   /// Whether vertex id v holds a vertex of the surface.
-  [[nodiscard]] bool alive(std::int32_t v) const { return alive_[static_cast<std::size_t>(v)] != 0; }
+  [[nodiscard]] bool alive(std::int32_t v) const {
+    return alive_[static_cast<std::size_t>(v)] != 0;
+  }
   /// Rest-frame positions (metres) by vertex id; a dead id keeps its last value.
   [[nodiscard]] const std::vector<Vec3d>& positions() const { return positions_; }
   /// Voxel whose component each vertex belongs to, by vertex id.
@@ -179,8 +96,8 @@ class ContouredSurface {
   struct CellRecord {
     std::array<std::int8_t, 24> patch{};
     std::int8_t count = 0;
-    std::uint8_t splitFaces = 0;   // bit a: the +a face has split vertices (a FaceSplits entry)
-    std::uint8_t ringFaces = 0;    // bit f: the ring rule read the neighbour across face f
+    std::uint8_t splitFaces = 0;  // bit a: the +a face has split vertices (a FaceSplits entry)
+    std::uint8_t ringFaces = 0;   // bit f: the ring rule read the neighbour across face f
     std::array<std::int32_t, 12> vertex{};
     std::array<FaceSegments, 3> segments{};  // surface segments on the +a face
   };
@@ -224,9 +141,9 @@ class ContouredSurface {
   std::vector<std::int32_t> freeTriangles_;
   std::size_t vertexCount_ = 0;
   std::size_t triangleCount_ = 0;
-  detail::KeyMap<CellRecord> cells_;
-  detail::KeyMap<FaceSplits> faceSplits_;
-  detail::KeyMap<SheetRecord> sheets_;
+  FlatHashMap<CellRecord> cells_;
+  FlatHashMap<FaceSplits> faceSplits_;
+  FlatHashMap<SheetRecord> sheets_;
 };
 
 }  // namespace voxcut

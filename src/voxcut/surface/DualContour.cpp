@@ -5,6 +5,7 @@
 
 #include "voxcut/core/Parallel.h"
 #include "voxcut/surface/DualCell.h"
+#include "voxcut/surface/VertexNormals.h"
 
 namespace voxcut {
 namespace {
@@ -234,17 +235,7 @@ SurfaceMesh dualContour(const VoxelGrid& grid, const DualContourParams& params) 
         mesh.triangles.push_back({poly.polygon[i], poly.polygon[(i + 1) % poly.polygonSize], centre});
     }
 
-  // Area-weighted vertex normals.
-  mesh.normals.assign(mesh.positions.size(), Vec3d::Zero());
-  for (const auto& t : mesh.triangles) {
-    const Vec3d n = (mesh.positions[t[1]] - mesh.positions[t[0]])
-                        .cross(mesh.positions[t[2]] - mesh.positions[t[0]]);
-    for (int k = 0; k < 3; ++k) mesh.normals[t[k]] += n;
-  }
-  for (auto& n : mesh.normals) {
-    const double l = n.norm();
-    if (l > 0) n /= l;
-  }
+  mesh.normals = vertexNormals(mesh.positions, mesh.triangles);
   return mesh;
 }
 

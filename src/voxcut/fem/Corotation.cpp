@@ -1,0 +1,23 @@
+#include "voxcut/fem/Corotation.h"
+
+#include <array>
+
+#include "voxcut/fem/HexElement.h"
+
+namespace voxcut {
+
+Corotation corotation(const DeformationOctree& octree, std::uint32_t e) {
+  const OctreeElement& el = octree.element(e);
+  std::array<Vec3d, 8> x, rest, u;
+  for (std::size_t c = 0; c < 8; ++c) {
+    x[c] = octree.positions()[el.nodes[c]];
+    rest[c] = octree.restPositions()[el.nodes[c]];
+    u[c] = x[c] - rest[c];
+  }
+  Corotation out;
+  out.rotation = polarRotation(centreDeformationGradient(u, octree.voxelSize() * el.size()));
+  out.displacement = corotatedDisplacement(out.rotation, x, rest);
+  return out;
+}
+
+}  // namespace voxcut
