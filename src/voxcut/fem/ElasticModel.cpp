@@ -627,16 +627,17 @@ double ElasticModel::totalMass() const {
 namespace {
 
 /// Current and rest corners of element e, and its corotated displacement.
-Eigen::Matrix<double, 24, 1> corotatedOf(const DeformationOctree& octree, std::uint32_t e,
+Eigen::Matrix<double, 24, 1> corotatedOf(const ElasticModel& model,
+                                         const DeformationOctree& octree, std::uint32_t e,
                                          Eigen::Matrix3d& rotation) {
   const OctreeElement& el = octree.element(e);
-  std::array<Vec3d, 8> x, rest, u;
+  std::array<Vec3d, 8> x, rest;
   for (std::size_t c = 0; c < 8; ++c) {
     x[c] = octree.positions()[el.nodes[c]];
     rest[c] = octree.restPositions()[el.nodes[c]];
-    u[c] = x[c] - rest[c];
   }
-  rotation = polarRotation(centreDeformationGradient(u, octree.voxelSize() * el.size()));
+  rotation = polarRotation(materialDeformationGradient(
+      x, rest, model.element(e).gradientMean, octree.voxelSize() * el.size()));
   return corotatedDisplacement(rotation, x, rest);
 }
 
@@ -656,7 +657,7 @@ std::vector<Vec3d> elasticForces(const ElasticModel& model, const DeformationOct
       [&](std::size_t b, std::size_t end) {
         for (std::size_t e = b; e < end; ++e) {
           Eigen::Matrix3d r;
-          const auto y = corotatedOf(octree, static_cast<std::uint32_t>(e), r);
+          const auto y = corotatedOf(model, octree, static_cast<std::uint32_t>(e), r);
           const Eigen::Matrix<double, 24, 1> ky =
               model.element(static_cast<std::uint32_t>(e)).stiffness * y;
           for (int c = 0; c < 8; ++c)
@@ -685,7 +686,7 @@ double elasticEnergy(const ElasticModel& model, const DeformationOctree& octree)
       [&](std::size_t b, std::size_t end) {
         for (std::size_t e = b; e < end; ++e) {
           Eigen::Matrix3d r;
-          const auto y = corotatedOf(octree, static_cast<std::uint32_t>(e), r);
+          const auto y = corotatedOf(model, octree, static_cast<std::uint32_t>(e), r);
           energy[e] = 0.5 * y.dot(model.element(static_cast<std::uint32_t>(e)).stiffness * y);
         }
       },

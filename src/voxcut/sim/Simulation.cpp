@@ -150,14 +150,30 @@ void Simulation::updateVertexPositions(SimBody& b) const {
   }, params_.threaded);
 }
 
+namespace {
+
+/// Segments of a blade's carried front in a body: at least `minimum`, and no longer than a
+/// voxel along the blade's longest key, so that the front follows the material closely: a
+/// chord of the carried front strays from the material line it stands for where the body
+/// bends across it, and a link under that gap crosses neither frame's sweep. Capped at four
+/// times the grid's longest side (a blade much longer than the body gains nothing inside it).
+int frontSegments(const SceneTool& tool, const VoxelGrid& grid, int minimum) {
+  if (minimum <= 0) return minimum;
+  double length = 0.0;
+  for (const ToolKey& k : tool.keys) length = std::max(length, (k.pose.b - k.pose.a).norm());
+  const double cap = 4.0 * std::max({grid.dims().x, grid.dims().y, grid.dims().z});
+  const double perVoxel = std::min(std::ceil(length / grid.voxelSize()), cap);
+  return std::max(minimum, static_cast<int>(perVoxel));
+}
+
+}  // namespace
+
 void Simulation::stepBody(SimBody& b, std::vector<double>& ms, FrameReport& report) {
   const double t0 = frame_ * scene_.timeStep, t1 = (frame_ + 1) * scene_.timeStep;
   // Cutting tool collision: per moving blade, the strip of sweeps from its cut front (carried
   // with the material since the last frame) to its new pose.
   std::vector<std::uint64_t> cut;
   std::vector<LinkCut> frameCuts;
-  const int segs = params_.bladeSegments;
-  const std::uint64_t n = static_cast<std::uint64_t>(std::max(segs, 1)) + 1;
   const auto frame = static_cast<std::uint64_t>(frame_);
   std::vector<std::vector<Vec3d>> ends(scene_.tools.size());
   std::vector<std::vector<std::uint64_t>> endIds(scene_.tools.size());
@@ -165,6 +181,8 @@ void Simulation::stepBody(SimBody& b, std::vector<double>& ms, FrameReport& repo
     const SceneTool& tool = scene_.tools[ti];
     const BladePose from = bladePoseAt(tool, t0), to = bladePoseAt(tool, t1);
     if (samePose(from, to)) continue;
+    const int segs = frontSegments(tool, b.cut.grid, params_.bladeSegments);
+    const std::uint64_t n = static_cast<std::uint64_t>(std::max(segs, 1)) + 1;
     std::vector<BladeSweep> sweeps;
     if (segs <= 0) {
       sweeps.push_back(makeSweep(from, to, frame));
@@ -178,7 +196,7 @@ void Simulation::stepBody(SimBody& b, std::vector<double>& ms, FrameReport& repo
         start = sampleBlade(from, segs);
         for (std::uint64_t i = 0; i < n; ++i) startIds.push_back(2 * frame * n + i);
       } else {
-        frontStart(b.fronts[ti], b.cut.deformation, 2 * frame * n, start, startIds);
+        frontStart(b.fronts[ti], b.cut.deformation, 2 * frame * n, start, startIds, &ends[ti]);
       }
       sweeps = sweepStrip(start, startIds, ends[ti], endIds[ti], frame);
     }
@@ -302,11 +320,28 @@ SurfaceMesh Simulation::deformedSurface(std::size_t bi) const {
 }
 
 double Simulation::maxDisplacement() const {
+  // Over the material (every occupied voxel's centre), not the nodes: a corner of a coarse
+  // element that holds a few voxels lies outside the body, and its displacement extrapolates
+  // the element's rotation over the empty part.
   double best = 0.0;
   for (const SimBody& b : bodies_) {
-    const auto& x = b.cut.deformation.positions();
-    const auto& X = b.cut.deformation.restPositions();
-    for (std::size_t n = 0; n < x.size(); ++n) best = std::max(best, (x[n] - X[n]).norm());
+    const VoxelGrid& grid = b.cut.grid;
+    const DeformationOctree& octree = b.cut.deformation;
+    const std::size_t n = grid.voxelCount();
+    std::vector<double> partial((n + 4095) / 4096, 0.0);
+    parallelFor(
+        0, partial.size(), 1,
+        [&](std::size_t c0, std::size_t c1) {
+          for (std::size_t c = c0; c < c1; ++c) {
+            double m = 0.0;
+            for (std::size_t v = 4096 * c; v < std::min(n, 4096 * (c + 1)); ++v)
+              if (grid.material(v) != 0)
+                m = std::max(m, (octree.voxelPosition(v) - grid.position(v)).norm());
+            partial[c] = m;
+          }
+        },
+        params_.threaded);
+    for (double m : partial) best = std::max(best, m);
   }
   return best;
 }
