@@ -642,7 +642,8 @@ std::vector<Vec3d> elasticForces(const ElasticModel& model, const DeformationOct
       0, model.elementCount(), 16,
       [&](std::size_t b, std::size_t end) {
         for (std::size_t e = b; e < end; ++e) {
-          const Corotation co = corotation(octree, static_cast<std::uint32_t>(e));
+          const Corotation co = corotation(octree, static_cast<std::uint32_t>(e),
+                     model.element(static_cast<std::uint32_t>(e)).gradientMean);
           const Eigen::Matrix<double, 24, 1> ky =
               model.element(static_cast<std::uint32_t>(e)).stiffness * co.displacement;
           for (int c = 0; c < 8; ++c)
@@ -671,7 +672,8 @@ double elasticEnergy(const ElasticModel& model, const DeformationOctree& octree)
       [&](std::size_t b, std::size_t end) {
         for (std::size_t e = b; e < end; ++e) {
           const Eigen::Matrix<double, 24, 1> y =
-              corotation(octree, static_cast<std::uint32_t>(e)).displacement;
+              corotation(octree, static_cast<std::uint32_t>(e),
+                     model.element(static_cast<std::uint32_t>(e)).gradientMean).displacement;
           energy[e] = 0.5 * y.dot(model.element(static_cast<std::uint32_t>(e)).stiffness * y);
         }
       },

@@ -113,6 +113,24 @@ ElementMatrices hexElementMatrices(int level, double voxelSize,
     out.massDamping[static_cast<std::size_t>(c)] = h3 * contract(ma, p[0], p[1], p[2]);
   }
 
+  // Mean shape-function gradients over the region (moments of the volume alone).
+  std::array<double, 27> mv{};
+  for (const MaterialMoments& part : region)
+    for (std::size_t k = 0; k < 27; ++k) mv[k] += part.moment[k];
+  if (volumeFraction > 0.0)
+    for (int c = 0; c < 8; ++c)
+      for (int i = 0; i < 3; ++i) {
+        double p[3][3];
+        for (int k = 0; k < 3; ++k) {
+          const double* f = kFactor[cornerBit(c, k)][k == i ? 1 : 0];
+          p[k][0] = f[0];
+          p[k][1] = f[1];
+          p[k][2] = 0.0;
+        }
+        out.gradientMean[static_cast<std::size_t>(c)][i] =
+            contract(mv, p[0], p[1], p[2]) / volumeFraction;
+      }
+
   // G^w(3a + i, 3b + j) = H * integral of w dN_a/dt_i dN_b/dt_j over the region (physical
   // gradients are dN/dt / H and dV = H^3 dt).
   Eigen::Matrix<double, 24, 24> gl, gm;
@@ -157,6 +175,23 @@ Eigen::Matrix3d centreDeformationGradient(const std::array<Vec3d, 8>& displaceme
     }
   }
   return Eigen::Matrix3d::Identity() + f * (0.25 / edge);
+}
+
+Eigen::Matrix3d materialDeformationGradient(const std::array<Vec3d, 8>& x,
+                                            const std::array<Vec3d, 8>& rest,
+                                            const std::array<Vec3d, 8>& gradientMean,
+                                            double edge) {
+  Vec3d xbar = Vec3d::Zero(), rbar = Vec3d::Zero();
+  for (std::size_t c = 0; c < 8; ++c) {
+    xbar += x[c];
+    rbar += rest[c];
+  }
+  xbar *= 0.125;
+  rbar *= 0.125;
+  Eigen::Matrix3d f = Eigen::Matrix3d::Zero();
+  for (std::size_t c = 0; c < 8; ++c)
+    f += ((x[c] - xbar) - (rest[c] - rbar)) * gradientMean[c].transpose();
+  return Eigen::Matrix3d::Identity() + f / edge;
 }
 
 namespace {

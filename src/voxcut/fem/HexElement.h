@@ -77,6 +77,13 @@ struct ElementMatrices {
   double stiffnessDamping = 0.0;
   /// Volume of the voxels it holds (m^3).
   double volume = 0.0;
+  /// Mean over the voxels it holds of each corner's shape-function gradient in unit element
+  /// coordinates, (1 / |V|) integral over V of grad_t N_c dt (dimensionless; the physical
+  /// gradient divides by the edge H). The corotational frame reads the deformation gradient
+  /// averaged over the material through it (materialDeformationGradient), so that corners far
+  /// from the material do not steer the element's rotation. For a full element every entry
+  /// is +-1/4, the gradient at the centre. Zero for an element that holds no voxel.
+  std::array<Vec3d, 8> gradientMean{};
 };
 
 /// Stiffness and lumped mass of a level-`level` element of voxel size `voxelSize` (metres)
@@ -93,6 +100,21 @@ struct ElementMatrices {
 /// grad N_c(centre) = (+-1, +-1, +-1) / (4 edge). Exactly I for zero displacements. Pure.
 [[nodiscard]] Eigen::Matrix3d centreDeformationGradient(const std::array<Vec3d, 8>& displacement,
                                                         double edge);
+
+/// Deformation gradient averaged over an element's material, from its 8 current corners `x`
+/// and rest corners `rest` (metres): F = I + sum_c ((x_c - xbar) - (X_c - Xbar)) g_c^T / edge
+/// with g_c = ElementMatrices::gradientMean[c], xbar and Xbar the corners' means and `edge`
+/// the rest edge (metres). The gradients sum to zero, so the means change nothing but the
+/// round-off: differences of nearby corners are exact, while a displacement x_c - X_c of a
+/// body far from its rest place (a long fall) would carry the round-off of its large
+/// translation into F. Exactly I when x == rest. Trilinear F is linear along each axis in the
+/// other coordinates, so for a full element this is exactly the centre's gradient; for an
+/// element holding a few voxels in a corner it follows the corners around them, which a
+/// centre gradient would weigh no more than the empty side. Pure.
+[[nodiscard]] Eigen::Matrix3d materialDeformationGradient(const std::array<Vec3d, 8>& x,
+                                                          const std::array<Vec3d, 8>& rest,
+                                                          const std::array<Vec3d, 8>& gradientMean,
+                                                          double edge);
 
 /// Rotation R of the polar decomposition F = R S. For det F clearly positive: Higham's scaled
 /// Newton iteration X <- (g X + X^-T / g) / 2 from X = F until a step changes X by at most

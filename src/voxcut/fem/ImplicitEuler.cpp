@@ -190,13 +190,19 @@ void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree&
         for (std::size_t e = b; e < end; ++e) {
           const ElementMatrices& em = model.element(static_cast<std::uint32_t>(e));
           const OctreeElement& el = octree.element(static_cast<std::uint32_t>(e));
-          const Corotation co = corotation(octree, static_cast<std::uint32_t>(e));
+          const Corotation co = corotation(octree, static_cast<std::uint32_t>(e), em.gradientMean);
           const Eigen::Matrix3d& r = co.rotation;
           Eigen::Matrix<double, 24, 1> y = co.displacement;
+          // K annihilates translations, so the element's mean velocity is taken out first:
+          // the round-off of K times a large common velocity (a long fall) would otherwise
+          // act as a force that grows with the speed, and turn the body.
           const double damp = em.stiffnessDamping + dt;
+          Vec3d meanVelocity = Vec3d::Zero();
+          for (std::size_t c = 0; c < 8; ++c) meanVelocity += velocity_[el.nodes[c]];
+          meanVelocity *= 0.125;
           for (std::size_t c = 0; c < 8; ++c)
             y.segment<3>(3 * static_cast<Eigen::Index>(c)) +=
-                damp * (r.transpose() * velocity_[el.nodes[c]]);
+                damp * (r.transpose() * (velocity_[el.nodes[c]] - meanVelocity));
           const Eigen::Matrix<double, 24, 1> ky = em.stiffness * y;
           for (std::size_t c = 0; c < 8; ++c)
             elementForce_[e][c] = -(r * ky.segment<3>(3 * static_cast<Eigen::Index>(c)));
@@ -331,9 +337,31 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
     return status;
   }
   const double stop = params_.tolerance * params_.tolerance * bb;
-  // r = b - A x0, z = M^-1 r, p = z.
+  // The rigid-mode correction (RigidModes.h) of the start, and again of the result: A times
+  // the modes is made once for both.
+  const bool correctRigid = params_.rigidCorrection;
+  if (correctRigid) {
+    rigid_.setup(sp, model.sparsityRevision(), freePositions_, freeMasses_);
+    for (auto& v : rigidProducts_) v.resize(rows);
+    parallelFor(
+        0, rows, 256,
+        [&](std::size_t b, std::size_t e) {
+          for (std::size_t i = b; i < e; ++i)
+            for (int k = 0; k < 6; ++k)
+              rigidProducts_[static_cast<std::size_t>(k)][i] = multiply(rigid_.mode(k), i);
+        },
+        threaded);
+    rigid_.setOperator(rigidProducts_);
+  }
+  // r = b - A x0 (corrected), z = M^-1 r, p = z.
+  parallelFor(
+      0, rows, 256,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) r_[i] = b_[i] - multiply(x_, i);
+      },
+      threaded);
+  if (correctRigid) rigid_.correct(x_, r_);
   auto [rz, rr] = chunkedSum2(rows, partial_, partial2_, threaded, [&](std::size_t i) {
-    r_[i] = b_[i] - multiply(x_, i);
     if (!pointwise) return std::pair{0.0, r_[i].squaredNorm()};
     z_[i] = preconditioner_[i] * r_[i];
     return std::pair{r_[i].dot(z_[i]), r_[i].squaredNorm()};
@@ -430,6 +458,10 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
   status.finite = finite;
   status.residual = std::sqrt(rr / bb);
   status.converged = finite && rr <= stop;
+  if (correctRigid && finite) {
+    rigid_.correct(x_, r_);
+    for (const Vec3d& v : x_) status.finite = status.finite && v.allFinite();
+  }
   return status;
 }
 
@@ -452,11 +484,13 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
   for (std::size_t i = 0; i < freeNodes.size(); ++i) vr_[i] = velocity_[freeNodes[i]];
   prolong(model.prolongation(), vr_, velocity_, threaded);
 
-  if (params_.preconditioner == Preconditioner::TwoLevel ||
-      params_.preconditioner == Preconditioner::Cholesky) {  // the two-level coarse rotations
+  {  // the rigid modes' and the two-level coarse space's rotations
     freePositions_.resize(freeNodes.size());
-    for (std::size_t i = 0; i < freeNodes.size(); ++i)
+    freeMasses_.resize(freeNodes.size());
+    for (std::size_t i = 0; i < freeNodes.size(); ++i) {
       freePositions_[i] = octree.positions()[freeNodes[i]];
+      freeMasses_[i] = model.nodeMass()[freeNodes[i]];
+    }
   }
   // A cut since the factor: map the factor onto the new rows (FactorBridge.h), once per
   // sparsity, unless the last step on the bridge showed it has worn out.

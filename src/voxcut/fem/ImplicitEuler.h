@@ -36,6 +36,7 @@
 #include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/fem/ElasticModel.h"
 #include "voxcut/fem/FactorBridge.h"
+#include "voxcut/fem/RigidModes.h"
 #include "voxcut/fem/TopologyChange.h"
 #include "voxcut/fem/TwoLevelPreconditioner.h"
 
@@ -95,6 +96,9 @@ struct ImplicitEulerParams {
   int maxIterations = 200;        ///< conjugate-gradient iteration cap (>= 0)
   Preconditioner preconditioner = Preconditioner::Cholesky;
   bool warmStart = true;  ///< start from the previous step's dv
+  /// Correct each solve by the rigid motions of every piece (RigidModes.h), so that the
+  /// net force and torque of a step are exact whatever the tolerance.
+  bool rigidCorrection = true;
   /// Cholesky only: refactorise when the previous step's solve took more iterations than
   /// this (the factor has gone stale).
   int refactorIterations = 3;
@@ -120,7 +124,9 @@ struct ImplicitEulerParams {
   double maxFactorUpdatesPerBlock = 50.0;
 };
 
-/// What one step did.
+/// What one step did. The counts and the residual are the conjugate gradients'; the rigid-mode
+/// correction after them (ImplicitEulerParams::rigidCorrection) is a Galerkin projection, so
+/// it can only lower the error in the energy norm.
 struct StepStatus {
   int iterations = 0;      ///< conjugate-gradient iterations run
   double residual = 0.0;   ///< final |r| / |b| (0 when b = 0)
@@ -209,6 +215,9 @@ class ImplicitEuler {
   std::uint64_t stepRevision_ = 0;  ///< sparsity revision of the last step
   int stepsOnStructure_ = 0;        ///< steps before this one on the same sparsity
   std::vector<Vec3d> freePositions_;  ///< current positions of the free nodes
+  std::vector<double> freeMasses_;    ///< lumped masses of the free nodes (kg)
+  RigidModes rigid_;
+  std::array<std::vector<Vec3d>, 6> rigidProducts_;  ///< scratch: A times each rigid mode
   std::vector<Vec3d> b_, x_, r_, z_, p_, q_, vr_;
   std::vector<double> partial_, partial2_;  ///< per chunk of rows, for dot products
 };

@@ -58,14 +58,18 @@ BladeFront embedFront(const std::vector<Vec3d>& points, const std::vector<std::u
 }
 
 void frontStart(const BladeFront& f, const DeformationOctree& d, std::uint64_t newIdBase,
-                std::vector<Vec3d>& points, std::vector<std::uint64_t>& ids) {
+                std::vector<Vec3d>& points, std::vector<std::uint64_t>& ids,
+                const std::vector<Vec3d>* end) {
+  VOXCUT_ASSERT(end == nullptr || end->size() == f.world.size(), "one blade sample per point");
   points = f.world;
   ids = f.ids;
-  const double still = 1e-9 * d.voxelSize(), away = kFrontFollow * d.voxelSize();
+  const double still = 1e-9 * d.voxelSize();
   for (std::size_t i = 0; i < points.size(); ++i) {
     if (f.element[i] == kNoElement) continue;
     const Vec3d now = d.pointInElement(f.element[i], f.local[i]);
     const double moved = (now - f.world[i]).norm();
+    double away = kFrontFollow * d.voxelSize();
+    if (end != nullptr) away = std::max(away, kFrontFollowBlade * ((*end)[i] - f.world[i]).norm());
     if (moved <= still || moved > away) continue;
     points[i] = now;
     ids[i] = newIdBase + i;

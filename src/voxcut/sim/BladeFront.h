@@ -43,18 +43,25 @@ struct BladeFront {
                                     const std::vector<std::uint64_t>& ids,
                                     const DeformationOctree& octree);
 
-/// How far (in voxels) material may carry a front point in one frame and still be followed:
-/// beyond it the point is in a part that moves away (a piece already cut off, falling), not at
-/// a cut front, and following it would sweep through material the blade never reached.
+/// How far material may carry a front point in one frame and still be followed: at most
+/// kFrontFollow voxels, or kFrontFollowBlade times the distance the blade's own sample moved in
+/// that frame when that is more. Material at a cut front moves with the body and, as a
+/// part loosens while it is cut, can move faster than a fraction of a voxel per frame at fine
+/// resolutions; a point that moves much faster than the blade itself is in a part that moves
+/// away (a piece already cut off, falling), not at a cut front, and following it would sweep
+/// through material the blade never reached.
 inline constexpr double kFrontFollow = 0.1;
+inline constexpr double kFrontFollowBlade = 2.0;
 
 /// The start polyline of the next sweep and its symbolic ids: an embedded point that the
-/// material moved by more than 1e-9 voxel and at most kFrontFollow voxels is where its element
-/// now puts it, with id `newIdBase` + i; any other point is exactly where it was, with the id
-/// it had, so that a blade cutting still material gives consecutive sweeps bit-identical
-/// shared corners.
+/// material moved by more than 1e-9 voxel and no further than the limit above (with the
+/// blade's samples `end` of the frame, one per point, or the kFrontFollow voxels alone when
+/// null) is where its element now puts it, with id `newIdBase` + i; any other point is exactly
+/// where it was, with the id it had, so that a blade cutting still material gives consecutive
+/// sweeps bit-identical shared corners.
 void frontStart(const BladeFront& front, const DeformationOctree& octree, std::uint64_t newIdBase,
-                std::vector<Vec3d>& points, std::vector<std::uint64_t>& ids);
+                std::vector<Vec3d>& points, std::vector<std::uint64_t>& ids,
+                const std::vector<Vec3d>* end = nullptr);
 
 /// The strip of sweeps from the polyline `start` to the polyline `end` (same number of
 /// points, >= 2, with their symbolic ids, distinct within each sweep): sweep i has corners

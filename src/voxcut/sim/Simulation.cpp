@@ -204,15 +204,33 @@ std::vector<std::uint64_t> Simulation::cutBody(SimBody& b, BladeEnds& ends,
   return cut;
 }
 
+namespace {
+
+/// Segments of a blade's carried front in a body: at least `minimum`, and no longer than a
+/// voxel along the blade's longest key, so that the front follows the material closely: a
+/// chord of the carried front strays from the material line it stands for where the body
+/// bends across it, and a link under that gap crosses neither frame's sweep. Capped at four
+/// times the grid's longest side (a blade much longer than the body gains nothing inside it).
+int frontSegments(const SceneTool& tool, const VoxelGrid& grid, int minimum) {
+  if (minimum <= 0) return minimum;
+  double length = 0.0;
+  for (const ToolKey& k : tool.keys) length = std::max(length, (k.pose.b - k.pose.a).norm());
+  const double cap = 4.0 * std::max({grid.dims().x, grid.dims().y, grid.dims().z});
+  const double perVoxel = std::min(std::ceil(length / grid.voxelSize()), cap);
+  return std::max(minimum, static_cast<int>(perVoxel));
+}
+
+}  // namespace
+
 // The sweeps of tool ti this frame (nullopt when it does not move); with blade segments, its
 // end pose's samples and ids go to `ends`.
 std::optional<std::vector<BladeSweep>> Simulation::toolSweeps(SimBody& b, std::size_t ti,
                                                               BladeEnds& ends) const {
   const double t0 = frame_ * scene_.timeStep, t1 = (frame_ + 1) * scene_.timeStep;
-  const int segs = params_.bladeSegments;
-  const std::uint64_t n = static_cast<std::uint64_t>(std::max(segs, 1)) + 1;
   const auto frame = static_cast<std::uint64_t>(frame_);
   const SceneTool& tool = scene_.tools[ti];
+  const int segs = frontSegments(tool, b.cut.grid, params_.bladeSegments);
+  const std::uint64_t n = static_cast<std::uint64_t>(std::max(segs, 1)) + 1;
   const BladePose from = bladePoseAt(tool, t0), to = bladePoseAt(tool, t1);
   if (samePose(from, to)) return std::nullopt;
   std::vector<BladeSweep> sweeps;
@@ -228,7 +246,8 @@ std::optional<std::vector<BladeSweep>> Simulation::toolSweeps(SimBody& b, std::s
       start = sampleBlade(from, segs);
       for (std::uint64_t i = 0; i < n; ++i) startIds.push_back(2 * frame * n + i);
     } else {
-      frontStart(b.fronts[ti], b.cut.deformation, 2 * frame * n, start, startIds);
+      frontStart(b.fronts[ti], b.cut.deformation, 2 * frame * n, start, startIds,
+                 &ends.points[ti]);
     }
     sweeps = sweepStrip(start, startIds, ends.points[ti], ends.ids[ti], frame);
   }
@@ -331,11 +350,28 @@ SurfaceMesh Simulation::deformedSurface(std::size_t bi) const {
 }
 
 double Simulation::maxDisplacement() const {
+  // Over the material (every occupied voxel's centre), not the nodes: a corner of a coarse
+  // element that holds a few voxels lies outside the body, and its displacement extrapolates
+  // the element's rotation over the empty part.
   double best = 0.0;
   for (const SimBody& b : bodies_) {
-    const auto& x = b.cut.deformation.positions();
-    const auto& X = b.cut.deformation.restPositions();
-    for (std::size_t n = 0; n < x.size(); ++n) best = std::max(best, (x[n] - X[n]).norm());
+    const VoxelGrid& grid = b.cut.grid;
+    const DeformationOctree& octree = b.cut.deformation;
+    const std::size_t n = grid.voxelCount();
+    constexpr std::size_t kChunk = 4096;
+    std::vector<double> partial((n + kChunk - 1) / kChunk, 0.0);
+    parallelFor(
+        0, partial.size(), 1,
+        [&](std::size_t c0, std::size_t c1) {
+          for (std::size_t c = c0; c < c1; ++c) {
+            double m = 0.0;
+            for (std::size_t v = kChunk * c; v < std::min(n, kChunk * (c + 1)); ++v)
+              if (grid.occupied(v)) m = std::max(m, (octree.voxelPosition(v) - grid.position(v)).norm());
+            partial[c] = m;
+          }
+        },
+        params_.threaded);
+    for (double m : partial) best = std::max(best, m);
   }
   return best;
 }

@@ -28,7 +28,8 @@ namespace voxcut {
 struct SimulationParams {
   bool useOctree = true;  ///< false: the baseline, every link active, no voxel octree
   bool threaded = true;
-  /// Segments of the blade edge carried with the material between frames (BladeFront.h);
+  /// Least number of segments of the blade edge carried with the material between frames
+  /// (BladeFront.h); more where the blade is longer than this many voxels (one per voxel).
   /// 0 sweeps from the blade's previous pose in the world instead (parts moving across the
   /// blade's plane during a cut can then stay attached by bridges along the frames' seams).
   int bladeSegments = 16;
@@ -93,7 +94,8 @@ class Simulation {
   [[nodiscard]] const std::vector<SimBody>& bodies() const { return bodies_; }
   /// The current (deformed) surface of body b, compact, with area-weighted normals.
   [[nodiscard]] SurfaceMesh deformedSurface(std::size_t b) const;
-  /// The largest distance of any node from its rest position, over all bodies (metres).
+  /// The largest distance of any material point (occupied voxel centre) from its rest
+  /// position, over all bodies (metres). O(voxels), parallel, deterministic.
   [[nodiscard]] double maxDisplacement() const;
   /// Connected voxel pieces of body b (through connected links). O(voxels).
   [[nodiscard]] int pieces(std::size_t b) const;

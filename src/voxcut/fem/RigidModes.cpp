@@ -1,0 +1,131 @@
+#include "voxcut/fem/RigidModes.h"
+
+#include <Eigen/Eigenvalues>
+#include <numeric>
+
+#include "voxcut/core/Error.h"
+
+namespace voxcut {
+namespace {
+
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+
+/// Root of i in the forest `parent`, halving paths on the way.
+std::uint32_t findRoot(std::vector<std::uint32_t>& parent, std::uint32_t i) {
+  while (parent[i] != i) {
+    parent[i] = parent[parent[i]];
+    i = parent[i];
+  }
+  return i;
+}
+
+}  // namespace
+
+void RigidModes::setup(const BlockSparsity& sparsity, std::uint64_t revision,
+                       const std::vector<Vec3d>& positions, const std::vector<double>& weights) {
+  const std::size_t rows = sparsity.rowStart.size() - 1;
+  VOXCUT_ASSERT(positions.size() == rows && weights.size() == rows,
+                "one position and weight per free node");
+  if (!labelled_ || revision != revision_ || piece_.size() != rows) {
+    std::vector<std::uint32_t> parent(rows);
+    std::iota(parent.begin(), parent.end(), 0u);
+    for (std::size_t i = 0; i < rows; ++i)
+      for (std::uint32_t s = sparsity.rowStart[i]; s < sparsity.rowStart[i + 1]; ++s) {
+        const std::uint32_t a = findRoot(parent, static_cast<std::uint32_t>(i));
+        const std::uint32_t b = findRoot(parent, sparsity.column[s]);
+        if (a != b) parent[std::max(a, b)] = std::min(a, b);
+      }
+    // Pieces numbered in order of their first row: deterministic.
+    piece_.assign(rows, 0);
+    std::vector<std::uint32_t> label(rows, kNotFree);
+    pieceCount_ = 0;
+    for (std::size_t i = 0; i < rows; ++i) {
+      const std::uint32_t root = findRoot(parent, static_cast<std::uint32_t>(i));
+      if (label[root] == kNotFree) label[root] = static_cast<std::uint32_t>(pieceCount_++);
+      piece_[i] = label[root];
+    }
+    revision_ = revision;
+    labelled_ = true;
+  }
+
+  // Weighted centroid and radius of gyration per piece; plain ones where the weights vanish.
+  std::vector<Vec3d> centre(pieceCount_, Vec3d::Zero()), plainCentre(pieceCount_, Vec3d::Zero());
+  std::vector<double> weight(pieceCount_, 0.0), count(pieceCount_, 0.0);
+  for (std::size_t i = 0; i < rows; ++i) {
+    const std::uint32_t p = piece_[i];
+    centre[p] += weights[i] * positions[i];
+    weight[p] += weights[i];
+    plainCentre[p] += positions[i];
+    count[p] += 1.0;
+  }
+  for (std::size_t p = 0; p < pieceCount_; ++p)
+    centre[p] = weight[p] > 0.0 ? Vec3d(centre[p] / weight[p]) : Vec3d(plainCentre[p] / count[p]);
+  std::vector<double> spread(pieceCount_, 0.0);
+  for (std::size_t i = 0; i < rows; ++i)
+    spread[piece_[i]] += (positions[i] - centre[piece_[i]]).squaredNorm();
+  std::vector<double> inverseRadius(pieceCount_, 0.0);
+  for (std::size_t p = 0; p < pieceCount_; ++p) {
+    const double radius = std::sqrt(spread[p] / count[p]);
+    inverseRadius[p] = radius > 0.0 ? 1.0 / radius : 0.0;
+  }
+  for (auto& m : modes_) m.resize(rows);
+  for (std::size_t i = 0; i < rows; ++i) {
+    const Vec3d d = (positions[i] - centre[piece_[i]]) * inverseRadius[piece_[i]];
+    for (int a = 0; a < 3; ++a) {
+      modes_[static_cast<std::size_t>(a)][i] = Vec3d::Unit(a);
+      modes_[static_cast<std::size_t>(3 + a)][i] = Vec3d::Unit(a).cross(d);
+    }
+  }
+}
+
+void RigidModes::setOperator(std::array<std::vector<Vec3d>, 6>& az) {
+  const std::size_t rows = piece_.size();
+  for (const auto& v : az) VOXCUT_ASSERT(v.size() == rows, "one product per free node");
+  products_.swap(az);
+  std::vector<Matrix6d> gram(pieceCount_, Matrix6d::Zero());
+  for (std::size_t i = 0; i < rows; ++i) {
+    Matrix6d& g = gram[piece_[i]];
+    for (std::size_t k = 0; k < 6; ++k)
+      for (std::size_t l = 0; l < 6; ++l)
+        g(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(l)) +=
+            modes_[k][i].dot(products_[l][i]);
+  }
+  inverse_.assign(pieceCount_, Matrix6d::Zero());
+  for (std::size_t p = 0; p < pieceCount_; ++p) {
+    // Z^T A Z is symmetric positive semi-definite: symmetrise the round-off away and invert
+    // on the eigenvalues that are clearly positive.
+    const Matrix6d g = 0.5 * (gram[p] + gram[p].transpose());
+    if (!g.allFinite()) continue;
+    const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(g);
+    const Vector6d& lambda = eig.eigenvalues();
+    const double largest = lambda.maxCoeff();
+    if (!(largest > 0.0)) continue;
+    Vector6d inverted = Vector6d::Zero();
+    for (Eigen::Index k = 0; k < 6; ++k)
+      if (lambda[k] > 1e-10 * largest) inverted[k] = 1.0 / lambda[k];
+    inverse_[p] = eig.eigenvectors() * inverted.asDiagonal() * eig.eigenvectors().transpose();
+  }
+}
+
+void RigidModes::correct(std::vector<Vec3d>& x, std::vector<Vec3d>& r) const {
+  const std::size_t rows = piece_.size();
+  VOXCUT_ASSERT(x.size() == rows && r.size() == rows && inverse_.size() == pieceCount_,
+                "one value per free node, after setOperator");
+  std::vector<Vector6d> load(pieceCount_, Vector6d::Zero());
+  for (std::size_t i = 0; i < rows; ++i)
+    for (std::size_t k = 0; k < 6; ++k)
+      load[piece_[i]][static_cast<Eigen::Index>(k)] += modes_[k][i].dot(r[i]);
+  std::vector<Vector6d> coefficient(pieceCount_);
+  for (std::size_t p = 0; p < pieceCount_; ++p)
+    coefficient[p] = load[p].allFinite() ? Vector6d(inverse_[p] * load[p]) : Vector6d::Zero();
+  for (std::size_t i = 0; i < rows; ++i) {
+    const Vector6d& c = coefficient[piece_[i]];
+    for (std::size_t k = 0; k < 6; ++k) {
+      x[i] += c[static_cast<Eigen::Index>(k)] * modes_[k][i];
+      r[i] -= c[static_cast<Eigen::Index>(k)] * products_[k][i];
+    }
+  }
+}
+
+}  // namespace voxcut
