@@ -177,10 +177,10 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "voxcut: interrupted\n");
     return voxcut::app::kInterruptedStatus;
   } catch (const std::bad_alloc&) {
-    std::fprintf(stderr, "voxcut: error: out of memory (lower the resolution)\n");
+    std::fprintf(stderr, "voxcut: error: out of memory\n");
   } catch (const std::length_error& e) {
     // A container asked for more elements than it can hold: a size computed from the input.
-    std::fprintf(stderr, "voxcut: error: out of memory (%s; lower the resolution)\n", e.what());
+    std::fprintf(stderr, "voxcut: error: out of memory (%s)\n", e.what());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "voxcut: error: internal error: %s\n", e.what());
   }
