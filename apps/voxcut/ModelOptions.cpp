@@ -124,7 +124,8 @@ void addModelOptions(CLI::App& cmd, ModelOptions& opt, bool cutPlanes) {
 void addMaxMemoryOption(CLI::App& cmd, std::string& maxMemory) {
   cmd.add_option("--max-memory", maxMemory,
                  "Refuse models estimated to need more memory than SIZE (bytes, or with a K, "
-                 "M, G or T suffix: 512M, 8G; default: the available memory)");
+                 "M, G or T suffix: 512M, 8G; default: the available memory)")
+      ->type_name("SIZE");
 }
 
 std::size_t memoryLimit(const std::string& maxMemory) {

@@ -204,7 +204,9 @@ void printText(const RunFacts& f, const Summary& sum) {
 
 void addRunCommand(CLI::App& app, RunOptions& opt, CLI::App*& cmd) {
   cmd = app.add_subcommand(
-      "run", "Run a scene: deformable bodies cut by key-framed blades, frame by frame");
+      "run",
+      "Run a scene: deformable bodies cut by key-framed blades, frame by frame; Ctrl-C or "
+      "SIGTERM stops it at the next frame boundary with a summary of the frames run (exit 130)");
   cmd->add_option("scene", opt.scene, "Scene file (JSON; format in docs/scenes.md)")->required();
   cmd->add_option("--frames", opt.frames,
                   "Frames to run (default: the scene's \"frames\", else 100)")
@@ -215,7 +217,7 @@ void addRunCommand(CLI::App& app, RunOptions& opt, CLI::App*& cmd) {
   cmd->add_option(
       "--export", opt.exportDir,
       "Write the deformed surfaces to this folder as numbered OBJ files (frame_00000.obj "
-      "is the start; bodyN_ prefixes with several bodies)");
+      "is the start; bodyN_ prefixes with several bodies; created when missing)");
   cmd->add_option("--every", opt.every, "With --export: write every K-th frame (default 1)")
       ->check(CLI::Range(1, 10000000));
   cmd->add_option(
