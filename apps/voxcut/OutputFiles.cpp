@@ -1,8 +1,10 @@
 #include "OutputFiles.h"
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -91,6 +93,17 @@ void PendingFile::commit() {
     throw InputError(option_ + ": cannot rename '" + temporary_ + "' to '" + path_ + "' (" +
                      ec.message() + ")");
   committed_ = true;
+}
+
+void prepareStandardOutput() {
+  std::signal(SIGPIPE, SIG_IGN);
+  if (::fcntl(STDOUT_FILENO, F_GETFD) != -1 || errno != EBADF) return;
+  const int fd = ::open("/dev/null", O_WRONLY);
+  if (fd >= 0 && fd != STDOUT_FILENO) {
+    ::dup2(fd, STDOUT_FILENO);
+    ::close(fd);
+  }
+  throw InputError("standard output is closed");
 }
 
 void checkStandardOutput() {

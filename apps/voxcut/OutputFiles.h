@@ -41,6 +41,12 @@ class PendingFile {
   bool committed_ = false;
 };
 
+/// Makes write errors on standard output visible: a closed pipe fails the write (EPIPE)
+/// instead of killing the program with SIGPIPE, and a closed standard output is refused at
+/// once (its descriptor is taken by /dev/null first, so that no file opened later lands on
+/// it and receives the output). Throws InputError when standard output is closed.
+void prepareStandardOutput();
+
 /// Flushes standard output and throws InputError when anything written to it was lost (a
 /// closed pipe, a full disk, /dev/full).
 void checkStandardOutput();

@@ -168,6 +168,7 @@ int main(int argc, char** argv) {
   // usage, a file that cannot be read or written, out of memory, or an internal error, which
   // its line names as such); 130 interrupted (SIGINT or SIGTERM during `run`).
   try {
+    voxcut::app::prepareStandardOutput();
     const int status = voxcut::app::run(argc, argv);
     voxcut::app::checkStandardOutput();
     return status;

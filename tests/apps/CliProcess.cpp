@@ -72,16 +72,27 @@ VoxcutProcess::VoxcutProcess(const std::vector<std::string>& args, const Process
   for (std::string& a : store) argv.push_back(a.data());
   argv.push_back(nullptr);
   const rlimit limit{options.addressSpaceLimit, options.addressSpaceLimit};
+  const bool closed = options.stdoutPath == kClosedStdout;
+  int pipeEnds[2] = {-1, -1};
+  if (options.stdoutPath == kBrokenPipe) {
+    if (::pipe(pipeEnds) != 0) ADD_FAILURE() << "pipe failed";
+    ::close(pipeEnds[0]);  // nobody reads: a write fails with EPIPE (or raises SIGPIPE)
+  }
+  const bool special = closed || pipeEnds[1] >= 0;
   startSeconds_ = now();
   pid_ = ::fork();
   if (pid_ == 0) {
     // Child: only async-signal-safe calls until exec.
     const int in = ::open("/dev/null", O_RDONLY);
-    const int out = ::open(outPath_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    const int out =
+        special ? pipeEnds[1] : ::open(outPath_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
     const int err = ::open(errPath_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    if (in < 0 || out < 0 || err < 0) ::_exit(125);
+    if (in < 0 || (!closed && out < 0) || err < 0) ::_exit(125);
     ::dup2(in, 0);
-    ::dup2(out, 1);
+    if (closed)
+      ::close(1);
+    else
+      ::dup2(out, 1);
     ::dup2(err, 2);
     ::setrlimit(RLIMIT_AS, &limit);
     if (!options_.workingFolder.empty() && ::chdir(options_.workingFolder.c_str()) != 0)
@@ -90,6 +101,7 @@ VoxcutProcess::VoxcutProcess(const std::vector<std::string>& args, const Process
     ::_exit(126);
   }
   if (pid_ < 0) ADD_FAILURE() << "fork failed";
+  if (pipeEnds[1] >= 0) ::close(pipeEnds[1]);
 }
 
 VoxcutProcess::~VoxcutProcess() {
@@ -98,7 +110,7 @@ VoxcutProcess::~VoxcutProcess() {
     ::waitpid(pid_, nullptr, 0);
   }
   std::error_code ec;
-  if (options_.stdoutPath.empty()) fs::remove(outPath_, ec);
+  if (options_.stdoutPath.empty()) fs::remove(outPath_, ec);  // captured output only
   fs::remove(errPath_, ec);
 }
 

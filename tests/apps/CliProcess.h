@@ -41,10 +41,15 @@ struct ProcessResult {
   double seconds = 0;
 };
 
+/// stdoutPath values: standard output closed, or a pipe whose reading end is closed.
+inline const std::string kClosedStdout = "<closed>";
+inline const std::string kBrokenPipe = "<broken pipe>";
+
 /// How to run it.
 struct ProcessOptions {
   std::string workingFolder;  ///< empty: the test's own
-  std::string stdoutPath;     ///< empty: captured
+  /// Empty: captured; a path (such as /dev/full); kClosedStdout; kBrokenPipe.
+  std::string stdoutPath;
   double timeLimitSeconds = 60;
   std::size_t addressSpaceLimit = std::size_t{8} << 30;  ///< RLIMIT_AS of the child, bytes
 };
