@@ -120,6 +120,10 @@ class BadInputMatrix : public ::testing::TestWithParam<BadInput> {};
 
 TEST_P(BadInputMatrix, ExitsTwoWithOneLineAndLeavesNothing) {
   const BadInput& c = GetParam();
+  // Without the address-space cap (sanitizer builds) a reader that does not bound its input
+  // would take the machine's memory before the time limit.
+  if (kRunawayLimit == 0 && std::string(c.name) == "/dev/zero")
+    GTEST_SKIP() << "no memory cap in sanitizer builds";
   const TempFolder folder("badinput");
   for (const auto& [name, bytes] : c.files) folder.write(name, bytes);
   for (const auto& name : c.folders) fs::create_directories(folder.path() / name);
@@ -134,7 +138,7 @@ TEST_P(BadInputMatrix, ExitsTwoWithOneLineAndLeavesNothing) {
   options.stdoutPath = c.stdoutPath;
   options.timeLimitSeconds = 10;
   // A runaway allocation fails at once instead of taking the machine's memory.
-  options.addressSpaceLimit = std::size_t{2} << 30;
+  options.addressSpaceLimit = kRunawayLimit;
   const ProcessResult r = runVoxcut(args, options);
   const std::string what = std::string(c.category) + " / " + c.name + "\n" + describe(args, r);
   EXPECT_FALSE(r.timedOut) << what;

@@ -94,7 +94,7 @@ VoxcutProcess::VoxcutProcess(const std::vector<std::string>& args, const Process
     else
       ::dup2(out, 1);
     ::dup2(err, 2);
-    ::setrlimit(RLIMIT_AS, &limit);
+    if (limit.rlim_cur != 0) ::setrlimit(RLIMIT_AS, &limit);
     if (!options_.workingFolder.empty() && ::chdir(options_.workingFolder.c_str()) != 0)
       ::_exit(125);
     ::execv(VOXCUT_EXE, argv.data());

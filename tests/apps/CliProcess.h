@@ -45,13 +45,28 @@ struct ProcessResult {
 inline const std::string kClosedStdout = "<closed>";
 inline const std::string kBrokenPipe = "<broken pipe>";
 
+/// An address-space cap under which voxcut runs every small input and a runaway allocation
+/// fails at once: 2 GiB, or none in sanitizer builds, whose shadow memory alone reserves
+/// terabytes of addresses.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+inline constexpr std::size_t kRunawayLimit = 0;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+inline constexpr std::size_t kRunawayLimit = 0;
+#else
+inline constexpr std::size_t kRunawayLimit = std::size_t{2} << 30;
+#endif
+#else
+inline constexpr std::size_t kRunawayLimit = std::size_t{2} << 30;
+#endif
+
 /// How to run it.
 struct ProcessOptions {
   std::string workingFolder;  ///< empty: the test's own
   /// Empty: captured; a path (such as /dev/full); kClosedStdout; kBrokenPipe.
   std::string stdoutPath;
   double timeLimitSeconds = 60;
-  std::size_t addressSpaceLimit = std::size_t{8} << 30;  ///< RLIMIT_AS of the child, bytes
+  std::size_t addressSpaceLimit = 0;  ///< RLIMIT_AS of the child, bytes; 0: none
 };
 
 /// A voxcut process started with `args`; wait() collects it.

@@ -143,7 +143,7 @@ TEST(CliMemory, Resolution1024BoxRefusedAtOnceNamingTheMemory) {
   const std::vector<std::string> args{"info", "box:0.1,0.1,0.1", "--resolution", "1024"};
   ProcessOptions options;
   options.timeLimitSeconds = 10;
-  options.addressSpaceLimit = std::size_t{2} << 30;
+  options.addressSpaceLimit = kRunawayLimit;
   const ProcessResult r = runVoxcut(args, options);
   EXPECT_EQ(r.status, 2) << describe(args, r);
   EXPECT_LT(r.seconds, 1.0) << describe(args, r);
