@@ -20,8 +20,9 @@ InterruptGuard::InterruptGuard() {
   sa.sa_handler = onSignal;
   sigemptyset(&sa.sa_mask);
   // Back to the default action after the first signal: a second Ctrl-C ends the program at
-  // once, for a user who will not wait for the frame to finish.
-  sa.sa_flags = SA_RESETHAND;
+  // once, for a user who will not wait for the frame to finish. System calls the signal
+  // interrupts are restarted, so that a write under way does not fail with EINTR.
+  sa.sa_flags = SA_RESETHAND | SA_RESTART;
   sigaction(SIGINT, &sa, &previousInt);
   sigaction(SIGTERM, &sa, &previousTerm);
 }

@@ -277,7 +277,8 @@ int runRun(const RunOptions& opt) {
     }
   }
   if (terminal) std::fprintf(stderr, "\r\033[K");
-  facts.interrupted = interruptRequested();
+  // A signal after the last frame stops nothing: the run is complete.
+  facts.interrupted = interruptRequested() && sum.frames() < frames;
   if (csv) csv->commit();
   exporter.keep();
   if (opt.json)
