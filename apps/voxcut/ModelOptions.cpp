@@ -7,6 +7,8 @@
 #include <cstdio>
 #include <sstream>
 
+#include "Interrupt.h"
+
 namespace voxcut::app {
 
 std::vector<double> parseNumberList(const std::string& text, const char* option, std::size_t count,
@@ -158,16 +160,21 @@ VoxelizeParams voxelizeParams(const ModelOptions& opt, const Model& model) {
   } else {
     vp.resolution.resolution = opt.resolutionGiven ? opt.resolution : model.defaultResolution;
   }
-  if (isatty(STDERR_FILENO)) {
-    vp.progress = [](std::string_view stage, double f) {
+  vp.progress = terminalProgress();
+  return vp;
+}
+
+ProgressCallback terminalProgress() {
+  const bool terminal = isatty(STDERR_FILENO) != 0;
+  return [terminal](std::string_view stage, double f) {
+    if (terminal) {
       std::fprintf(stderr, "\r%.*s %3d%%", static_cast<int>(stage.size()), stage.data(),
                    static_cast<int>(std::lround(100 * f)));
       if (f >= 1.0) std::fprintf(stderr, "\r\033[K");
       std::fflush(stderr);
-      return true;
-    };
-  }
-  return vp;
+    }
+    return !interruptRequested();
+  };
 }
 
 ModelBuild buildFromOptions(const ModelOptions& opt, std::string& modelName, bool octrees) {

@@ -44,7 +44,11 @@ void addModelOptions(CLI::App& cmd, ModelOptions& opt, bool cutPlanes = true);
 /// Loads MODEL or the --material meshes. Throws InputError.
 Model loadFromOptions(const ModelOptions& opt);
 
-/// Voxelizer settings from the options (resolution, voxel size, progress on a terminal).
+/// Progress of long stages on stderr when it is a terminal; asks them to stop (Interrupted)
+/// once a signal was caught (Interrupt.h; only while an InterruptGuard is alive).
+ProgressCallback terminalProgress();
+
+/// Voxelizer settings from the options (resolution, voxel size, terminalProgress).
 VoxelizeParams voxelizeParams(const ModelOptions& opt, const Model& model);
 
 /// Voxel octree levels per material from --max-level / --boundary-level (defaults 4 and 0).

@@ -240,15 +240,7 @@ int runRun(const RunOptions& opt) {
   bp.maxMemory = maxMemory;
   bp.useOctree = !opt.noOctree;
   // The voxelizer asks between its stages whether to go on; a signal stops it there.
-  bp.progress = [terminal](std::string_view stage, double f) {
-    if (terminal) {
-      std::fprintf(stderr, "\r%.*s %3d%%", static_cast<int>(stage.size()), stage.data(),
-                   static_cast<int>(std::lround(100 * f)));
-      if (f >= 1.0) std::fprintf(stderr, "\r\033[K");
-      std::fflush(stderr);
-    }
-    return !interruptRequested();
-  };
+  bp.progress = terminalProgress();
   std::vector<VoxelGrid> grids = voxelizeSceneBodies(scene, bp);
   SimulationParams sp;
   sp.useOctree = !opt.noOctree;
