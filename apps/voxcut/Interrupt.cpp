@@ -1,21 +1,26 @@
 #include "Interrupt.h"
 
+#include <atomic>
 #include <csignal>
 
 namespace voxcut::app {
 namespace {
 
-volatile std::sig_atomic_t stopRequested = 0;
+// Set by the handler, read by the main thread: the signal may land on any thread (a worker
+// of the thread pool), so the flag is a lock-free atomic rather than a plain sig_atomic_t,
+// which is only safe within one thread. Lock-free atomics may be used in a handler.
+std::atomic<bool> stopRequested{false};
+static_assert(std::atomic<bool>::is_always_lock_free);
 struct sigaction previousInt, previousTerm;
 
 extern "C" void onSignal(int) {
-  stopRequested = 1;
+  stopRequested.store(true, std::memory_order_relaxed);
 }
 
 }  // namespace
 
 InterruptGuard::InterruptGuard() {
-  stopRequested = 0;
+  stopRequested.store(false, std::memory_order_relaxed);
   struct sigaction sa {};
   sa.sa_handler = onSignal;
   sigemptyset(&sa.sa_mask);
@@ -33,7 +38,7 @@ InterruptGuard::~InterruptGuard() {
 }
 
 bool interruptRequested() {
-  return stopRequested != 0;
+  return stopRequested.load(std::memory_order_relaxed);
 }
 
 }  // namespace voxcut::app
