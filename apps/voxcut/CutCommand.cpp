@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "OutputFiles.h"
 #include "voxcut/core/CoordinateRange.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/io/SurfaceWriter.h"
@@ -35,13 +36,28 @@ std::string hex(std::uint64_t h) {
   return buf;
 }
 
-// Loads and voxelizes the model of the options; `name` receives its name.
-VoxelGrid voxelizeModel(const ModelOptions& mo, std::string& name) {
+// Loads and voxelizes the model of the options; `name` receives its name. Refuses first when
+// the memory estimate of what `use` builds exceeds `maxMemory` bytes.
+VoxelGrid voxelizeModel(const ModelOptions& mo, std::string& name, MemoryEstimateParams use,
+                        std::size_t maxMemory) {
   const Model model = loadFromOptions(mo);
   name = model.name;
-  VoxelGrid grid = voxelize(model.materials, voxelizeParams(mo, model));
+  const VoxelizeParams vp = voxelizeParams(mo, model);
+  use.resolution = vp.resolution;
+  use.maxVoxels = vp.maxVoxels;
+  checkMemory(estimateModelMemory(model.materials, use), maxMemory, "model " + name);
+  VoxelGrid grid = voxelize(model.materials, vp);
   requireVoxels(grid, modelSubject(mo, model));
   return grid;
+}
+
+// What a single-frame cut holds: the prepared body and the fresh copy each run cuts.
+MemoryEstimateParams cutBodies(bool baseline) {
+  MemoryEstimateParams use;
+  use.cutting = true;
+  use.allActive = baseline;
+  use.copies = 2;
+  return use;
 }
 
 // Prepares (and deforms) a body for cutting, with or without the octree.
@@ -76,8 +92,11 @@ void addCutCommand(CLI::App& app, CutOptions& opt, CLI::App*& cmd) {
 
 int runCut(const CutOptions& opt) {
   ThreadLimit limit(opt.model.threads);
+  const std::size_t maxMemory = memoryLimit(opt.model.maxMemory);
+  if (!opt.output.empty()) checkSurfacePath(opt.output);
   std::string name;
-  const CutBody body = prepareBody(voxelizeModel(opt.model, name), opt.model, !opt.noOctree, opt.deform);
+  const CutBody body = prepareBody(voxelizeModel(opt.model, name, cutBodies(opt.noOctree), maxMemory),
+                                   opt.model, !opt.noOctree, opt.deform);
   BladeMotion motion = defaultBladeMotion(body);
   if (!opt.blade.empty()) motion = {parsePose(opt.blade, "--blade"), parsePose(opt.to, "--to")};
   SingleFrameParams sp;
@@ -143,6 +162,7 @@ void addBenchCommand(CLI::App& app, BenchOptions& opt, CLI::App*& cmd) {
       ->check(CLI::Range(1, 1000));
   cmd->add_option("--csv", opt.csv, "CSV output file (default single-frame.csv)");
   cmd->add_option("--deform", opt.deform, "Prescribed deformation: none, rigid, bend, twist");
+  addMaxMemoryOption(*cmd, opt.maxMemory);
 }
 
 int runBench(const BenchOptions& opt) {
@@ -153,13 +173,15 @@ int runBench(const BenchOptions& opt) {
     SingleFrameResult r;
   };
   std::vector<Row> rows;
+  const std::size_t maxMemory = memoryLimit(opt.maxMemory);
+  checkOutputFile(opt.csv, "--csv");
   const bool terminal = isatty(STDERR_FILENO) != 0;  // a progress line only there
   for (const std::string& m : opt.models) {
     ModelOptions mo;
     mo.model = m;
     std::string name;
     // One voxelization serves both bodies.
-    const VoxelGrid grid = voxelizeModel(mo, name);
+    const VoxelGrid grid = voxelizeModel(mo, name, cutBodies(true), maxMemory);
     const CutBody withOctree = prepareBody(grid, mo, true, opt.deform);
     const CutBody baseline = prepareBody(grid, mo, false, opt.deform);
     const BladeMotion motion = defaultBladeMotion(withOctree);
@@ -228,6 +250,8 @@ int runBench(const BenchOptions& opt) {
         << s.intersectionMs << ',' << s.subdivisionMs << ',' << s.totalMs() << ',' << s.deferredMs << ',' << s.cuts.size()
         << ',' << s.testedLinks << ',' << s.markedElements << ',' << r.r.activeVoxelsBefore << '\n';
   }
+  csv.close();
+  if (!csv) throw InputError("--csv: writing '" + opt.csv + "' failed (disk full?)");
   std::printf("\nwrote %s\n", opt.csv.c_str());
   return 0;
 }

@@ -28,6 +28,7 @@ struct BenchOptions {
   int repeat = 10;
   std::string csv = "single-frame.csv";
   std::string deform = "none";
+  std::string maxMemory;  // --max-memory SIZE; empty: the available memory
 };
 
 void addBenchCommand(CLI::App& app, BenchOptions& opt, CLI::App*& cmd);

@@ -7,6 +7,8 @@
 #include <cstdio>
 #include <sstream>
 
+#include "Interrupt.h"
+
 namespace voxcut::app {
 
 std::vector<double> parseNumberList(const std::string& text, const char* option, std::size_t count,
@@ -23,10 +25,12 @@ std::vector<double> parseNumberList(const std::string& text, const char* option,
       used = 0;
     }
     if (used == 0 || used != item.size() || !std::isfinite(x))
-      throw InputError(std::string(option) + " '" + text + "': '" + item + "' is not a finite number");
+      throw InputError(std::string(option) + " '" + text + "': '" + item +
+                       "' is not a finite number");
     v.push_back(x);
   }
-  if (v.size() != count) throw InputError(std::string(option) + " '" + text + "': expected " + form);
+  if (v.size() != count)
+    throw InputError(std::string(option) + " '" + text + "': expected " + form);
   return v;
 }
 
@@ -70,8 +74,10 @@ OctreeParams octreeParams(const ModelOptions& opt, const std::vector<std::string
   OctreeParams p = OctreeParams::uniform(materials.size(), 4, 0);
   // Plain values first, then per-material ones, whatever their order on the command line.
   std::vector<std::string> plainMax, namedMax, plainB, namedB;
-  for (const auto& e : opt.maxLevel) (e.find('=') == std::string::npos ? plainMax : namedMax).push_back(e);
-  for (const auto& e : opt.boundaryLevel) (e.find('=') == std::string::npos ? plainB : namedB).push_back(e);
+  for (const auto& e : opt.maxLevel)
+    (e.find('=') == std::string::npos ? plainMax : namedMax).push_back(e);
+  for (const auto& e : opt.boundaryLevel)
+    (e.find('=') == std::string::npos ? plainB : namedB).push_back(e);
   applyLevels(plainMax, "--max-level", materials, p.maxInternalLevel);
   applyLevels(namedMax, "--max-level", materials, p.maxInternalLevel);
   applyLevels(plainB, "--boundary-level", materials, p.maxBoundaryLevel);
@@ -92,8 +98,8 @@ void addModelOptions(CLI::App& cmd, ModelOptions& opt, bool cutPlanes) {
         opt.resolution = n;
         opt.resolutionGiven = true;
       },
-                             "Voxels along the longest side, padding included (default: the "
-                             "model's own, 101 for meshes)");
+      "Voxels along the longest side, padding included (default: the "
+      "model's own, 101 for meshes)");
   auto* size = cmd.add_option_function<double>(
       "--voxel-size",
       [&opt](const double& h) {
@@ -114,6 +120,19 @@ void addModelOptions(CLI::App& cmd, ModelOptions& opt, bool cutPlanes) {
   cmd.add_option("--threads", opt.threads, "Worker threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
   cmd.add_flag("--json", opt.json, "Print one JSON object on stdout");
+  addMaxMemoryOption(cmd, opt.maxMemory);
+}
+
+void addMaxMemoryOption(CLI::App& cmd, std::string& maxMemory) {
+  cmd.add_option("--max-memory", maxMemory,
+                 "Refuse models estimated to need more memory than SIZE (bytes, or with a K, "
+                 "M, G or T suffix: 512M, 8G; default: the available memory)")
+      ->type_name("SIZE");
+}
+
+std::size_t memoryLimit(const std::string& maxMemory) {
+  if (!maxMemory.empty()) return parseMemorySize(maxMemory, "--max-memory");
+  return availableMemory();
 }
 
 Model loadFromOptions(const ModelOptions& opt) {
@@ -141,19 +160,25 @@ VoxelizeParams voxelizeParams(const ModelOptions& opt, const Model& model) {
   } else {
     vp.resolution.resolution = opt.resolutionGiven ? opt.resolution : model.defaultResolution;
   }
-  if (isatty(STDERR_FILENO)) {
-    vp.progress = [](std::string_view stage, double f) {
+  vp.progress = terminalProgress();
+  return vp;
+}
+
+ProgressCallback terminalProgress() {
+  const bool terminal = isatty(STDERR_FILENO) != 0;
+  return [terminal](std::string_view stage, double f) {
+    if (terminal) {
       std::fprintf(stderr, "\r%.*s %3d%%", static_cast<int>(stage.size()), stage.data(),
                    static_cast<int>(std::lround(100 * f)));
       if (f >= 1.0) std::fprintf(stderr, "\r\033[K");
       std::fflush(stderr);
-      return true;
-    };
-  }
-  return vp;
+    }
+    return !interruptRequested();
+  };
 }
 
 ModelBuild buildFromOptions(const ModelOptions& opt, std::string& modelName, bool octrees) {
+  const std::size_t limit = memoryLimit(opt.maxMemory);
   const Model model = loadFromOptions(opt);
   modelName = model.name;
   ModelBuildParams params;
@@ -162,6 +187,7 @@ ModelBuild buildFromOptions(const ModelOptions& opt, std::string& modelName, boo
   for (const auto& m : model.materials) names.push_back(m.name);
   params.octree = octreeParams(opt, names);
   params.octrees = octrees;
+  params.maxMemory = limit;
   for (const auto& p : opt.cutPlanes) params.cuts.push_back(parsePlane(p));
   ModelBuild build = buildModel(model.materials, params);
   requireVoxels(build.grid, modelSubject(opt, model));

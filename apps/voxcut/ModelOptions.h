@@ -18,12 +18,20 @@ struct ModelOptions {
   double voxelSize = 0.0;              // used when voxelSizeGiven
   bool resolutionGiven = false;
   bool voxelSizeGiven = false;
-  std::vector<std::string> cutPlanes;  // NX,NY,NZ,D
+  std::vector<std::string> cutPlanes;      // NX,NY,NZ,D
   std::vector<std::string> maxLevel;       // L or NAME=L
   std::vector<std::string> boundaryLevel;  // B or NAME=B
-  int threads = 0;                     // 0: all cores
+  int threads = 0;                         // 0: all cores
   bool json = false;
+  std::string maxMemory;  // --max-memory SIZE; empty: the available memory
 };
+
+/// Adds `--max-memory SIZE` to a command that builds models.
+void addMaxMemoryOption(CLI::App& cmd, std::string& maxMemory);
+
+/// The memory limit of `--max-memory` (parseMemorySize), or the available memory when it was
+/// not given. Throws InputError for a bad size.
+std::size_t memoryLimit(const std::string& maxMemory);
 
 /// Parses `count` comma-separated finite numbers given to `option` (`form` shows the syntax in
 /// the error). Throws InputError.
@@ -36,13 +44,18 @@ void addModelOptions(CLI::App& cmd, ModelOptions& opt, bool cutPlanes = true);
 /// Loads MODEL or the --material meshes. Throws InputError.
 Model loadFromOptions(const ModelOptions& opt);
 
-/// Voxelizer settings from the options (resolution, voxel size, progress on a terminal).
+/// Progress of long stages on stderr when it is a terminal; asks them to stop (Interrupted)
+/// once a signal was caught (Interrupt.h; only while an InterruptGuard is alive).
+ProgressCallback terminalProgress();
+
+/// Voxelizer settings from the options (resolution, voxel size, terminalProgress).
 VoxelizeParams voxelizeParams(const ModelOptions& opt, const Model& model);
 
 /// Voxel octree levels per material from --max-level / --boundary-level (defaults 4 and 0).
 OctreeParams octreeParams(const ModelOptions& opt, const std::vector<std::string>& materials);
 
-/// Loads the model, voxelizes, cuts and contours it; progress on stderr when it is a terminal.
+/// Loads the model, checks the memory estimate against --max-memory, voxelizes, cuts and
+/// contours it; progress on stderr when it is a terminal.
 /// `modelName` receives the name to report; `octrees` builds both octrees for the report.
 /// Throws InputError, also for a model that voxelizes to no voxels (requireVoxels).
 ModelBuild buildFromOptions(const ModelOptions& opt, std::string& modelName, bool octrees);

@@ -6,10 +6,14 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
+#include <sstream>
 
+#include "Interrupt.h"
+#include "ModelOptions.h"
+#include "OutputFiles.h"
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/io/SceneBodies.h"
@@ -29,6 +33,27 @@ struct Summary {
   long long iterations = 0;
   long long factorisations = 0;
   bool converged = true;
+
+  void add(const FrameReport& r) {
+    stageSum.resize(r.stageMs.size(), 0.0);
+    stageMax.resize(r.stageMs.size(), 0.0);
+    for (std::size_t s = 0; s < r.stageMs.size(); ++s) {
+      stageSum[s] += r.stageMs[s];
+      stageMax[s] = std::max(stageMax[s], r.stageMs[s]);
+    }
+    frameMs.push_back(r.totalMs);
+    cutLinks += r.cutLinks;
+    iterations += r.solverIterations;
+    factorisations += r.solverFactorisations;
+    converged = converged && r.converged;
+  }
+  [[nodiscard]] int frames() const { return static_cast<int>(frameMs.size()); }
+  [[nodiscard]] double stageMean(std::size_t s) const {
+    return s < stageSum.size() && frames() > 0 ? stageSum[s] / frames() : 0.0;
+  }
+  [[nodiscard]] double stageMaximum(std::size_t s) const {
+    return s < stageMax.size() ? stageMax[s] : 0.0;
+  }
 };
 
 std::string exportPath(const std::string& dir, std::size_t body, std::size_t bodies, int frame) {
@@ -40,9 +65,54 @@ std::string exportPath(const std::string& dir, std::size_t body, std::size_t bod
   return (std::filesystem::path(dir) / name).string();
 }
 
-void exportSurfaces(const Simulation& sim, const std::string& dir) {
-  for (std::size_t b = 0; b < sim.bodies().size(); ++b)
-    writeSurface(sim.deformedSurface(b), exportPath(dir, b, sim.bodies().size(), sim.frame()));
+/// The surfaces of --export: each file written whole (writeSurface); the ones this run wrote
+/// are removed again unless keep() is called (a run that fails leaves none).
+class Exporter {
+ public:
+  explicit Exporter(std::string dir) : dir_(std::move(dir)) {}
+  ~Exporter() {
+    if (keep_) return;
+    std::error_code ec;
+    for (const std::string& f : written_) std::filesystem::remove(f, ec);
+  }
+  Exporter(const Exporter&) = delete;
+  Exporter& operator=(const Exporter&) = delete;
+
+  void write(const Simulation& sim) {
+    if (dir_.empty()) return;
+    if (!created_) {
+      std::error_code ec;
+      std::filesystem::create_directories(dir_, ec);
+      if (ec) throw InputError("--export: cannot create folder '" + dir_ + "': " + ec.message());
+      created_ = true;
+    }
+    for (std::size_t b = 0; b < sim.bodies().size(); ++b) {
+      const std::string path = exportPath(dir_, b, sim.bodies().size(), sim.frame());
+      writeSurface(sim.deformedSurface(b), path);
+      written_.push_back(path);
+    }
+  }
+  void keep() { keep_ = true; }
+
+ private:
+  std::string dir_;
+  std::vector<std::string> written_;
+  bool created_ = false, keep_ = false;
+};
+
+std::string csvHeader() {
+  std::string h = "frame,time_s";
+  for (const std::string& s : frameStageNames()) h += "," + s + "_ms";
+  return h + ",frame_ms,cut_links,solver_iterations,converged,solver_factorisations";
+}
+
+std::string csvRow(const FrameReport& r) {
+  std::ostringstream row;
+  row << r.frame << "," << r.time;
+  for (double ms : r.stageMs) row << "," << ms;
+  row << "," << r.totalMs << "," << r.cutLinks << "," << r.solverIterations << ","
+      << (r.converged ? 1 : 0) << "," << r.solverFactorisations;
+  return row.str();
 }
 
 double percentile(std::vector<double> v, double q) {
@@ -58,144 +128,156 @@ double mean(const std::vector<double>& v) {
   return v.empty() ? 0.0 : s / static_cast<double>(v.size());
 }
 
+/// What the summary reports besides the frames' sums.
+struct RunFacts {
+  const RunOptions& opt;
+  const Scene& scene;
+  const Simulation& sim;
+  int framesAsked = 0;
+  int piecesStart = 0;
+  bool interrupted = false;
+};
+
+void printJson(const RunFacts& f, const Summary& sum) {
+  const std::vector<std::string>& stages = frameStageNames();
+  int pieces = 0;
+  for (std::size_t b = 0; b < f.sim.bodies().size(); ++b) pieces += f.sim.pieces(b);
+  nlohmann::json j;
+  j["scene"] = f.opt.scene;
+  j["frames"] = sum.frames();
+  j["interrupted"] = f.interrupted;
+  j["time_step"] = f.scene.timeStep;
+  j["threads"] = ThreadLimit::current();
+  j["octree"] = !f.opt.noOctree;
+  j["cut_links"] = sum.cutLinks;
+  j["pieces_start"] = f.piecesStart;
+  j["pieces"] = pieces;
+  j["max_displacement"] = f.sim.maxDisplacement();
+  j["solver_iterations_mean"] =
+      static_cast<double>(sum.iterations) / static_cast<double>(std::max(sum.frames(), 1));
+  j["converged"] = sum.converged;
+  j["solver_factorisations"] = sum.factorisations;
+  nlohmann::json t = nlohmann::json::object();
+  for (std::size_t s = 0; s < stages.size(); ++s)
+    t[stages[s]] = {{"mean", sum.stageMean(s)}, {"max", sum.stageMaximum(s)}};
+  j["timings_ms"] = t;
+  j["frame_ms"] = {{"mean", mean(sum.frameMs)},
+                   {"p95", percentile(sum.frameMs, 0.95)},
+                   {"max", percentile(sum.frameMs, 1.0)}};
+  nlohmann::json bodies = nlohmann::json::array();
+  for (const SimBody& b : f.sim.bodies())
+    bodies.push_back({{"elements", b.cut.deformation.elementCount()},
+                      {"nodes", b.cut.deformation.nodeCount()},
+                      {"cut_links", b.cutLinks},
+                      {"surface_vertices", b.surface.vertexCount()},
+                      {"surface_triangles", b.surface.triangleCount()}});
+  j["bodies"] = bodies;
+  std::cout << j.dump(2) << "\n";
+}
+
+void printText(const RunFacts& f, const Summary& sum) {
+  const std::vector<std::string>& stages = frameStageNames();
+  int pieces = 0;
+  for (std::size_t b = 0; b < f.sim.bodies().size(); ++b) pieces += f.sim.pieces(b);
+  std::printf("scene               %s (%d frames of %.4g s, %d thread(s), %s)\n",
+              f.opt.scene.c_str(), sum.frames(), f.scene.timeStep, ThreadLimit::current(),
+              f.opt.noOctree ? "no octree" : "voxel octree");
+  if (f.interrupted)
+    std::printf("interrupted         after %d of %d frames\n", sum.frames(), f.framesAsked);
+  std::printf("cut links           %zu\n", sum.cutLinks);
+  std::printf("pieces              %d (at the start %d)\n", pieces, f.piecesStart);
+  std::printf("max displacement    %.6g m\n", f.sim.maxDisplacement());
+  std::printf("solver              %.1f iterations per frame, %lld factorisations, %s\n",
+              static_cast<double>(sum.iterations) / static_cast<double>(std::max(sum.frames(), 1)),
+              sum.factorisations,
+              sum.converged ? "converged every step" : "did NOT converge in some steps");
+  std::printf("frame (ms)          mean %.2f, p95 %.2f, max %.2f\n", mean(sum.frameMs),
+              percentile(sum.frameMs, 0.95), percentile(sum.frameMs, 1.0));
+  std::printf("stages (ms)         mean / max\n");
+  for (std::size_t s = 0; s < stages.size(); ++s)
+    std::printf("  %-22s %8.3f / %8.3f\n", stages[s].c_str(), sum.stageMean(s),
+                sum.stageMaximum(s));
+  if (!f.opt.exportDir.empty()) std::printf("surfaces written to %s\n", f.opt.exportDir.c_str());
+}
+
 }  // namespace
 
 void addRunCommand(CLI::App& app, RunOptions& opt, CLI::App*& cmd) {
-  cmd = app.add_subcommand("run", "Run a scene: deformable bodies cut by key-framed blades, frame by frame");
+  cmd = app.add_subcommand(
+      "run",
+      "Run a scene: deformable bodies cut by key-framed blades, frame by frame; Ctrl-C or "
+      "SIGTERM stops it at the next frame boundary with a summary of the frames run (exit 130)");
   cmd->add_option("scene", opt.scene, "Scene file (JSON; format in docs/scenes.md)")->required();
-  cmd->add_option("--frames", opt.frames, "Frames to run (default: the scene's \"frames\", else 100)")
+  cmd->add_option("--frames", opt.frames,
+                  "Frames to run (default: the scene's \"frames\", else 100)")
       ->check(CLI::Range(1, 10000000));
-  cmd->add_option("--threads", opt.threads, "Worker threads (default: all cores)")->check(CLI::Range(1, 1024));
+  cmd->add_option("--threads", opt.threads, "Worker threads (default: all cores)")
+      ->check(CLI::Range(1, 1024));
   cmd->add_flag("--no-octree", opt.noOctree, "Baseline: every link active, no voxel octree");
-  cmd->add_option("--export", opt.exportDir,
-                  "Write the deformed surfaces to this folder as numbered OBJ files (frame_00000.obj "
-                  "is the start; bodyN_ prefixes with several bodies)");
+  cmd->add_option(
+      "--export", opt.exportDir,
+      "Write the deformed surfaces to this folder as numbered OBJ files (frame_00000.obj "
+      "is the start; bodyN_ prefixes with several bodies; created when missing)");
   cmd->add_option("--every", opt.every, "With --export: write every K-th frame (default 1)")
       ->check(CLI::Range(1, 10000000));
-  cmd->add_option("--csv", opt.csv, "Write one row per frame with the time of each stage (ms)");
+  cmd->add_option(
+      "--csv", opt.csv,
+      "Write one row per frame with the time of each stage (ms); the folder must exist");
   cmd->add_flag("--json", opt.json, "Print one JSON summary object on stdout");
+  addMaxMemoryOption(*cmd, opt.maxMemory);
 }
 
 int runRun(const RunOptions& opt) {
   ThreadLimit limit(opt.threads);
+  const std::size_t maxMemory = memoryLimit(opt.maxMemory);
+  if (!opt.csv.empty()) checkOutputFile(opt.csv, "--csv");
+  if (!opt.exportDir.empty()) checkOutputFolder(opt.exportDir, "--export");
+  const InterruptGuard interruptGuard;
   const Scene scene = readScene(opt.scene);
   const int frames = opt.frames > 0 ? opt.frames : scene.frames.value_or(kDefaultFrames);
   const bool terminal = isatty(STDERR_FILENO) != 0;
-  ProgressCallback progress;
-  if (terminal)
-    progress = [](std::string_view stage, double f) {
-      std::fprintf(stderr, "\r%.*s %3d%%", static_cast<int>(stage.size()), stage.data(),
-                   static_cast<int>(std::lround(100 * f)));
-      if (f >= 1.0) std::fprintf(stderr, "\r\033[K");
-      std::fflush(stderr);
-      return true;
-    };
-  std::vector<VoxelGrid> grids = voxelizeSceneBodies(scene, true, progress);
+  SceneBodiesParams bp;
+  bp.maxMemory = maxMemory;
+  bp.useOctree = !opt.noOctree;
+  // The voxelizer asks between its stages whether to go on; a signal stops it there.
+  bp.progress = terminalProgress();
+  std::vector<VoxelGrid> grids = voxelizeSceneBodies(scene, bp);
   SimulationParams sp;
   sp.useOctree = !opt.noOctree;
   Simulation sim(scene, std::move(grids), sp);
 
-  std::vector<int> piecesBefore;
-  for (std::size_t b = 0; b < sim.bodies().size(); ++b) piecesBefore.push_back(sim.pieces(b));
-  if (!opt.exportDir.empty()) {
-    std::error_code ec;
-    std::filesystem::create_directories(opt.exportDir, ec);
-    if (ec) throw InputError("--export: cannot create folder '" + opt.exportDir + "': " + ec.message());
-    exportSurfaces(sim, opt.exportDir);
-  }
-  std::ofstream csv;
-  const std::vector<std::string>& stages = frameStageNames();
+  RunFacts facts{opt, scene, sim, frames};
+  for (std::size_t b = 0; b < sim.bodies().size(); ++b) facts.piecesStart += sim.pieces(b);
+  Exporter exporter(opt.exportDir);
+  std::optional<PendingFile> csv;
   if (!opt.csv.empty()) {
-    csv.open(opt.csv);
-    if (!csv) throw InputError("--csv: cannot write '" + opt.csv + "'");
-    csv << "frame,time_s";
-    for (const std::string& s : stages) csv << "," << s << "_ms";
-    csv << ",frame_ms,cut_links,solver_iterations,converged,solver_factorisations\n";
+    csv.emplace(opt.csv, "--csv");
+    csv->writeLine(csvHeader());
   }
+  if (!interruptRequested()) exporter.write(sim);
 
   Summary sum;
-  sum.stageSum.assign(stages.size(), 0.0);
-  sum.stageMax.assign(stages.size(), 0.0);
-  for (int f = 0; f < frames; ++f) {
+  for (int f = 0; f < frames && !interruptRequested(); ++f) {
     const FrameReport r = sim.step();
-    for (std::size_t s = 0; s < stages.size(); ++s) {
-      sum.stageSum[s] += r.stageMs[s];
-      sum.stageMax[s] = std::max(sum.stageMax[s], r.stageMs[s]);
-    }
-    sum.frameMs.push_back(r.totalMs);
-    sum.cutLinks += r.cutLinks;
-    sum.iterations += r.solverIterations;
-    sum.factorisations += r.solverFactorisations;
-    sum.converged = sum.converged && r.converged;
-    if (csv.is_open()) {
-      csv << r.frame << "," << r.time;
-      for (double ms : r.stageMs) csv << "," << ms;
-      csv << "," << r.totalMs << "," << r.cutLinks << "," << r.solverIterations << ","
-          << (r.converged ? 1 : 0) << "," << r.solverFactorisations << "\n";
-    }
-    if (!opt.exportDir.empty() && (f + 1) % opt.every == 0) exportSurfaces(sim, opt.exportDir);
+    sum.add(r);
+    if (csv) csv->writeLine(csvRow(r));
+    if ((f + 1) % opt.every == 0) exporter.write(sim);
     if (terminal) {
-      std::fprintf(stderr, "\rframe %d/%d  %.1f ms  %zu links cut", f + 1, frames, r.totalMs, sum.cutLinks);
+      std::fprintf(stderr, "\rframe %d/%d  %.1f ms  %zu links cut", f + 1, frames, r.totalMs,
+                   sum.cutLinks);
       std::fflush(stderr);
     }
   }
   if (terminal) std::fprintf(stderr, "\r\033[K");
-  if (csv.is_open() && !(csv.flush())) throw InputError("--csv: cannot write '" + opt.csv + "'");
-
-  int pieces = 0, piecesStart = 0;
-  for (std::size_t b = 0; b < sim.bodies().size(); ++b) {
-    pieces += sim.pieces(b);
-    piecesStart += piecesBefore[b];
-  }
-  const double iterMean = static_cast<double>(sum.iterations) / static_cast<double>(std::max(frames, 1));
-  if (opt.json) {
-    nlohmann::json j;
-    j["scene"] = opt.scene;
-    j["frames"] = frames;
-    j["time_step"] = scene.timeStep;
-    j["threads"] = ThreadLimit::current();
-    j["octree"] = !opt.noOctree;
-    j["cut_links"] = sum.cutLinks;
-    j["pieces_start"] = piecesStart;
-    j["pieces"] = pieces;
-    j["max_displacement"] = sim.maxDisplacement();
-    j["solver_iterations_mean"] = iterMean;
-    j["converged"] = sum.converged;
-    j["solver_factorisations"] = sum.factorisations;
-    nlohmann::json t = nlohmann::json::object();
-    for (std::size_t s = 0; s < stages.size(); ++s)
-      t[stages[s]] = {{"mean", sum.stageSum[s] / frames}, {"max", sum.stageMax[s]}};
-    j["timings_ms"] = t;
-    j["frame_ms"] = {{"mean", mean(sum.frameMs)},
-                     {"p95", percentile(sum.frameMs, 0.95)},
-                     {"max", percentile(sum.frameMs, 1.0)}};
-    nlohmann::json bodies = nlohmann::json::array();
-    for (const SimBody& b : sim.bodies())
-      bodies.push_back({{"elements", b.cut.deformation.elementCount()},
-                        {"nodes", b.cut.deformation.nodeCount()},
-                        {"cut_links", b.cutLinks},
-                        {"surface_vertices", b.surface.vertexCount()},
-                        {"surface_triangles", b.surface.triangleCount()}});
-    j["bodies"] = bodies;
-    std::cout << j.dump(2) << "\n";
-  } else {
-    std::printf("scene               %s (%d frames of %.4g s, %d thread(s), %s)\n", opt.scene.c_str(),
-                frames, scene.timeStep, ThreadLimit::current(),
-                opt.noOctree ? "no octree" : "voxel octree");
-    std::printf("cut links           %zu\n", sum.cutLinks);
-    std::printf("pieces              %d (at the start %d)\n", pieces, piecesStart);
-    std::printf("max displacement    %.6g m\n", sim.maxDisplacement());
-    std::printf("solver              %.1f iterations per frame, %lld factorisations, %s\n", iterMean,
-                sum.factorisations,
-                sum.converged ? "converged every step" : "did NOT converge in some steps");
-    std::printf("frame (ms)          mean %.2f, p95 %.2f, max %.2f\n", mean(sum.frameMs),
-                percentile(sum.frameMs, 0.95), percentile(sum.frameMs, 1.0));
-    std::printf("stages (ms)         mean / max\n");
-    for (std::size_t s = 0; s < stages.size(); ++s)
-      std::printf("  %-22s %8.3f / %8.3f\n", stages[s].c_str(), sum.stageSum[s] / frames, sum.stageMax[s]);
-    if (!opt.exportDir.empty()) std::printf("surfaces written to %s\n", opt.exportDir.c_str());
-  }
-  return 0;
+  // A signal after the last frame stops nothing: the run is complete.
+  facts.interrupted = interruptRequested() && sum.frames() < frames;
+  if (csv) csv->commit();
+  exporter.keep();
+  if (opt.json)
+    printJson(facts, sum);
+  else
+    printText(facts, sum);
+  return facts.interrupted ? kInterruptedStatus : 0;
 }
 
 }  // namespace voxcut::app

@@ -8,16 +8,24 @@ namespace voxcut::app {
 
 struct RunOptions {
   std::string scene;
-  int frames = 0;        // 0: the scene's "frames", else 100
-  int threads = 0;       // 0: all cores
+  int frames = 0;   // 0: the scene's "frames", else 100
+  int threads = 0;  // 0: all cores
   bool noOctree = false;
   std::string exportDir;
   int every = 1;
   std::string csv;
   bool json = false;
+  std::string maxMemory;  // --max-memory SIZE; empty: the available memory
 };
 
 void addRunCommand(CLI::App& app, RunOptions& opt, CLI::App*& cmd);
+
+/// Runs the scene. Output paths are checked before any work. SIGINT and SIGTERM stop the run
+/// at the next frame boundary (or during voxelization): the CSV keeps a whole row per finished
+/// frame, exported frames are whole files, the summary covers the frames run and says
+/// "interrupted", and the status is 130. A run that fails leaves no CSV and removes the
+/// surfaces it exported (each is written to a temporary and renamed when complete). Returns
+/// the exit status (0 or 130); throws InputError on errors.
 int runRun(const RunOptions& opt);
 
 }  // namespace voxcut::app

@@ -1,15 +1,17 @@
 // voxcut: the command line. Thin: every step lives in the library.
 
-#include <CLI/CLI.hpp>
 #include <malloc.h>
 
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <iostream>
 #include <new>
 #include <nlohmann/json.hpp>
 
 #include "CutCommand.h"
+#include "Interrupt.h"
 #include "ModelOptions.h"
+#include "OutputFiles.h"
 #include "RunCommand.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/io/SurfaceWriter.h"
@@ -48,6 +50,7 @@ nlohmann::json toJson(const std::string& name, const ModelBuild& b, int threads)
   j["deformation_nodes"] = s.deformationNodes;
   j["hanging_nodes"] = s.hangingNodes;
   j["threads"] = threads;
+  j["memory_estimate_bytes"] = b.memory.bytes;
   nlohmann::json t = nlohmann::json::object();
   for (const auto& [stage, ms] : b.timings) t[stage] = ms;
   j["timings_ms"] = t;
@@ -68,8 +71,9 @@ void printText(const std::string& name, const ModelBuild& b) {
   std::printf("disconnected links  %zu surface, %zu cut\n", s.surfaceLinks, s.cutLinks);
   std::printf("surface             %zu vertices, %zu triangles, %s, %d piece(s), genus %d\n",
               b.surface.positions.size(), b.surface.triangles.size(),
-              s.topology.closed ? (s.topology.manifold ? "closed 2-manifold" : "closed, not manifold")
-                                : "NOT closed",
+              s.topology.closed
+                  ? (s.topology.manifold ? "closed 2-manifold" : "closed, not manifold")
+                  : "NOT closed",
               s.topology.pieces, s.topology.genusSum);
   std::printf("pieces              %d\n", s.pieces);
   std::printf("voxel octree        cubes per level (1 up):");
@@ -93,12 +97,14 @@ int run(int argc, char** argv) {
   app.set_version_flag("--version", "voxcut 0.1.0");
 
   ModelOptions infoOpt;
-  auto* info = app.add_subcommand("info", "Voxelize a model and print its linked voxel model and surface");
+  auto* info =
+      app.add_subcommand("info", "Voxelize a model and print its linked voxel model and surface");
   addModelOptions(*info, infoOpt);
 
   ModelOptions surfOpt;
   std::string output;
-  auto* surface = app.add_subcommand("surface", "Voxelize a model and write its dual-contoured surface");
+  auto* surface =
+      app.add_subcommand("surface", "Voxelize a model and write its dual-contoured surface");
   addModelOptions(*surface, surfOpt);
   surface->add_option("-o,--output", output, "Output surface, .obj or .ply")->required();
 
@@ -130,6 +136,7 @@ int run(int argc, char** argv) {
   if (runCmd->parsed()) return runRun(runOpt);
   ModelOptions& opt = info->parsed() ? infoOpt : surfOpt;
   ThreadLimit limit(opt.threads);
+  if (surface->parsed()) checkSurfacePath(output);
   std::string name;
   // `surface` prints the octrees only in its JSON; it does not build them otherwise.
   const ModelBuild b = buildFromOptions(opt, name, info->parsed() || opt.json);
@@ -139,8 +146,8 @@ int run(int argc, char** argv) {
   else if (info->parsed())
     printText(name, b);
   else
-    std::printf("wrote %s: %zu vertices, %zu triangles\n", output.c_str(), b.surface.positions.size(),
-                b.surface.triangles.size());
+    std::printf("wrote %s: %zu vertices, %zu triangles\n", output.c_str(),
+                b.surface.positions.size(), b.surface.triangles.size());
   return 0;
 }
 
@@ -156,16 +163,26 @@ int main(int argc, char** argv) {
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
   mallopt(M_MMAP_THRESHOLD, 32 << 20);
   mallopt(M_TOP_PAD, 16 << 20);
+  // Exit status: 0 success; 2 any error, reported as one "voxcut: error:" line (bad input or
+  // usage, a file that cannot be read or written, out of memory, or an internal error, which
+  // its line names as such); 130 interrupted (SIGINT or SIGTERM during `run`).
   try {
-    return voxcut::app::run(argc, argv);
+    voxcut::app::prepareStandardOutput();
+    const int status = voxcut::app::run(argc, argv);
+    voxcut::app::checkStandardOutput();
+    return status;
   } catch (const voxcut::InputError& e) {
     std::fprintf(stderr, "voxcut: error: %s\n", e.what());
-    return 2;
+  } catch (const voxcut::Interrupted&) {
+    std::fprintf(stderr, "voxcut: interrupted\n");
+    return voxcut::app::kInterruptedStatus;
   } catch (const std::bad_alloc&) {
     std::fprintf(stderr, "voxcut: error: out of memory\n");
-    return 3;
+  } catch (const std::length_error& e) {
+    // A container asked for more elements than it can hold: a size computed from the input.
+    std::fprintf(stderr, "voxcut: error: out of memory (%s)\n", e.what());
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "voxcut: error: %s\n", e.what());
-    return 4;
+    std::fprintf(stderr, "voxcut: error: internal error: %s\n", e.what());
   }
+  return 2;
 }

@@ -9,6 +9,8 @@
 // round-trip decimals from std::to_chars) and are faster than assimp's (docs/performance.md,
 // "Surface").
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <bit>
 #include <cctype>
@@ -141,6 +143,24 @@ FormatWriter writerFor(const std::string& path) {
 
 }  // namespace
 
+void checkSurfacePath(const std::string& path) {
+  namespace fs = std::filesystem;
+  const std::string what = "cannot write surface '" + path + "': ";
+  if (writerFor(path) == nullptr)
+    throw InputError(what + "unknown extension '" + fs::path(path).extension().string() +
+                     "' (use .obj or .ply)");
+  std::error_code ec;
+  const fs::path parent =
+      fs::path(path).parent_path().empty() ? fs::path(".") : fs::path(path).parent_path();
+  if (!fs::is_directory(parent, ec))
+    throw InputError(what + "directory '" + parent.string() + "' does not exist");
+  if (fs::is_directory(path, ec)) throw InputError(what + "it is a directory");
+  // The temporary is created beside the file.
+  if (::access(parent.c_str(), W_OK | X_OK) != 0)
+    throw InputError(what + "cannot create files in directory '" + parent.string() + "' (" +
+                     std::generic_category().message(errno) + ")");
+}
+
 void writeSurface(const SurfaceMesh& mesh, const std::string& path) {
   namespace fs = std::filesystem;
   VOXCUT_ASSERT(mesh.normals.empty() || mesh.normals.size() == mesh.positions.size(),
@@ -154,17 +174,9 @@ void writeSurface(const SurfaceMesh& mesh, const std::string& path) {
                 "surface triangle index out of range");
 
   const std::string what = "cannot write surface '" + path + "': ";
+  checkSurfacePath(path);
   const FormatWriter write = writerFor(path);
-  if (write == nullptr)
-    throw InputError(what + "unknown extension '" + fs::path(path).extension().string() +
-                     "' (use .obj or .ply)");
   std::error_code ec;
-  const fs::path parent =
-      fs::path(path).parent_path().empty() ? fs::path(".") : fs::path(path).parent_path();
-  if (!fs::is_directory(parent, ec))
-    throw InputError(what + "directory '" + parent.string() + "' does not exist");
-  if (fs::is_directory(path, ec)) throw InputError(what + "it is a directory");
-
   const std::string temporary = path + ".tmp";
   std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
   if (!out)

@@ -25,4 +25,9 @@ namespace voxcut {
 /// Thread-safe for distinct paths.
 void writeSurface(const SurfaceMesh& mesh, const std::string& path);
 
+/// Checks, before any work, what writeSurface checks about `path` without writing anything:
+/// a known extension, an existing directory this process may create files in, and `path`
+/// not a directory. Throws InputError as writeSurface would.
+void checkSurfacePath(const std::string& path);
+
 }  // namespace voxcut

@@ -59,6 +59,13 @@ ModelStats countModel(const VoxelGrid& grid, bool threaded) {
 
 ModelBuild buildModel(const std::vector<MaterialMesh>& materials, const ModelBuildParams& params) {
   ModelBuild out;
+  MemoryEstimateParams mp;
+  mp.resolution = params.voxelize.resolution;
+  mp.maxVoxels = params.voxelize.maxVoxels;
+  mp.octrees = params.octrees;
+  mp.elementLevel = params.deformation.startLevel;
+  out.memory = estimateModelMemory(materials, mp);
+  checkMemory(out.memory, params.maxMemory, "model");
   Timer timer;
   VoxelizeParams vp = params.voxelize;
   vp.threaded = params.threaded;

@@ -10,6 +10,7 @@
 
 #include "voxcut/core/Timer.h"
 #include "voxcut/fem/DeformationOctree.h"
+#include "voxcut/sim/MemoryEstimate.h"
 #include "voxcut/octree/VoxelOctree.h"
 #include "voxcut/surface/SurfaceMesh.h"
 #include "voxcut/voxel/PlaneCut.h"
@@ -25,6 +26,9 @@ struct ModelBuildParams {
   DeformationOctreeParams deformation;
   bool octrees = true;                   ///< build both octrees to report them
   bool threaded = true;
+  /// Refuse (InputError) when the memory estimate (MemoryEstimate.h) exceeds this many bytes;
+  /// 0: no limit.
+  std::size_t maxMemory = 0;
 };
 
 /// Counts describing a voxel model and its surface.
@@ -52,12 +56,15 @@ struct ModelBuild {
   ModelStats stats;
   VoxelizeReport voxelizeReport;
   StageTimings timings;  ///< voxelize, cut, contour, pieces, topology, octrees (ms)
+  MemoryEstimate memory;  ///< the estimate made before building
 };
 
 /// Counts links by kind and voxels by material. Deterministic.
 [[nodiscard]] ModelStats countModel(const VoxelGrid& grid, bool threaded = true);
 
-/// Runs the whole path. Throws InputError on bad input (see voxelize, cutWithPlane).
+/// Runs the whole path. First estimates the memory it will take (estimateModelMemory) and
+/// refuses with InputError when that exceeds params.maxMemory. Throws InputError on bad input
+/// (see voxelize, cutWithPlane) and Interrupted when the progress callback asks to stop.
 [[nodiscard]] ModelBuild buildModel(const std::vector<MaterialMesh>& materials,
                                     const ModelBuildParams& params);
 

@@ -1,0 +1,167 @@
+// `voxcut run` interrupted mid-run by SIGINT or SIGTERM: it stops at a frame boundary with
+// status 130, the CSV holds one whole row per finished frame, every exported OBJ is complete,
+// no temporary file is left, and the summary covers the frames run and says "interrupted".
+// Also: `info box:0.1,0.1,0.1 --resolution 1024` refused at once, naming the memory.
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <csignal>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <thread>
+
+#include "CliProcess.h"
+#include "voxcut/sim/MemoryEstimate.h"
+
+namespace voxcut::cli {
+namespace {
+
+/// A scene whose frames are quick and whose run would take minutes: a sphere falling under
+/// gravity for 100,000 frames.
+const char* kLongScene =
+    R"({"frames": 100000, "bodies": [{"model": "sphere:0.05", "resolution": 31}]})";
+
+std::vector<std::string> lines(const std::string& text) {
+  std::vector<std::string> out;
+  std::istringstream in(text);
+  std::string line;
+  while (std::getline(in, line)) out.push_back(line);
+  return out;
+}
+
+std::size_t fieldCount(const std::string& row) {
+  return static_cast<std::size_t>(std::count(row.begin(), row.end(), ',')) + 1;
+}
+
+/// Waits until `path` holds at least `count` lines (or `seconds` pass); returns whether it did.
+bool waitForLines(const std::string& path, std::size_t count, double seconds) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (std::chrono::steady_clock::now() < end) {
+    const std::string text = readText(path);
+    if (static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')) >= count) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return false;
+}
+
+/// Checks that an OBJ written by voxcut is complete: it ends with a newline, holds the vertex
+/// and triangle counts its first line announces, and every face index is in range.
+void expectCompleteObj(const std::string& path) {
+  const std::string text = readText(path);
+  ASSERT_FALSE(text.empty()) << path;
+  EXPECT_EQ(text.back(), '\n') << path << ": last line cut";
+  long announcedV = -1, announcedF = -1;
+  std::sscanf(text.c_str(), "# voxcut surface: %ld vertices, %ld triangles", &announcedV,
+              &announcedF);
+  long v = 0, f = 0;
+  bool inRange = true;
+  for (const std::string& line : lines(text)) {
+    if (line.rfind("v ", 0) == 0) ++v;
+    if (line.rfind("f ", 0) != 0) continue;
+    ++f;
+    std::istringstream ls(line.substr(2));
+    std::string word;
+    int n = 0;
+    while (ls >> word) {
+      const long i = std::stol(word.substr(0, word.find('/')));
+      inRange = inRange && i >= 1 && i <= announcedV;
+      ++n;
+    }
+    inRange = inRange && n == 3;
+  }
+  EXPECT_EQ(v, announcedV) << path;
+  EXPECT_EQ(f, announcedF) << path;
+  EXPECT_TRUE(inRange) << path << ": a face index out of range or a face cut short";
+}
+
+/// Starts the long run, signals it after a few frames, and checks everything it left.
+void interruptRun(int signal, bool json) {
+  const TempFolder folder("interrupt");
+  const std::string scene = folder.write("long.json", kLongScene);
+  const std::string csv = folder.file("run.csv"), dir = folder.file("frames");
+  std::vector<std::string> args{"run", scene, "--export", dir, "--csv", csv, "--threads", "1"};
+  if (json) args.emplace_back("--json");
+  ProcessOptions options;
+  options.workingFolder = folder.path().string();
+  options.timeLimitSeconds = 120;
+  VoxcutProcess run(args, options);
+  // The CSV is written beside its name until the run ends; a header and 5 rows mean 5 frames.
+  ASSERT_TRUE(waitForLines(csv + ".tmp", 6, 100)) << "the run did not get going";
+  run.signal(signal);
+  const ProcessResult r = run.wait();
+  ASSERT_EQ(r.status, 130) << describe(args, r);
+  EXPECT_LT(r.seconds, 100);
+
+  // The CSV: a header and whole rows for frames 0..n-1.
+  ASSERT_TRUE(fs::exists(csv)) << describe(args, r);
+  const std::vector<std::string> rows = lines(readText(csv));
+  ASSERT_GE(rows.size(), 6u);
+  const std::size_t fields = fieldCount(rows.front());
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    EXPECT_EQ(fieldCount(rows[i]), fields) << "row " << i << ": " << rows[i];
+    EXPECT_EQ(rows[i].substr(0, rows[i].find(',')), std::to_string(i - 1));
+  }
+  const long frames = static_cast<long>(rows.size()) - 1;
+  EXPECT_EQ(readText(csv).back(), '\n');
+
+  // The surfaces: the start and one per finished frame, each complete.
+  std::size_t objs = 0;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    EXPECT_EQ(e.path().extension(), ".obj") << e.path();
+    expectCompleteObj(e.path().string());
+    ++objs;
+  }
+  EXPECT_EQ(static_cast<long>(objs), frames + 1);
+  for (const std::string& name : folder.entries())
+    EXPECT_EQ(name.find(".tmp"), std::string::npos) << "temporary left: " << name;
+
+  // The summary.
+  if (json) {
+    const nlohmann::json j = nlohmann::json::parse(r.out);
+    EXPECT_TRUE(j.at("interrupted").get<bool>());
+    EXPECT_EQ(j.at("frames").get<long>(), frames);
+  } else {
+    EXPECT_NE(
+        r.out.find("interrupted         after " + std::to_string(frames) + " of 100000 frames"),
+        std::string::npos)
+        << r.out;
+  }
+}
+
+TEST(CliInterrupt, SigintStopsRunAtAFrameBoundary) {
+  interruptRun(SIGINT, true);
+}
+
+TEST(CliInterrupt, SigtermStopsRunAtAFrameBoundary) {
+  interruptRun(SIGTERM, false);
+}
+
+TEST(CliMemory, Resolution1024BoxRefusedAtOnceNamingTheMemory) {
+  // The estimate is about 58 GiB; a machine with that much free memory builds the model.
+  if (availableMemory() > (std::size_t{50} << 30)) GTEST_SKIP() << "enough memory to build it";
+  const std::vector<std::string> args{"info", "box:0.1,0.1,0.1", "--resolution", "1024"};
+  ProcessOptions options;
+  options.timeLimitSeconds = 10;
+  options.addressSpaceLimit = kRunawayLimit;
+  const ProcessResult r = runVoxcut(args, options);
+  EXPECT_EQ(r.status, 2) << describe(args, r);
+  EXPECT_LT(r.seconds, 1.0) << describe(args, r);
+  EXPECT_EQ(r.err.rfind("voxcut: error: model needs about ", 0), 0u) << r.err;
+  EXPECT_NE(r.err.find(" GiB at resolution 1024 (grid 1024 x 1024 x 1024)"), std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("--max-memory"), std::string::npos) << r.err;
+}
+
+TEST(CliMemory, MaxMemoryAllowsWhatFits) {
+  const std::vector<std::string> args{"info",   "sphere:0.05",  "--resolution", "21",
+                                      "--json", "--max-memory", "512M"};
+  const ProcessResult r = runVoxcut(args);
+  ASSERT_EQ(r.status, 0) << describe(args, r);
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_GT(j.at("memory_estimate_bytes").get<double>(), 21.0 * 21 * 21 * 2);
+  EXPECT_LT(j.at("memory_estimate_bytes").get<double>(), 512.0 * 1024 * 1024);
+}
+
+}  // namespace
+}  // namespace voxcut::cli
