@@ -252,3 +252,69 @@ TEST(HexElement, CorotatedDisplacementOfARigidMotionIsZero) {
 
 }  // namespace
 }  // namespace voxcut
+
+namespace voxcut {
+namespace {
+
+// The mean shape-function gradients over the material: +-1/4 for a full element (the centre's
+// gradient), and for a single voxel the gradient at its centre (bilinear in the other
+// coordinates, so its mean over a sub-cube is its value at the sub-cube's centre).
+TEST(HexElementGradientMean, FullElementAndSingleVoxel) {
+  const std::vector<ElasticMaterial> mats(2);
+  std::vector<MaterialMoments> full;
+  for (int z = 0; z < 4; ++z)
+    for (int y = 0; y < 4; ++y) addVoxelRow(full, 2, 0, 4, y, z, 1);
+  const ElementMatrices f = hexElementMatrices(2, 0.01, full, mats);
+  for (int c = 0; c < 8; ++c)
+    for (int k = 0; k < 3; ++k)
+      EXPECT_NEAR(f.gradientMean[static_cast<std::size_t>(c)][k], ((c >> k) & 1 ? 0.25 : -0.25),
+                  1e-15);
+  std::vector<MaterialMoments> one;
+  addVoxelRow(one, 2, 3, 1, 0, 2, 1);  // voxel (3, 0, 2) of 4^3: centre t = (7, 1, 5) / 8
+  const ElementMatrices s = hexElementMatrices(2, 0.01, one, mats);
+  const Vec3d t(7.0 / 8, 1.0 / 8, 5.0 / 8);
+  for (int c = 0; c < 8; ++c) {
+    Vec3d expected;
+    for (int k = 0; k < 3; ++k) {
+      double g = 1.0;
+      for (int j = 0; j < 3; ++j) {
+        const bool bit = (c >> j) & 1;
+        g *= j == k ? (bit ? 1.0 : -1.0) : (bit ? t[j] : 1.0 - t[j]);
+      }
+      expected[k] = g;
+    }
+    EXPECT_LE((s.gradientMean[static_cast<std::size_t>(c)] - expected).norm(), 1e-14);
+  }
+}
+
+// An affine motion x = A X + b gives F = A over any material, exactly I at rest, and the
+// polar rotation of a rotated partial element is its rotation, whatever corner it fills.
+TEST(HexElementGradientMean, MaterialDeformationGradientOfAnAffineField) {
+  const std::vector<ElasticMaterial> mats(2);
+  std::vector<MaterialMoments> corner;
+  addVoxelRow(corner, 3, 6, 2, 7, 0, 1);
+  const ElementMatrices e = hexElementMatrices(3, 0.002, corner, mats);
+  const double edge = 0.016;
+  Eigen::Matrix3d a;
+  a << 1.1, -0.3, 0.2, 0.05, 0.9, -0.1, 0.3, 0.0, 1.2;
+  std::array<Vec3d, 8> rest, x;
+  for (std::size_t c = 0; c < 8; ++c) {
+    const int k = static_cast<int>(c);
+    rest[c] = Vec3d(5e4, -1.0, 2.0) + edge * Vec3d(k & 1, (k >> 1) & 1, (k >> 2) & 1);
+    x[c] = a * rest[c] + Vec3d(0.1, 0.2, 0.3);
+  }
+  EXPECT_LE((materialDeformationGradient(x, rest, e.gradientMean, edge) - a).cwiseAbs().maxCoeff(),
+            1e-9);
+  EXPECT_EQ(materialDeformationGradient(rest, rest, e.gradientMean, edge),
+            Eigen::Matrix3d::Identity());
+  const Eigen::Matrix3d q =
+      Eigen::AngleAxisd(1.2, Vec3d(0.2, -1, 0.4).normalized()).toRotationMatrix();
+  for (std::size_t c = 0; c < 8; ++c) x[c] = q * rest[c] + Vec3d(-3, 2, 1);
+  EXPECT_LE((polarRotation(materialDeformationGradient(x, rest, e.gradientMean, edge)) - q)
+                .cwiseAbs()
+                .maxCoeff(),
+            1e-9);
+}
+
+}  // namespace
+}  // namespace voxcut
