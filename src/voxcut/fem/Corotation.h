@@ -1,8 +1,9 @@
 #pragma once
 /// @file Corotation.h
 /// The corotated frame of one element of a deformation octree: the rotation of its deformation
-/// gradient averaged over its material and its displacement in that frame, what the elastic forces, the
-/// energy and the implicit step all start from. Pure; safe to call concurrently.
+/// gradient averaged over its material and its displacement in that frame, what the elastic
+/// forces, the energy and the implicit step all start from (docs/algorithms.md, "Corotation
+/// from the material"). Pure; safe to call concurrently.
 
 #include <Eigen/Core>
 #include <array>

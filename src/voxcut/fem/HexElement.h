@@ -1,9 +1,10 @@
 #pragma once
 /// @file HexElement.h
 /// Pure kernels of the composite hexahedral element (docs/algorithms.md, "Composite
-/// elements" and "Corotation"): rest stiffness and lumped mass of a level-L element integrated over
-/// the voxels it holds, each voxel with its own material; the corotational frame (deformation
-/// gradient at the element centre and its polar rotation).
+/// elements", "Corotation" and "Corotation from the material"): rest stiffness and lumped mass
+/// of a level-L element integrated over the voxels it holds, each voxel with its own material;
+/// the corotational frame (the deformation gradient averaged over the element's material, or
+/// at its centre, and its polar rotation).
 ///
 /// Element frame. A level-L element is a cube of edge H = h * 2^L (h the voxel size, metres)
 /// with unit coordinates t in [0, 1]^3; corner c in 0..7 sits at t = (c & 1, (c >> 1) & 1,

@@ -2,7 +2,8 @@
 /// @file MeshReader.h
 /// Reads a triangle mesh from a file or a memory buffer. OBJ, STL (ASCII and binary), PLY
 /// (ASCII, binary little and big endian) and OFF are read in double precision by validating
-/// readers of our own (MeshFormats.h); every other format goes through assimp (32-bit floats).
+/// readers of our own (MeshFormats.h); every other format goes through assimp (32-bit floats)
+/// (docs/algorithms.md, "Mesh reading").
 
 #include <string>
 #include <string_view>

@@ -1,6 +1,7 @@
 #pragma once
 /// @file BladeFront.h
-/// A blade's cut front carried along with the material between frames.
+/// A blade's cut front carried along with the material between frames (docs/algorithms.md,
+/// "Carried blade front").
 ///
 /// Why: each frame tests the blade's sweep against the voxel positions at the start of the
 /// frame, and the material then moves. If the next sweep started where the blade is in the
@@ -25,10 +26,10 @@ namespace voxcut {
 
 /// The embedded sample points of a blade edge.
 struct BladeFront {
-  std::vector<Vec3d> world;              ///< where each point was when embedded (metres)
-  std::vector<std::uint32_t> element;    ///< element copy holding it, or kNoElement
-  std::vector<Vec3d> local;              ///< trilinear coordinates in that element
-  std::vector<std::uint64_t> ids;        ///< symbolic ids the points had as sweep corners
+  std::vector<Vec3d> world;            ///< where each point was when embedded (metres)
+  std::vector<std::uint32_t> element;  ///< element copy holding it, or kNoElement
+  std::vector<Vec3d> local;            ///< trilinear coordinates in that element
+  std::vector<std::uint64_t> ids;      ///< symbolic ids the points had as sweep corners
   [[nodiscard]] bool empty() const { return world.empty(); }
 };
 

@@ -46,17 +46,17 @@ struct VertexEmbedding {
 
 /// One deformable body of a running scene.
 struct SimBody {
-  CutBody cut;             ///< grid, deformation octree, voxel octree, collision structures
-  ElasticModel model;      ///< element matrices, constraints
-  ImplicitEuler solver;    ///< velocities
-  ContouredSurface surface;                ///< rest frame, updated locally after cuts
+  CutBody cut;               ///< grid, deformation octree, voxel octree, collision structures
+  ElasticModel model;        ///< element matrices, constraints
+  ImplicitEuler solver;      ///< velocities
+  ContouredSurface surface;  ///< rest frame, updated locally after cuts
   std::vector<VertexEmbedding> embedding;  ///< per surface vertex id
   std::vector<Vec3d> vertexPositions;      ///< per surface vertex id, current (metres)
   std::vector<FixedBox> fixedBoxes;
-  std::vector<BladeFront> fronts;          ///< per scene tool: its cut front in this body
+  std::vector<BladeFront> fronts;  ///< per scene tool: its cut front in this body
   int finestLevel = 0;
-  std::size_t cutLinks = 0;                ///< links cut so far
-  SubdivisionWorkspace subdivision;        ///< the cutting step's buffers, kept between frames
+  std::size_t cutLinks = 0;          ///< links cut so far
+  SubdivisionWorkspace subdivision;  ///< the cutting step's buffers, kept between frames
 };
 
 /// The stages of a frame, in order; FrameReport::stageMs follows this order.
@@ -95,7 +95,8 @@ class Simulation {
   /// The current (deformed) surface of body b, compact, with area-weighted normals.
   [[nodiscard]] SurfaceMesh deformedSurface(std::size_t b) const;
   /// The largest distance of any material point (occupied voxel centre) from its rest
-  /// position, over all bodies (metres). O(voxels), parallel, deterministic.
+  /// position, over all bodies (metres; docs/algorithms.md, "What max_displacement
+  /// measures"). O(voxels), parallel, deterministic.
   [[nodiscard]] double maxDisplacement() const;
   /// Connected voxel pieces of body b (through connected links). O(voxels).
   [[nodiscard]] int pieces(std::size_t b) const;

@@ -1,7 +1,8 @@
 #pragma once
 /// @file MeshRepair.h
 /// Cleans an imperfect triangle mesh before voxelizing: welds coincident vertices, drops
-/// degenerate and duplicate faces, and makes the orientation consistent per connected patch.
+/// degenerate and duplicate faces, and makes the orientation consistent per connected patch
+/// (docs/algorithms.md, "Mesh repair").
 
 #include "voxcut/core/TriangleMesh.h"
 
