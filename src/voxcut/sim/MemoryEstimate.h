@@ -39,8 +39,11 @@
 ///     27 3x3 blocks of the reduced matrix with their sparsity (2,900);
 ///   factor (a simulation with the Cholesky preconditioner): 4 P^(4/3) 3x3 blocks of 80
 ///     bytes, the fill of a sparse factor of a 3-D mesh.
-/// Each size is what the structure holds at its largest, so the estimate is meant to lie above
-/// the measured peak, not far above it.
+/// Each size is what the structure holds at its largest for the model as it is built. Cuts
+/// refine and duplicate elements as a scene runs, which the estimate does not foresee: the
+/// peak of a cutting scene can exceed it (by up to about 1.6x on the shipped scenes,
+/// docs/performance.md, "Input and limits"); running out of memory later still ends with one
+/// error line and exit 2.
 ///
 /// Thread-safety: pure functions, except availableMemory, which reads the system.
 
