@@ -23,6 +23,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
 #include <system_error>
@@ -33,6 +34,9 @@
 #include "voxcut/io/SceneBodies.h"
 #include "voxcut/io/SceneReader.h"
 #include "voxcut/sim/Simulation.h"
+
+// libFuzzer's built-in mutator, for the custom one below.
+extern "C" std::size_t LLVMFuzzerMutate(std::uint8_t* data, std::size_t size, std::size_t maxSize);
 
 namespace {
 
@@ -100,6 +104,22 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
   tet << "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
   if (!tet.flush()) std::abort();
   return 0;
+}
+
+// Byte mutations nearly always break the JSON, and a scene that does not parse never reaches
+// the simulation (fuzz_scene covers parse errors). So a mutation is kept only when the result is
+// still JSON: libFuzzer's own mutator is tried a few times, the input left as it was otherwise.
+extern "C" std::size_t LLVMFuzzerCustomMutator(std::uint8_t* data, std::size_t size,
+                                               std::size_t maxSize, unsigned int /*seed*/) {
+  constexpr int kAttempts = 16;
+  const std::vector<std::uint8_t> original(data, data + size);
+  for (int attempt = 0; attempt < kAttempts; ++attempt) {
+    const std::size_t mutated = LLVMFuzzerMutate(data, size, maxSize);
+    if (nlohmann::json::accept(std::string_view(reinterpret_cast<const char*>(data), mutated)))
+      return mutated;
+    std::copy(original.begin(), original.end(), data);
+  }
+  return size;
 }
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
