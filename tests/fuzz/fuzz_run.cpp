@@ -29,6 +29,7 @@
 #include <system_error>
 #include <vector>
 
+#include "JsonMutator.h"
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/io/SceneBodies.h"
@@ -106,11 +107,16 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
   return 0;
 }
 
-// Byte mutations nearly always break the JSON, and a scene that does not parse never reaches
-// the simulation (fuzz_scene covers parse errors). So a mutation is kept only when the result is
-// still JSON: libFuzzer's own mutator is tried a few times, the input left as it was otherwise.
+// Byte mutations nearly always break the JSON or misspell a key, and a scene that does not
+// parse never reaches the simulation (fuzz_scene covers parse errors). So half the mutations
+// edit values (JsonMutator.h); the other half are libFuzzer's own, kept only when the result is
+// still JSON (tried a few times, the input left as it was otherwise).
 extern "C" std::size_t LLVMFuzzerCustomMutator(std::uint8_t* data, std::size_t size,
-                                               std::size_t maxSize, unsigned int /*seed*/) {
+                                               std::size_t maxSize, unsigned int seed) {
+  if ((seed & 1U) != 0) {
+    const std::size_t edited = voxcut::fuzz::mutateJsonValues(data, size, maxSize, seed >> 1);
+    if (edited > 0) return edited;
+  }
   constexpr int kAttempts = 16;
   const std::vector<std::uint8_t> original(data, data + size);
   for (int attempt = 0; attempt < kAttempts; ++attempt) {
