@@ -7,6 +7,8 @@ packages=(
   build-essential cmake pkg-config
   libeigen3-dev libtbb-dev libcli11-dev nlohmann-json3-dev libspdlog-dev libassimp-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  # the fuzz preset: clang and its sanitizer + libFuzzer runtimes (only recommended by clang)
+  clang libfuzzer-14-dev libclang-rt-14-dev
 )
 
 missing=()

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Sets up, configures, builds and runs every test. PRESET=asan (or tsan, debug) picks another
-# build; the default is the optimised release build.
+# build; the default is the optimised release build, after whose tests every libFuzzer harness
+# runs for FUZZ_SECONDS (default 20; 0 skips them) through scripts/fuzz.sh.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 preset="${PRESET:-release}"
@@ -8,3 +9,6 @@ bash scripts/setup.sh
 cmake --preset "$preset" >/dev/null
 cmake --build --preset "$preset"
 ctest --preset "$preset"
+if [[ $preset == release && ${FUZZ_SECONDS:-20} != 0 ]]; then
+  bash scripts/fuzz.sh "${FUZZ_SECONDS:-20}"
+fi

@@ -114,8 +114,9 @@ Model loadMaterials(const std::vector<std::pair<std::string, std::string>>& name
   Model model{"", {}, 0};
   for (const auto& [name, spec] : nameAndMesh) {
     if (name.empty()) throw InputError("material for model '" + spec + "' has an empty name");
+    // An init-capture, since clang before 16 cannot capture a structured binding.
     const bool repeated = std::any_of(model.materials.begin(), model.materials.end(),
-                                      [&](const MaterialMesh& m) { return m.name == name; });
+                                      [&n = name](const MaterialMesh& m) { return m.name == n; });
     if (repeated) throw InputError("material '" + name + "' is given twice");
     Model part = loadModel(spec);
     if (part.materials.size() != 1)
