@@ -186,7 +186,12 @@ void Constraints(benchmark::State& state) {
 BENCHMARK(Bunny)->Apply(allSettings);
 BENCHMARK(BunnyCut)->Apply(allSettings);
 BENCHMARK(Cantilever)->Apply(allSettings);
-BENCHMARK(Constraints)->Arg(1)->Arg(2)->UseManualTime()->Unit(benchmark::kMillisecond)->MinTime(0.3);
+BENCHMARK(Constraints)
+    ->Arg(1)
+    ->Arg(2)
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(0.3);
 
 }  // namespace
 }  // namespace voxcut

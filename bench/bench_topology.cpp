@@ -87,7 +87,8 @@ std::vector<std::uint64_t> planeLinks(const VoxelGrid& g, const Vec3d& n, double
 }
 
 void disconnect(VoxelGrid& g, const std::vector<std::uint64_t>& links) {
-  for (std::uint64_t id : links) g.setConnected(static_cast<std::size_t>(id / 3), static_cast<int>(id % 3), false);
+  for (std::uint64_t id : links)
+    g.setConnected(static_cast<std::size_t>(id / 3), static_cast<int>(id % 3), false);
 }
 
 /// Runs `cuts` in order on fresh copies of the bunny, timing only the updates.
@@ -124,7 +125,8 @@ void runCuts(benchmark::State& state, const std::vector<std::vector<std::uint64_
   }
   state.counters["threads"] = threads;
   state.counters["links"] = static_cast<double>(links);
-  state.counters["updates"] = static_cast<double>(std::count_if(cuts.begin(), cuts.end(), [](const auto& c) { return !c.empty(); }));
+  state.counters["updates"] = static_cast<double>(
+      std::count_if(cuts.begin(), cuts.end(), [](const auto& c) { return !c.empty(); }));
   state.counters["elements"] = static_cast<double>(elements);
   state.counters["nodes"] = static_cast<double>(nodes);
   state.counters["hanging"] = static_cast<double>(hanging);
@@ -139,7 +141,8 @@ void BladeSequence(benchmark::State& state) {
 
 void PlaneCut(benchmark::State& state) {
   const VoxelGrid& g = bunny().grid;
-  static const std::vector<std::vector<std::uint64_t>> cut{planeLinks(g, Vec3d(0.2, 1, 0.1), 0.78 * g.dims().y)};
+  static const std::vector<std::vector<std::uint64_t>> cut{
+      planeLinks(g, Vec3d(0.2, 1, 0.1), 0.78 * g.dims().y)};
   runCuts(state, cut);
 }
 
@@ -187,9 +190,19 @@ void ModelUpdate(benchmark::State& state) {
   state.counters["rows_copied"] = rows > 0 ? copied / rows : 0.0;
 }
 
-BENCHMARK(BladeSequence)->Arg(1)->Arg(2)->UseManualTime()->Unit(benchmark::kMillisecond)->MinTime(0.5);
+BENCHMARK(BladeSequence)
+    ->Arg(1)
+    ->Arg(2)
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(0.5);
 BENCHMARK(PlaneCut)->Arg(1)->Arg(2)->UseManualTime()->Unit(benchmark::kMillisecond)->MinTime(0.5);
-BENCHMARK(ModelUpdate)->Arg(1)->Arg(2)->UseManualTime()->Unit(benchmark::kMillisecond)->MinTime(0.5);
+BENCHMARK(ModelUpdate)
+    ->Arg(1)
+    ->Arg(2)
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(0.5);
 
 }  // namespace
 }  // namespace voxcut

@@ -159,7 +159,9 @@ json commandJson(const char* command, std::vector<std::string> args) {
 }
 
 /// Runs `voxcut info ARGS --json`, expects success and returns the parsed object.
-json infoJson(std::vector<std::string> args) { return commandJson("info", std::move(args)); }
+json infoJson(std::vector<std::string> args) {
+  return commandJson("info", std::move(args));
+}
 
 /// Decimal text that reads back to the same double.
 std::string num(double x) {
@@ -576,7 +578,9 @@ TEST(Cli, HelpOfEachSubcommand) {
 // --- the voxel octree and the single-frame cut ---------------------------------------------
 
 /// Runs `voxcut cut ARGS --json`, expects success and returns the parsed object.
-json cutJson(std::vector<std::string> args) { return commandJson("cut", std::move(args)); }
+json cutJson(std::vector<std::string> args) {
+  return commandJson("cut", std::move(args));
+}
 
 TEST(Cli, InfoReportsBothOctrees) {
   const json j = infoJson({"bunny", "--max-level", "2"});
@@ -605,7 +609,8 @@ TEST(Cli, CutBunnyThroughTheMiddle) {
   for (const char* k : {"octree", "threads", "repeat", "cut_links", "cut_set_hash", "pieces",
                         "surface_closed", "timings_ms"})
     ASSERT_TRUE(o.contains(k)) << k;
-  for (const char* k : {"voxel_position_update", "intersection_test", "octree_subdivision", "total"})
+  for (const char* k :
+       {"voxel_position_update", "intersection_test", "octree_subdivision", "total"})
     ASSERT_TRUE(o["timings_ms"].contains(k)) << k;
   EXPECT_TRUE(o["octree"].get<bool>());
   EXPECT_EQ(o["pieces"].get<int>(), 2);
@@ -628,8 +633,9 @@ TEST(Cli, CutWithDeformationsAndExplicitBlade) {
   }
   ScratchDir dir;
   const std::string out = dir.file("cut.obj");
-  const RunResult r = voxcut({"cut", "box:0.1,0.1,0.1", "--resolution", "30", "--blade",
-                              "-1,0.01,-1,1,0.01,-1", "--to", "-1,0.01,1,1,0.01,1", "-o", out, "--json"});
+  const RunResult r =
+      voxcut({"cut", "box:0.1,0.1,0.1", "--resolution", "30", "--blade", "-1,0.01,-1,1,0.01,-1",
+              "--to", "-1,0.01,1,1,0.01,1", "-o", out, "--json"});
   ASSERT_EQ(r.status, 0) << r.err;
   const json j = json::parse(r.out);
   EXPECT_EQ(j["pieces"].get<int>(), 2);
@@ -648,12 +654,12 @@ TEST(Cli, CutBadInput) {
   expectCleanFailure({"info", "bunny", "--boundary-level", "x"});
 }
 
-
 // --- run ---------------------------------------------------------------------------------------
 
 /// Writes `text` to a fresh scene file in the temporary folder and returns its path.
 std::string writeScene(const std::string& name, const std::string& text) {
-  const fs::path path = fs::temp_directory_path() / ("voxcut_cli_" + std::to_string(::getpid()) + "_" + name);
+  const fs::path path =
+      fs::temp_directory_path() / ("voxcut_cli_" + std::to_string(::getpid()) + "_" + name);
   std::ofstream(path) << text;
   return path.string();
 }
@@ -666,18 +672,22 @@ TEST(Cli, RunCutsASphereInTwoAndReportsEveryKey) {
     "tools": [{"type": "blade", "keys": [
       {"t": 0.0, "a": [-0.05, 0.003, -0.03], "b": [0.05, 0.003, -0.03]},
       {"t": 0.08, "a": [-0.05, 0.003, 0.03], "b": [0.05, 0.003, 0.03]}]}]})");
-  const fs::path dir = fs::temp_directory_path() / ("voxcut_cli_export_" + std::to_string(::getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("voxcut_cli_export_" + std::to_string(::getpid()));
   const std::string csv = dir.string() + ".csv";
   fs::remove_all(dir);
-  const json j = commandJson("run", {scene, "--frames", "30", "--csv", csv, "--export", dir.string(), "--every", "10"});
-  for (const char* key : {"frames", "cut_links", "pieces", "max_displacement", "solver_iterations_mean",
-                          "converged", "solver_factorisations", "timings_ms", "frame_ms"})
+  const json j = commandJson(
+      "run", {scene, "--frames", "30", "--csv", csv, "--export", dir.string(), "--every", "10"});
+  for (const char* key :
+       {"frames", "cut_links", "pieces", "max_displacement", "solver_iterations_mean", "converged",
+        "solver_factorisations", "timings_ms", "frame_ms"})
     ASSERT_TRUE(j.contains(key)) << key;  // a const json's [] must not meet a missing key
   EXPECT_EQ(j["frames"], 30);
   EXPECT_GT(j["cut_links"].get<long>(), 0);
   EXPECT_GE(j["solver_factorisations"].get<long>(), 1);  // the default Cholesky preconditioner
   EXPECT_EQ(j["pieces"], 2);
-  for (const char* stage : {"voxel_position_update", "intersection_test", "octree_subdivision", "deformation"}) {
+  for (const char* stage :
+       {"voxel_position_update", "intersection_test", "octree_subdivision", "deformation"}) {
     ASSERT_TRUE(j["timings_ms"].contains(stage)) << stage;
     EXPECT_TRUE(j["timings_ms"][stage].contains("mean")) << stage;
     EXPECT_TRUE(j["timings_ms"][stage].contains("max")) << stage;
@@ -686,9 +696,11 @@ TEST(Cli, RunCutsASphereInTwoAndReportsEveryKey) {
   // One CSV row per frame after the header; surfaces at frames 0, 10, 20 and 30, closed.
   const std::string rows = readFile(csv);
   EXPECT_EQ(std::count(rows.begin(), rows.end(), '\n'), 31);
-  EXPECT_NE(rows.substr(0, rows.find('\n')).find(",solver_iterations,converged,solver_factorisations"),
-            std::string::npos);
-  for (const char* f : {"frame_00000.obj", "frame_00010.obj", "frame_00020.obj", "frame_00030.obj"}) {
+  EXPECT_NE(
+      rows.substr(0, rows.find('\n')).find(",solver_iterations,converged,solver_factorisations"),
+      std::string::npos);
+  for (const char* f :
+       {"frame_00000.obj", "frame_00010.obj", "frame_00020.obj", "frame_00030.obj"}) {
     ASSERT_TRUE(fs::exists(dir / f)) << f;
     expectClosedOriented(readObj((dir / f).string()));
   }
@@ -699,9 +711,12 @@ TEST(Cli, RunCutsASphereInTwoAndReportsEveryKey) {
 
 TEST(Cli, RunBadScenesFailCleanly) {
   expectCleanFailure({"run", "/nonexistent/scene.json"});
-  const std::string bad = writeScene("bad.json", R"({"bodies": [{"model": "bunny", "materials": {"default": {"poisson_ratio": 0.7}}}]})");
+  const std::string bad = writeScene(
+      "bad.json",
+      R"({"bodies": [{"model": "bunny", "materials": {"default": {"poisson_ratio": 0.7}}}]})");
   expectCleanFailure({"run", bad});
-  const std::string unknown = writeScene("unknown.json", R"({"bodies": [{"model": "bunny"}], "gravitee": [0, 0, 0]})");
+  const std::string unknown =
+      writeScene("unknown.json", R"({"bodies": [{"model": "bunny"}], "gravitee": [0, 0, 0]})");
   expectCleanFailure({"run", unknown});
   const std::string broken = writeScene("broken.json", R"({"bodies": [ )");
   expectCleanFailure({"run", broken});

@@ -35,9 +35,12 @@ TEST(Parallel, WakingTheWorkersChangesNoResult) {
 
 TEST(Parallel, SerialSwitchRunsOnCallingThreadInOrder) {
   std::vector<std::size_t> order;
-  parallelFor(5, 50, 1, [&](std::size_t b, std::size_t e) {
-    for (std::size_t i = b; i < e; ++i) order.push_back(i);
-  }, /*threaded=*/false);
+  parallelFor(
+      5, 50, 1,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) order.push_back(i);
+      },
+      /*threaded=*/false);
   ASSERT_EQ(order.size(), 45u);
   for (std::size_t i = 0; i < order.size(); ++i) EXPECT_EQ(order[i], i + 5);
 }

@@ -38,8 +38,10 @@ int referenceSoS(const std::array<Vec3d, 4>& p, const std::array<SymbolicKey, 4>
       for (int i = 0; i < 4 && valid; ++i) {
         const int c = sigma[i];
         if ((subset >> i) & 1) {
-          if (c == 3) valid = false;
-          else exponent += 1 << (3 * rank[i] + 2 - c);
+          if (c == 3)
+            valid = false;
+          else
+            exponent += 1 << (3 * rank[i] + 2 - c);
         } else {
           value *= c == 3 ? 1 : static_cast<I128>(p[i][c]);
         }
@@ -72,7 +74,8 @@ TEST(Orient3dSoS, MatchesLeibnizExpansionOnDegenerateLatticePoints) {
     std::array<Vec3d, 4> p;
     const int range = n % 2 == 0 ? 1 : 3;
     for (auto& q : p) {
-      for (int c = 0; c < 3; ++c) q[c] = static_cast<double>(static_cast<int>(rng() % (2 * range + 1)) - range);
+      for (int c = 0; c < 3; ++c)
+        q[c] = static_cast<double>(static_cast<int>(rng() % (2 * range + 1)) - range);
     }
     if (n % 5 == 0) p[rng() % 4] = p[rng() % 4];  // coincident points
     const auto k = randomKeys(rng);

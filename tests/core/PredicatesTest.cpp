@@ -164,7 +164,8 @@ TEST(Orient3d, PerturbedCoplanarLatticePoints) {
     const Vec3d u = randomInts(rng, std::int64_t{1} << 24);
     const Vec3d v = randomInts(rng, std::int64_t{1} << 24);
     const double i = static_cast<double>(rng() % 64), j = static_cast<double>(rng() % 64);
-    const Vec3d d = n % 3 == 0 ? Vec3d(a + i * u + j * v) : Vec3d(a + i * u + j * v + randomInts(rng, 1));
+    const Vec3d d =
+        n % 3 == 0 ? Vec3d(a + i * u + j * v) : Vec3d(a + i * u + j * v + randomInts(rng, 1));
     const int ref = referenceOrient3d(a, a + u, a + v, d);
     ASSERT_EQ(orient3d(a, a + u, a + v, d), ref);
     naiveWrong += naiveOrient3d(a, a + u, a + v, d) != ref;

@@ -48,7 +48,8 @@ TEST(BladeObb, HoldsEverySweepPointAndHasOrthonormalAxes) {
           w2 = 1 - w2;
         }
         const auto& t = BladeSweep::kTriangles[n % 2];
-        const Vec3d p = (1 - w1 - w2) * s.corners[t[0]] + w1 * s.corners[t[1]] + w2 * s.corners[t[2]];
+        const Vec3d p =
+            (1 - w1 - w2) * s.corners[t[0]] + w1 * s.corners[t[1]] + w2 * s.corners[t[2]];
         ASSERT_TRUE(contains(obb, p)) << p.transpose();
         if (margin > 0) {
           const Vec3d away = p + 0.999 * margin * Vec3d::Random().normalized();
@@ -60,7 +61,8 @@ TEST(BladeObb, HoldsEverySweepPointAndHasOrthonormalAxes) {
 }
 
 TEST(BladeObb, TightForAPlanarRectangle) {
-  const BladeSweep s = makeSweep({Vec3d(0, 0, 0), Vec3d(2, 0, 0)}, {Vec3d(0, 1, 0), Vec3d(2, 1, 0)}, 0);
+  const BladeSweep s =
+      makeSweep({Vec3d(0, 0, 0), Vec3d(2, 0, 0)}, {Vec3d(0, 1, 0), Vec3d(2, 1, 0)}, 0);
   const Obb obb = sweepObb(s, 0.1);
   EXPECT_NEAR((obb.centre - Vec3d(1, 0.5, 0)).norm(), 0.0, 1e-12);
   EXPECT_NEAR((obb.halfExtents - Vec3d(1.1, 0.6, 0.1)).norm(), 0.0, 1e-9);
@@ -81,7 +83,7 @@ TEST(BladeObb, FarBoxesDoNotOverlapTouchingAndContainedOnesDo) {
       EXPECT_FALSE(overlaps(obb, Eigen::AlignedBox3d(far - half, far + half)));
       // A box around a point of the OBB overlaps it.
       const Vec3d inside = obb.centre + obb.axes * obb.halfExtents.cwiseProduct(
-                                                      Vec3d(unit(rng), unit(rng), unit(rng)));
+                                                       Vec3d(unit(rng), unit(rng), unit(rng)));
       EXPECT_TRUE(overlaps(obb, Eigen::AlignedBox3d(inside - half, inside + half)));
       EXPECT_TRUE(overlaps(obb, Eigen::AlignedBox3d(inside, inside)));
     }
@@ -94,8 +96,10 @@ TEST(BladeObb, FarBoxesDoNotOverlapTouchingAndContainedOnesDo) {
           v += sgn * obb.halfExtents[k] * obb.axes.col(k);
         }
         Vec3d lo = v - Vec3d::Constant(0.5 * r + 1e-3), hi = v + Vec3d::Constant(0.5 * r + 1e-3);
-        if (side > 0) lo[axis] = v[axis];
-        else hi[axis] = v[axis];
+        if (side > 0)
+          lo[axis] = v[axis];
+        else
+          hi[axis] = v[axis];
         EXPECT_TRUE(overlaps(obb, Eigen::AlignedBox3d(lo, hi)));
         // Moved away along the axis by a visible gap, it is separated.
         const double gap = 1e-6 * (1 + r) * side;

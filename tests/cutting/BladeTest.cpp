@@ -53,7 +53,8 @@ TEST(Blade, SweepLayoutAndIds) {
 }
 
 TEST(Blade, SimpleCrossingParameterAndNormal) {
-  const auto sweeps = sweepsThrough({{Vec3d(0, 0, 0), Vec3d(1, 0, 0)}, {Vec3d(0, 1, 0), Vec3d(1, 1, 0)}});
+  const auto sweeps =
+      sweepsThrough({{Vec3d(0, 0, 0), Vec3d(1, 0, 0)}, {Vec3d(0, 1, 0), Vec3d(1, 1, 0)}});
   const auto hit = intersectSegment(sweeps[0], Vec3d(0.3, 0.6, -1), Vec3d(0.3, 0.6, 3));
   ASSERT_TRUE(hit);
   EXPECT_NEAR(hit->t, 0.25, 1e-15);
@@ -70,14 +71,15 @@ TEST(Blade, SimpleCrossingParameterAndNormal) {
 // patches: exactly one of the two triangles.
 TEST(Blade, SegmentThroughTheDiagonalIsCountedOnce) {
   for (const double lift : {0.0, 4.0, -2.0}) {
-    const BladeSweep s = makeSweep({Vec3d(0, 0, 0), Vec3d(4, 0, 0)},
-                                   {Vec3d(0, 4, 0), Vec3d(4, 4, lift)}, 3);
+    const BladeSweep s =
+        makeSweep({Vec3d(0, 0, 0), Vec3d(4, 0, 0)}, {Vec3d(0, 4, 0), Vec3d(4, 4, lift)}, 3);
     for (int k = 1; k < 8; ++k) {
       const Vec3d c = (k / 8.0) * s.corners[2];  // on the diagonal a0 b1, exactly
       for (int dx = -2; dx <= 2; ++dx) {
         for (int dy = -2; dy <= 2; ++dy) {
           const Vec3d d(dx / 8.0, dy / 8.0, 1.0);
-          for (const auto& [i0, i1] : std::initializer_list<std::pair<int, int>>{{0, 1}, {1, 0}, {17, 4}}) {
+          for (const auto& [i0, i1] :
+               std::initializer_list<std::pair<int, int>>{{0, 1}, {1, 0}, {17, 4}}) {
             ASSERT_EQ(countHits({s}, c - d, c + d, i0, i1), 1) << lift << " " << k;
             ASSERT_EQ(countHits({s}, c + d, c - d, i0, i1), 1);
           }
@@ -173,7 +175,8 @@ TEST(Blade, VoxelsOnTheSurfaceAreOnOneSide) {
           v0[axis] = k;
           v1[axis] = k + 1;
           const Vec3d p0(v0[0], v0[1], v0[2]), p1(v1[0], v1[1], v1[2]);
-          for (const BladeSweep& s : sweeps) cuts += intersectSegment(s, p0, p1, id(v0), id(v1)) ? 1 : 0;
+          for (const BladeSweep& s : sweeps)
+            cuts += intersectSegment(s, p0, p1, id(v0), id(v1)) ? 1 : 0;
         }
         // Where the grid line meets the plane 4z = x + y, times 4 (exact integers).
         Vec3d c = Vec3d::Zero();
@@ -200,7 +203,8 @@ TEST(Blade, VoxelsOnTheSurfaceAreOnOneSide) {
 // A link lying in the blade's plane is not cut; of two collinear links meeting at a voxel on
 // the plane, exactly one is, whichever the order of the ends.
 TEST(Blade, LinksInThePlaneAndThroughAVoxelOnIt) {
-  const auto sweeps = sweepsThrough({{Vec3d(0, 0, 0), Vec3d(4, 0, 0)}, {Vec3d(0, 4, 0), Vec3d(4, 4, 0)}});
+  const auto sweeps =
+      sweepsThrough({{Vec3d(0, 0, 0), Vec3d(4, 0, 0)}, {Vec3d(0, 4, 0), Vec3d(4, 4, 0)}});
   EXPECT_FALSE(intersectSegment(sweeps[0], Vec3d(1, 1, 0), Vec3d(2, 1, 0), 5, 6));
   EXPECT_FALSE(intersectSegment(sweeps[0], Vec3d(-1, 2, 0), Vec3d(5, 2, 0), 5, 6));
   for (const Vec3d& v : {Vec3d(1, 1, 0), Vec3d(2, 2, 0), Vec3d(4, 2, 0), Vec3d(1, 0, 0)}) {
@@ -220,7 +224,8 @@ TEST(Blade, LinksInThePlaneAndThroughAVoxelOnIt) {
 
 // A segment crossing a twisted patch twice reports the first crossing.
 TEST(Blade, TwiceCrossedTwistedPatchGivesTheFirstHit) {
-  const BladeSweep s = makeSweep({Vec3d(0, 0, 0), Vec3d(4, 0, 0)}, {Vec3d(0, 4, 0), Vec3d(4, 4, 8)}, 0);
+  const BladeSweep s =
+      makeSweep({Vec3d(0, 0, 0), Vec3d(4, 0, 0)}, {Vec3d(0, 4, 0), Vec3d(4, 4, 8)}, 0);
   const Vec3d p0(0.5, 3.5, 1.5), p1(3.5, 0.5, 1.5);
   EXPECT_EQ(countHits({s}, p0, p1), 2);
   const auto hit = intersectSegment(s, p0, p1);
@@ -259,7 +264,8 @@ TEST(Blade, OnPlaneSideMatchesFullSimulationOfSimplicity) {
     for (int t = 0; t < 2; ++t) {
       const auto& x = BladeSweep::kTriangles[t];
       const Vec3d &a = s.corners[x[0]], &b = s.corners[x[1]], &c = s.corners[x[2]];
-      const Vec3d p = a + static_cast<double>(dist(rng)) * (b - a) + static_cast<double>(dist(rng)) * (c - a);
+      const Vec3d p =
+          a + static_cast<double>(dist(rng)) * (b - a) + static_cast<double>(dist(rng)) * (c - a);
       const int full = orient3dSoS(a, b, c, p, {1, s.ids[x[0]]}, {1, s.ids[x[1]]}, {1, s.ids[x[2]]},
                                    {0, rng() % 1000});
       if (s.onPlaneSide[t] != 0) {
@@ -351,7 +357,8 @@ TEST(Blade, RandomRealCrossingsMatchLongDouble) {
       const long double v[5] = {vol(a, b, c, q0), vol(a, b, c, q1), vol(q0, q1, a, b),
                                 vol(q0, q1, b, c), vol(q0, q1, c, a)};
       for (const long double x5 : v) clear = clear && std::abs(x5) > 1e-12L;
-      crosses = crosses || ((v[0] > 0) != (v[1] > 0) && (v[2] > 0) == (v[3] > 0) && (v[3] > 0) == (v[4] > 0));
+      crosses = crosses ||
+                ((v[0] > 0) != (v[1] > 0) && (v[2] > 0) == (v[3] > 0) && (v[3] > 0) == (v[4] > 0));
     }
     if (!clear) continue;
     ++compared;
@@ -374,9 +381,9 @@ TEST(Blade, FlatSweepsDecideAsTheTrianglesOneByOne) {
     const int kind = n % 3;
     const auto inPlane = [&] {
       Vec3d p(0.5 * small(rng), 0.5 * small(rng), 0.5 * small(rng));
-      if (kind == 0) p.z() = 0.5;                       // z = 1/2
-      if (kind == 1) p.y() = 0.0;                       // y = 0
-      if (kind == 2) p.z() = p.x();                     // x = z
+      if (kind == 0) p.z() = 0.5;    // z = 1/2
+      if (kind == 1) p.y() = 0.0;    // y = 0
+      if (kind == 2) p.z() = p.x();  // x = z
       return p;
     };
     const BladePose from{inPlane(), inPlane()};
@@ -390,7 +397,8 @@ TEST(Blade, FlatSweepsDecideAsTheTrianglesOneByOne) {
       const Vec3d p0(0.5 * small(rng), 0.5 * small(rng), 0.5 * small(rng));
       const Vec3d p1(0.5 * small(rng), 0.5 * small(rng), 0.5 * small(rng));
       if (p0 == p1) continue;
-      const std::uint64_t id0 = static_cast<std::uint64_t>(m), id1 = 1000 + static_cast<std::uint64_t>(m);
+      const std::uint64_t id0 = static_cast<std::uint64_t>(m),
+                          id1 = 1000 + static_cast<std::uint64_t>(m);
       const auto h0 = intersectTriangle(s, 0, p0, p1, id0, id1);
       const auto h1 = intersectTriangle(s, 1, p0, p1, id0, id1);
       const auto hit = intersectSegment(s, p0, p1, id0, id1);
@@ -400,7 +408,9 @@ TEST(Blade, FlatSweepsDecideAsTheTrianglesOneByOne) {
       const int expected = h0 && (!h1 || h0->t <= h1->t) ? 0 : 1;
       EXPECT_EQ(hit->triangle, expected) << n << " " << m;
       onPlane += (std::abs(s.normals[0].dot(p0 - s.corners[0])) < 1e-12 ||
-                  std::abs(s.normals[0].dot(p1 - s.corners[0])) < 1e-12) ? 1 : 0;
+                  std::abs(s.normals[0].dot(p1 - s.corners[0])) < 1e-12)
+                     ? 1
+                     : 0;
     }
   }
   EXPECT_GT(flat, 2000);
@@ -410,10 +420,10 @@ TEST(Blade, FlatSweepsDecideAsTheTrianglesOneByOne) {
 
 TEST(Blade, FlatOnlyWhenCoplanarWithTheTrianglesOnEitherSideOfTheDiagonal) {
   const BladePose a{{0, 0, 0}, {1, 0, 0}};
-  EXPECT_TRUE(makeSweep(a, {{0, 0, 1}, {1, 0, 1}}, 0).flat);       // pushed within its plane
-  EXPECT_TRUE(makeSweep(a, {{0.5, 0, 1}, {2, 0, 2}}, 0).flat);     // turning within it
-  EXPECT_FALSE(makeSweep(a, {{0, 0, 1}, {1, 0.5, 1}}, 0).flat);    // twisted
-  EXPECT_FALSE(makeSweep(a, {{0, 0, 0}, {1, 0, 0}}, 0).flat);      // not moving
+  EXPECT_TRUE(makeSweep(a, {{0, 0, 1}, {1, 0, 1}}, 0).flat);     // pushed within its plane
+  EXPECT_TRUE(makeSweep(a, {{0.5, 0, 1}, {2, 0, 2}}, 0).flat);   // turning within it
+  EXPECT_FALSE(makeSweep(a, {{0, 0, 1}, {1, 0.5, 1}}, 0).flat);  // twisted
+  EXPECT_FALSE(makeSweep(a, {{0, 0, 0}, {1, 0, 0}}, 0).flat);    // not moving
   // c1 and c3 on the same side of the diagonal c0-c2: the triangles overlap.
   EXPECT_FALSE(makeSweep(a, {{1.5, 0, 0.25}, {2, 0, 1}}, 0).flat);
 }

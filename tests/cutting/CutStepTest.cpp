@@ -53,7 +53,8 @@ TEST(CutStep, OctreeCutsEqualTheBaselineForEveryModelAndDeformation) {
   const std::pair<const char*, int> models[] = {{"bunny", 64}, {"liver", 64}, {"starfish", 100}};
   for (const auto& [name, res] : models) {
     const VoxelGrid g = model(name, res);
-    for (Deformation d : {Deformation::None, Deformation::Rigid, Deformation::Bend, Deformation::Twist}) {
+    for (Deformation d :
+         {Deformation::None, Deformation::Rigid, Deformation::Bend, Deformation::Twist}) {
       const CutBody withOctree = body(g, true, d);
       const CutBody baseline = body(g, false, d);
       std::vector<BladeMotion> blades{defaultBladeMotion(withOctree)};
@@ -64,12 +65,14 @@ TEST(CutStep, OctreeCutsEqualTheBaselineForEveryModelAndDeformation) {
         const SingleFrameResult o = runSingleFrameCut(withOctree, blades[k], sp);
         const SingleFrameResult b = runSingleFrameCut(baseline, blades[k], sp);
         ASSERT_GT(b.step.cuts.size(), 50u) << name << " blade " << k;
-        ASSERT_EQ(o.step.cuts.size(), b.step.cuts.size()) << name << " " << deformationName(d) << " blade " << k;
+        ASSERT_EQ(o.step.cuts.size(), b.step.cuts.size())
+            << name << " " << deformationName(d) << " blade " << k;
         ASSERT_EQ(o.cutHash, b.cutHash) << name << " " << deformationName(d) << " blade " << k;
         EXPECT_LT(o.activeVoxelsBefore, b.activeVoxelsBefore);
         // The grids agree link for link afterwards.
         for (std::size_t v = 0; v < g.voxelCount(); ++v)
-          for (int a = 0; a < 3; ++a) ASSERT_EQ(o.body.grid.connected(v, a), b.body.grid.connected(v, a));
+          for (int a = 0; a < 3; ++a)
+            ASSERT_EQ(o.body.grid.connected(v, a), b.body.grid.connected(v, a));
       }
     }
   }
@@ -108,7 +111,8 @@ TEST(CutStep, BladeEndingInsideTheModelCutsEqualTheBaseline) {
         sp.contour = false;
         const SingleFrameResult o = runSingleFrameCut(withOctree, m, sp);
         const SingleFrameResult b = runSingleFrameCut(baseline, m, sp);
-        ASSERT_EQ(o.step.cuts.size(), b.step.cuts.size()) << name << " " << deformationName(d) << " blade " << k;
+        ASSERT_EQ(o.step.cuts.size(), b.step.cuts.size())
+            << name << " " << deformationName(d) << " blade " << k;
         ASSERT_EQ(o.cutHash, b.cutHash) << name << " " << deformationName(d) << " blade " << k;
         reached += o.step.subdivision.boundaryCubes;
       }
@@ -178,12 +182,14 @@ TEST(CutStep, ShortSweepCutsExactlyTheCrossedLinks) {
       for (int a = 0; a < 3; ++a) {
         if (!g.occupied(v) || !g.hasLink(v, a) || !g.connected(v, a)) continue;
         const std::size_t w = v + g.stride(a);
-        if (intersectSegment(sweep, b.deformation.voxelPosition(v), b.deformation.voxelPosition(w), v, w))
+        if (intersectSegment(sweep, b.deformation.voxelPosition(v), b.deformation.voxelPosition(w),
+                             v, w))
           expected.push_back(VoxelGrid::linkId(v, a));
       }
     const CutStepResult r = cutStep(b, sweep);
     ASSERT_GT(r.markedElements, 0u);
-    ASSERT_LT(4 * r.markedElements, b.deformation.elementCount()) << "the blade should reach few elements";
+    ASSERT_LT(4 * r.markedElements, b.deformation.elementCount())
+        << "the blade should reach few elements";
     ASSERT_GT(expected.size(), 20u);
     std::vector<std::uint64_t> cut;
     for (const LinkCut& lc : r.cuts) cut.push_back(lc.link);
@@ -214,7 +220,8 @@ TEST(CutStep, CutSetDoesNotDependOnThreadCount) {
 }
 
 TEST(CutStep, CutThroughTheMiddleLeavesTwoClosedPieces) {
-  for (const auto& [name, res] : std::vector<std::pair<std::string, int>>{{"bunny", 101}, {"liver", 80}, {"starfish", 120}}) {
+  for (const auto& [name, res] :
+       std::vector<std::pair<std::string, int>>{{"bunny", 101}, {"liver", 80}, {"starfish", 120}}) {
     const VoxelGrid g = model(name, res);
     const CutBody b = body(g, true, Deformation::None);
     const SingleFrameResult r = runSingleFrameCut(b, defaultBladeMotion(b), {});
@@ -277,7 +284,9 @@ TEST(CutStep, HermiteDataIsInTheRestFrame) {
   CutBody b = body(g, false, Deformation::Rigid);
   const Vec3d centre = b.deformation.restVoxelBounds().center();
   // Blade in the rest frame: the plane y = centre.y, moved into the deformed frame.
-  auto toWorld = [&](const Vec3d& p) { return deformedPoint(b.deformation, Deformation::Rigid, 1.0, p); };
+  auto toWorld = [&](const Vec3d& p) {
+    return deformedPoint(b.deformation, Deformation::Rigid, 1.0, p);
+  };
   const double r = 0.2;
   BladeMotion m;
   m.from = {toWorld(centre + Vec3d(-r, 0, -r)), toWorld(centre + Vec3d(r, 0, -r))};

@@ -59,7 +59,8 @@ TEST(Fragments, ASingleVoxelCutLooseIsReattachedByItsLowestLink) {
   const std::vector<std::uint64_t> healed = healSmallFragments(g, cuts, 8);
   ASSERT_EQ(healed, std::vector<std::uint64_t>{lowest});
   EXPECT_EQ(cuts.size(), 5u);
-  EXPECT_TRUE(std::none_of(cuts.begin(), cuts.end(), [&](const LinkCut& c) { return c.link == lowest; }));
+  EXPECT_TRUE(
+      std::none_of(cuts.begin(), cuts.end(), [&](const LinkCut& c) { return c.link == lowest; }));
   EXPECT_EQ(findPieces(g).count, 1);
   EXPECT_TRUE(g.connected(static_cast<std::size_t>(lowest / 3), 2));
   // The interface data it had before the cut is back; the other cuts keep theirs.
@@ -117,7 +118,8 @@ TEST(Fragments, NeighbouringFragmentsAreAllReattached) {
   g.setConnected(v, 0, false);
   g.hermite().set(between.link, between.hermite);
   cuts.push_back(between);
-  std::sort(cuts.begin(), cuts.end(), [](const LinkCut& x, const LinkCut& y) { return x.link < y.link; });
+  std::sort(cuts.begin(), cuts.end(),
+            [](const LinkCut& x, const LinkCut& y) { return x.link < y.link; });
   const std::vector<std::uint64_t> healed = healSmallFragments(g, cuts, 8);
   EXPECT_EQ(findPieces(g).count, 1);
   EXPECT_LE(healed.size(), 2u);

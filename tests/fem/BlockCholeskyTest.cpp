@@ -55,7 +55,8 @@ LatticeCase latticeCase(int nx, int ny, int nz, int pieces, unsigned seed) {
   for (int i = 0; i < rows; ++i) {
     for (int k = 0; k < rows; ++k) {
       if (i != k && a.block<3, 3>(3 * i, 3 * k).isZero(0.0)) continue;
-      if (i == k) c.sp.diagonal[static_cast<std::size_t>(i)] = static_cast<std::uint32_t>(c.sp.column.size());
+      if (i == k)
+        c.sp.diagonal[static_cast<std::size_t>(i)] = static_cast<std::uint32_t>(c.sp.column.size());
       c.sp.column.push_back(static_cast<std::uint32_t>(k));
       c.blocks.push_back(a.block<3, 3>(3 * i, 3 * k));
     }

@@ -30,7 +30,8 @@ DenseCase denseCase(int rows, unsigned seed) {
   c.sp.diagonal.resize(static_cast<std::size_t>(rows));
   for (int i = 0; i < rows; ++i) {
     for (int j = 0; j < rows; ++j) {
-      if (i == j) c.sp.diagonal[static_cast<std::size_t>(i)] = static_cast<std::uint32_t>(c.sp.column.size());
+      if (i == j)
+        c.sp.diagonal[static_cast<std::size_t>(i)] = static_cast<std::uint32_t>(c.sp.column.size());
       c.sp.column.push_back(static_cast<std::uint32_t>(j));
       c.blocks.push_back(c.a.block<3, 3>(3 * i, 3 * j));
     }
@@ -56,8 +57,7 @@ TEST(BlockPreconditioner, IncompleteCholeskyOfAFullPatternIsExact) {
   applyIncompleteCholesky(c.sp, factor, r, z);
   EXPECT_LE((c.a * flat(z) - flat(r)).norm(), 1e-12 * flat(r).norm());
   // Mirrors pair (i, k) with (k, i).
-  for (std::size_t s = 0; s < c.sp.blockCount(); ++s)
-    EXPECT_EQ(c.sp.mirror[c.sp.mirror[s]], s);
+  for (std::size_t s = 0; s < c.sp.blockCount(); ++s) EXPECT_EQ(c.sp.mirror[c.sp.mirror[s]], s);
 }
 
 TEST(BlockPreconditioner, SymmetricGaussSeidelMatchesItsDefinition) {
@@ -108,8 +108,10 @@ TEST(BlockPreconditioner, IncompleteCholeskyOnAMeshMatchesThePatternAndIsSymmetr
   if (factor.replacedPivots == 0)
     for (std::size_t i = 0; i < rows; ++i)
       for (std::uint32_t s = sp.rowStart[i]; s < sp.rowStart[i + 1]; ++s) {
-        const auto ii = 3 * static_cast<Eigen::Index>(i), kk = 3 * static_cast<Eigen::Index>(sp.column[s]);
-        worst = std::max(worst, (m.block<3, 3>(ii, kk) - a.block<3, 3>(ii, kk)).cwiseAbs().maxCoeff());
+        const auto ii = 3 * static_cast<Eigen::Index>(i),
+                   kk = 3 * static_cast<Eigen::Index>(sp.column[s]);
+        worst =
+            std::max(worst, (m.block<3, 3>(ii, kk) - a.block<3, 3>(ii, kk)).cwiseAbs().maxCoeff());
       }
   EXPECT_EQ(factor.replacedPivots, 0u);
   EXPECT_LE(worst, 1e-10 * a.cwiseAbs().maxCoeff());

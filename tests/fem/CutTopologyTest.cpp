@@ -291,12 +291,14 @@ TEST(CutTopology, BunnyBladeSequence) {
   vp.resolution.resolution = 101;
   const VoxelGrid start = voxelize(loadModel("bunny").materials, vp);
   const Index3 d = start.dims();
-  const auto frames = bladeFrames(start, static_cast<int>(0.8 * d.y), d.x / 8, d.x * 5 / 8, 0.8 * d.z, 0.2 * d.z, 30);
+  const auto frames = bladeFrames(start, static_cast<int>(0.8 * d.y), d.x / 8, d.x * 5 / 8,
+                                  0.8 * d.z, 0.2 * d.z, 30);
   struct Run {
     VoxelGrid grid;
     DeformationOctree octree;
   };
-  std::array<Run, 2> runs{Run{start, buildDeformationOctree(start)}, Run{start, buildDeformationOctree(start)}};
+  std::array<Run, 2> runs{Run{start, buildDeformationOctree(start)},
+                          Run{start, buildDeformationOctree(start)}};
   for (Run& r : runs) shake(r.octree, 21);
   std::size_t links = 0, updates = 0;
   for (const auto& cut : frames) {
@@ -306,11 +308,13 @@ TEST(CutTopology, BunnyBladeSequence) {
       ThreadLimit limit(t + 1);
       Run& r = runs[static_cast<std::size_t>(t)];
       for (std::uint64_t id : cut) r.grid.setConnected(id / 3, static_cast<int>(id % 3), false);
-      const std::vector<Vec3d> moved = t == 0 ? voxelPositions(r.grid, r.octree) : std::vector<Vec3d>{};
+      const std::vector<Vec3d> moved =
+          t == 0 ? voxelPositions(r.grid, r.octree) : std::vector<Vec3d>{};
       tc[static_cast<std::size_t>(t)] = updateCutTopology(r.octree, r.grid, cut);
       if (t == 0) {
         const std::vector<Vec3d> after = voxelPositions(r.grid, r.octree);
-        for (std::size_t v = 0; v < after.size(); ++v) ASSERT_LE((after[v] - moved[v]).norm(), 1e-12) << v;
+        for (std::size_t v = 0; v < after.size(); ++v)
+          ASSERT_LE((after[v] - moved[v]).norm(), 1e-12) << v;
       }
     }
     expectSame(runs[0].octree, runs[1].octree, tc[0], tc[1]);

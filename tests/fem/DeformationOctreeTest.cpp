@@ -230,7 +230,8 @@ TEST(DeformationOctree, VoxelPositionListMatchesSingleAndThreads) {
     for (std::size_t i = 0; i < voxels.size(); ++i) {
       ASSERT_EQ(embeddings[i].element, owners[i]);
       ASSERT_EQ(inMask[i], mask[owners[i]]);
-      ASSERT_EQ(five[i], !onlyMasked || mask[owners[i]] ? one[i] : untouched) << "voxel " << voxels[i];
+      ASSERT_EQ(five[i], !onlyMasked || mask[owners[i]] ? one[i] : untouched)
+          << "voxel " << voxels[i];
       ASSERT_EQ(oc.voxelPosition(embeddings[i]), one[i]);
     }
   }

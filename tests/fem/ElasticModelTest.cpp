@@ -175,8 +175,8 @@ TEST(ElasticModelTopology, GivenFixedFlagsEqualSetFixedAfterTheUpdate) {
 /// Every array of the reduced system's structure is equal, bit for bit.
 void expectSameStructure(const ElasticModel& a, const ElasticModel& b) {
   ASSERT_EQ(a.freeNodes(), b.freeNodes());
-  for (auto rows : {&ElasticModel::prolongation, &ElasticModel::restriction,
-                    &ElasticModel::incidence}) {
+  for (auto rows :
+       {&ElasticModel::prolongation, &ElasticModel::restriction, &ElasticModel::incidence}) {
     ASSERT_EQ((a.*rows)().start, (b.*rows)().start);
     ASSERT_EQ((a.*rows)().index, (b.*rows)().index);
     ASSERT_EQ((a.*rows)().weight, (b.*rows)().weight);
@@ -206,8 +206,8 @@ TEST(ElasticModelTopology, CutUpdateEqualsAFullRebuildAndCopiesMostRows) {
   model.setFixed(fixed);
   ASSERT_GT(octree.hangingNodeCount(), 0u);
   const Index3 d = grid.dims();
-  const auto frames = test::bladeFrames(grid, static_cast<int>(0.8 * d.y), d.x / 8,
-                                        d.x * 5 / 8, 0.8 * d.z, 0.2 * d.z, 12);
+  const auto frames = test::bladeFrames(grid, static_cast<int>(0.8 * d.y), d.x / 8, d.x * 5 / 8,
+                                        0.8 * d.z, 0.2 * d.z, 12);
   std::size_t updates = 0, rows = 0, copied = 0;
   for (const auto& cut : frames) {
     if (cut.empty()) continue;
@@ -266,7 +266,8 @@ TEST(ElasticModelTopology, StructureIsTheSameWithOneAndTwoThreads) {
   // hanging node sum to 1 (an unconstrained node reproduces constant fields).
   for (std::size_t i = 0; i < serial.freeNodeCount(); ++i) {
     EXPECT_EQ(a.column[a.diagonal[i]], i);
-    EXPECT_TRUE(std::is_sorted(a.column.begin() + a.rowStart[i], a.column.begin() + a.rowStart[i + 1]));
+    EXPECT_TRUE(
+        std::is_sorted(a.column.begin() + a.rowStart[i], a.column.begin() + a.rowStart[i + 1]));
   }
   const WeightedRows& p = serial.prolongation();
   for (const HangingNode& h : oc.hangingNodes()) {

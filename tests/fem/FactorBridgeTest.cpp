@@ -27,7 +27,8 @@ struct CutBlock {
 
 CutBlock cutBlock() {
   CutBlock c;
-  c.grid = makeGrid({9, 41, 9}, 0.003, [](int x, int y, int z) { return x < 8 && y < 40 && z < 8 ? 1 : 0; });
+  c.grid = makeGrid({9, 41, 9}, 0.003,
+                    [](int x, int y, int z) { return x < 8 && y < 40 && z < 8 ? 1 : 0; });
   c.octree = makeOctree(c.grid, 2, 2);
   std::vector<ElasticMaterial> mats(2);
   mats[1] = {1e5, 0.35, 1000.0, 0.5, 0.01};
@@ -43,7 +44,8 @@ CutBlock cutBlock() {
 
 // Applies the cut to the grid, the octree and the model; returns the change.
 TopologyChange applyCut(CutBlock& c) {
-  for (std::uint64_t l : c.cut) c.grid.setConnected(static_cast<std::size_t>(l / 3), static_cast<int>(l % 3), false);
+  for (std::uint64_t l : c.cut)
+    c.grid.setConnected(static_cast<std::size_t>(l / 3), static_cast<int>(l % 3), false);
   CutTopologyParams p;
   p.finestLevel = 1;
   TopologyChange tc = updateCutTopology(c.octree, c.grid, c.cut, p);
@@ -120,13 +122,17 @@ TEST(FactorBridge, AfterACutItIsSymmetricPositiveDefinite) {
   // As a preconditioner of the new system: the condition number of M^-1 A (the eigenvalues
   // of C^T A C with M^-1 = C C^T) is a tenth of block Jacobi's D^-1 A or less.
   const auto condition = [&](const Eigen::MatrixXd& inverse) {
-    const Eigen::MatrixXd l = Eigen::LLT<Eigen::MatrixXd>(0.5 * (inverse + inverse.transpose())).matrixL();
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> e(l.transpose() * sys.dense * l, Eigen::EigenvaluesOnly);
+    const Eigen::MatrixXd l =
+        Eigen::LLT<Eigen::MatrixXd>(0.5 * (inverse + inverse.transpose())).matrixL();
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> e(l.transpose() * sys.dense * l,
+                                                           Eigen::EigenvaluesOnly);
     return e.eigenvalues().maxCoeff() / e.eigenvalues().minCoeff();
   };
   Eigen::MatrixXd jacobi = Eigen::MatrixXd::Zero(m.rows(), m.cols());
   const std::vector<Eigen::Matrix3d> dinv = diagonalInverses(c.model, sys);
-  for (std::size_t i = 0; i < rows; ++i) jacobi.block<3, 3>(3 * static_cast<Eigen::Index>(i), 3 * static_cast<Eigen::Index>(i)) = dinv[i];
+  for (std::size_t i = 0; i < rows; ++i)
+    jacobi.block<3, 3>(3 * static_cast<Eigen::Index>(i), 3 * static_cast<Eigen::Index>(i)) =
+        dinv[i];
   const double bridged = condition(m), blockJacobi = condition(jacobi);
   RecordProperty("condition_bridged", std::to_string(bridged));
   RecordProperty("condition_block_jacobi", std::to_string(blockJacobi));
@@ -207,7 +213,8 @@ TEST(ImplicitEulerDynamics, AWornBridgeHandsCutStepsToTwoLevel) {
     EXPECT_TRUE(second.converged);
     EXPECT_FALSE(second.factorised);
     EXPECT_EQ(second.bridged, limit > 0) << limit;
-    EXPECT_EQ(second.preconditioner, limit > 0 ? Preconditioner::Cholesky : Preconditioner::TwoLevel);
+    EXPECT_EQ(second.preconditioner,
+              limit > 0 ? Preconditioner::Cholesky : Preconditioner::TwoLevel);
   }
 }
 

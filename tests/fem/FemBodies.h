@@ -24,7 +24,8 @@ inline std::vector<Vec3d> randomVector(std::size_t rows, unsigned seed) {
 /// The 3-vectors one after the other, as one vector.
 inline Eigen::VectorXd flat(const std::vector<Vec3d>& v) {
   Eigen::VectorXd out(static_cast<Eigen::Index>(3 * v.size()));
-  for (std::size_t i = 0; i < v.size(); ++i) out.segment<3>(3 * static_cast<Eigen::Index>(i)) = v[i];
+  for (std::size_t i = 0; i < v.size(); ++i)
+    out.segment<3>(3 * static_cast<Eigen::Index>(i)) = v[i];
   return out;
 }
 

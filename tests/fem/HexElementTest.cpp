@@ -217,8 +217,8 @@ TEST(HexElement, PolarRotationOfStronglyStretchedElements) {
   // (left to the SVD) still give the rotation to round-off.
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(-1, 1);
-  for (const Vec3d& stretch : {Vec3d(10, 1, 0.05), Vec3d(0.01, 3, 2), Vec3d(1e-7, 1, 1),
-                               Vec3d(1, 1 + 1e-12, 1)}) {
+  for (const Vec3d& stretch :
+       {Vec3d(10, 1, 0.05), Vec3d(0.01, 3, 2), Vec3d(1e-7, 1, 1), Vec3d(1, 1 + 1e-12, 1)}) {
     for (int trial = 0; trial < 10; ++trial) {
       const Eigen::Matrix3d q =
           Eigen::AngleAxisd(3.0 * u(rng), Vec3d(u(rng), u(rng), u(rng)).normalized())

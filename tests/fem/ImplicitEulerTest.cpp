@@ -490,8 +490,9 @@ TEST(ImplicitEulerDynamics, CoupledPreconditionersAgreeWithBlockJacobi) {
   Body reference = base;
   ImplicitEuler sr(p);
   for (int s = 0; s < 5; ++s) ASSERT_TRUE(sr.step(reference.model, reference.octree).converged);
-  for (Preconditioner kind : {Preconditioner::SymmetricGaussSeidel, Preconditioner::IncompleteCholesky,
-                              Preconditioner::TwoLevel, Preconditioner::Cholesky}) {
+  for (Preconditioner kind :
+       {Preconditioner::SymmetricGaussSeidel, Preconditioner::IncompleteCholesky,
+        Preconditioner::TwoLevel, Preconditioner::Cholesky}) {
     Body b = base;
     p.preconditioner = kind;
     ImplicitEuler solver(p);

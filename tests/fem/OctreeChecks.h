@@ -154,7 +154,8 @@ inline void expectOctreeInvariants(const VoxelGrid& grid, const DeformationOctre
       used[e.nodes[static_cast<std::size_t>(c)]] = 1;
     }
   }
-  for (std::uint32_t n = 0; n < oc.nodeCount(); ++n) ASSERT_EQ(used[n], 1) << "node " << n << " unused";
+  for (std::uint32_t n = 0; n < oc.nodeCount(); ++n)
+    ASSERT_EQ(used[n], 1) << "node " << n << " unused";
   // 2:1 rule over vertex adjacency (brute force over cubes).
   std::vector<std::uint32_t> reps;
   for (const auto& kv : cubes) reps.push_back(kv.second.front());
@@ -169,7 +170,8 @@ inline void expectOctreeInvariants(const VoxelGrid& grid, const DeformationOctre
   for (std::uint32_t n = 0; n < oc.nodeCount(); ++n)
     nodePoints.insert({oc.nodeCoord(n).x, oc.nodeCoord(n).y, oc.nodeCoord(n).z});
   for (std::uint32_t r : reps)
-    for (const auto& p : nodePoints) ASSERT_NE(boundaryKind(els[r], {p[0], p[1], p[2]}), 0) << "node inside an element";
+    for (const auto& p : nodePoints)
+      ASSERT_NE(boundaryKind(els[r], {p[0], p[1], p[2]}), 0) << "node inside an element";
   // Hanging nodes: at the edge midpoint or face centre of their coarse element copy, the mean
   // of its corners there, masters resolved before dependants.
   std::vector<int> position(oc.nodeCount(), -1);

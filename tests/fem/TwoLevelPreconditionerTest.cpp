@@ -168,7 +168,8 @@ TEST(TwoLevelPreconditioner, ApplyIsTheSymmetricVCycle) {
     }
   const std::vector<Vec3d> r1 = randomVector(sp.diagonal.size(), 1),
                            r2 = randomVector(sp.diagonal.size(), 2);
-  for (const std::vector<Vec3d>* positions : {static_cast<const std::vector<Vec3d>*>(nullptr), &x}) {
+  for (const std::vector<Vec3d>* positions :
+       {static_cast<const std::vector<Vec3d>*>(nullptr), &x}) {
     SCOPED_TRACE(positions ? "rigid modes" : "translations");
     const Eigen::MatrixXd t = densePrologation(agg, positions);
     if (positions) {
@@ -207,7 +208,8 @@ TEST(TwoLevelPreconditioner, CollinearAggregatesKeepTranslationsOnly) {
   const BlockSparsity& sp = c.body.model.sparsity();
   const NodeAggregation& agg = c.body.model.aggregation();
   std::vector<Vec3d> line(sp.diagonal.size());
-  for (std::size_t i = 0; i < line.size(); ++i) line[i] = Vec3d(0.001 * static_cast<double>(i), 0, 0);
+  for (std::size_t i = 0; i < line.size(); ++i)
+    line[i] = Vec3d(0.001 * static_cast<double>(i), 0, 0);
   TwoLevelPreconditioner pre;
   ASSERT_TRUE(pre.setup(sp, agg, c.blocks, &line, true));
   EXPECT_EQ(pre.coarseSize(), static_cast<Eigen::Index>(3 * agg.count()));
@@ -226,7 +228,8 @@ TEST(TwoLevelPreconditioner, WithoutACoarseFactorItIsSymmetricGaussSeidel) {
   std::vector<Vec3d> z, sgs;
   pre.apply(sp, agg, c.blocks, c.inverse, r, z, true);
   applySymmetricGaussSeidel(sp, c.blocks, c.inverse, r, sgs);
-  for (std::size_t i = 0; i < z.size(); ++i) EXPECT_LE((z[i] - sgs[i]).norm(), 1e-12 * sgs[i].norm() + 1e-300);
+  for (std::size_t i = 0; i < z.size(); ++i)
+    EXPECT_LE((z[i] - sgs[i]).norm(), 1e-12 * sgs[i].norm() + 1e-300);
 }
 
 }  // namespace

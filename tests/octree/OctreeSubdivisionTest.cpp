@@ -22,7 +22,8 @@ VoxelGrid model(const char* name, int resolution) {
 }
 
 // The plane n.x = d as a "blade" on rest positions, decided like cutWithPlane.
-std::optional<Hermite> planeTest(const VoxelGrid& g, const Vec3d& n, double d, std::size_t v, int a) {
+std::optional<Hermite> planeTest(const VoxelGrid& g, const Vec3d& n, double d, std::size_t v,
+                                 int a) {
   const double s0 = n.dot(g.position(v)) - d, s1 = n.dot(g.position(v + g.stride(a))) - d;
   if ((s0 < 0) == (s1 < 0)) return std::nullopt;
   Hermite h;
@@ -42,7 +43,8 @@ SubdivisionStats cutWithOctree(VoxelGrid& g, VoxelOctree& oct, const Vec3d& n, d
   for (std::uint32_t v : oct.activeVoxels)
     for (int a = 0; a < 3; ++a)
       if (oct.linkActive(v, a) && g.connected(v, a))
-        if (const auto h = planeTest(g, n, d, v, a)) cuts.push_back({VoxelGrid::linkId(v, a), *h, std::nullopt});
+        if (const auto h = planeTest(g, n, d, v, a))
+          cuts.push_back({VoxelGrid::linkId(v, a), *h, std::nullopt});
   for (const LinkCut& c : cuts) {
     g.setConnected(static_cast<std::size_t>(c.link / 3), static_cast<int>(c.link % 3), false);
     g.hermite().set(c.link, c.hermite);
@@ -140,8 +142,9 @@ TEST(OctreeSubdivision, PlanarCutsEqualTheBaselineLinkForLink) {
   std::uniform_real_distribution<double> U(-1.0, 1.0);
   for (const char* name : {"bunny", "liver"}) {
     const VoxelGrid rest = model(name, 64);
-    const Vec3d centre = rest.origin() + 0.5 * rest.voxelSize() *
-                                             Vec3d(rest.dims().x - 1, rest.dims().y - 1, rest.dims().z - 1);
+    const Vec3d centre =
+        rest.origin() +
+        0.5 * rest.voxelSize() * Vec3d(rest.dims().x - 1, rest.dims().y - 1, rest.dims().z - 1);
     for (int trial = 0; trial < 4; ++trial) {
       const Vec3d n = Vec3d(U(rng), U(rng), U(rng)).normalized();
       const double d = n.dot(centre) + 0.2 * U(rng) * rest.voxelSize() * 10;
@@ -157,14 +160,16 @@ TEST(OctreeSubdivision, PlanarCutsEqualTheBaselineLinkForLink) {
       EXPECT_GT(opened.size(), 0u);
       EXPECT_GT(oct.activeVoxels.size(), before);
       for (std::size_t v = 0; v < g.voxelCount(); ++v)
-        for (int a = 0; a < 3; ++a) ASSERT_EQ(g.connected(v, a), base.connected(v, a)) << name << " " << trial;
+        for (int a = 0; a < 3; ++a)
+          ASSERT_EQ(g.connected(v, a), base.connected(v, a)) << name << " " << trial;
       ASSERT_EQ(g.hermite().sortedLinks(), base.hermite().sortedLinks());
       expectOctreeConsistent(g, oct);
       expectActiveTablesConsistent(g, oct);
       // A link is handed to the link test at most twice (a centre-line link lies in two
       // mid-planes), and far fewer links than the grid holds are asked about.
       std::sort(asked.begin(), asked.end());
-      for (std::size_t i = 2; i < asked.size(); ++i) ASSERT_FALSE(asked[i] == asked[i - 2]) << asked[i];
+      for (std::size_t i = 2; i < asked.size(); ++i)
+        ASSERT_FALSE(asked[i] == asked[i - 2]) << asked[i];
       EXPECT_LT(asked.size(), g.voxelCount() / 4);
       EXPECT_GE(s.testedLinks, asked.size());
     }
@@ -201,7 +206,8 @@ TEST(OctreeSubdivision, LevelOneCubesTestOnlyTheCentreLinksACutCanCross) {
         --below[a];
         const bool centreAsked = wasAsked(below, a) || wasAsked(c, a);
         if (a != 1) {
-          EXPECT_FALSE(centreAsked) << "offset " << offset << " cube " << o.x << "," << o.y << "," << o.z;
+          EXPECT_FALSE(centreAsked)
+              << "offset " << offset << " cube " << o.x << "," << o.y << "," << o.z;
         } else {
           alongY += centreAsked ? 1 : 0;
         }
@@ -250,7 +256,8 @@ TEST(OctreeSubdivision, IncrementalActiveTablesEqualAFullRebuild) {
   // Two cuts in a row: each rebuild after the first starts from the tables of the one before.
   VoxelGrid g = model("liver", 64);
   VoxelOctree oct = buildVoxelOctree(g, OctreeParams::uniform(g.materialNames().size(), 4, 0));
-  const Vec3d centre = g.origin() + 0.5 * g.voxelSize() * Vec3d(g.dims().x - 1, g.dims().y - 1, g.dims().z - 1);
+  const Vec3d centre =
+      g.origin() + 0.5 * g.voxelSize() * Vec3d(g.dims().x - 1, g.dims().y - 1, g.dims().z - 1);
   std::vector<std::uint64_t> asked;
   for (const Vec3d& n : {Vec3d(1.0, 0.2, 0.1).normalized(), Vec3d(0.1, 0.3, 1.0).normalized()}) {
     const std::size_t before = oct.activeVoxels.size();
@@ -316,9 +323,10 @@ TEST(OctreeSubdivision, SweepInsideACubeIsFoundFromItsBoundary) {
         for (int dz = -1; dz <= 1; ++dz)
           for (int dy = -1; dy <= 1; ++dy)
             for (int dx = -1; dx <= 1; ++dx) {
-              const std::int32_t id = oct.cellCube[rest.index(static_cast<int>(std::floor(q.x())) + dx,
-                                                              static_cast<int>(std::floor(q.y())) + dy,
-                                                              static_cast<int>(std::floor(q.z())) + dz)];
+              const std::int32_t id =
+                  oct.cellCube[rest.index(static_cast<int>(std::floor(q.x())) + dx,
+                                          static_cast<int>(std::floor(q.y())) + dy,
+                                          static_cast<int>(std::floor(q.z())) + dz)];
               if (id >= 0 && !listed[static_cast<std::size_t>(id)]) {
                 listed[static_cast<std::size_t>(id)] = 1;
                 b.cubes.push_back(static_cast<std::uint32_t>(id));
@@ -334,8 +342,10 @@ TEST(OctreeSubdivision, SweepInsideACubeIsFoundFromItsBoundary) {
     for (std::uint32_t v : oct.activeVoxels)
       for (int a = 0; a < 3; ++a)
         if (oct.linkActive(v, a) && g.connected(v, a))
-          if (const auto h = crossing(r, v, a)) cuts.push_back({VoxelGrid::linkId(v, a), *h, std::nullopt});
-    for (const LinkCut& c : cuts) g.setConnected(static_cast<std::size_t>(c.link / 3), static_cast<int>(c.link % 3), false);
+          if (const auto h = crossing(r, v, a))
+            cuts.push_back({VoxelGrid::linkId(v, a), *h, std::nullopt});
+    for (const LinkCut& c : cuts)
+      g.setConnected(static_cast<std::size_t>(c.link / 3), static_cast<int>(c.link % 3), false);
     SubdivisionHooks hooks;
     SubdivisionWorkspace workspace;
     hooks.testLink = [&](std::size_t v, int a, VoxelPositionCache&) { return crossing(r, v, a); };
@@ -348,7 +358,8 @@ TEST(OctreeSubdivision, SweepInsideACubeIsFoundFromItsBoundary) {
     std::sort(ids.begin(), ids.end());
     return std::make_pair(ids, s);
   };
-  const Vec3d centre = Vec3d(cube.origin.x, cube.origin.y, cube.origin.z) + Vec3d::Constant(0.5 * size);
+  const Vec3d centre =
+      Vec3d(cube.origin.x, cube.origin.y, cube.origin.z) + Vec3d::Constant(0.5 * size);
   const Rectangle r{centre + Vec3d(0.23, -0.41, 0.17), 0.3 * size};
   std::vector<std::uint64_t> expected;
   for (std::size_t v = 0; v < rest.voxelCount(); ++v)
@@ -372,7 +383,9 @@ TEST(OctreeSubdivision, SweepInsideACubeIsFoundFromItsBoundary) {
   }
   {
     // Half a voxel across, around the centre of a unit cell: it crosses no link.
-    const Rectangle tiny{Vec3d(std::floor(r.c.x()) + 0.5, std::floor(r.c.y()) + 0.5, std::floor(r.c.z()) + 0.5), 0.25};
+    const Rectangle tiny{
+        Vec3d(std::floor(r.c.x()) + 0.5, std::floor(r.c.y()) + 0.5, std::floor(r.c.z()) + 0.5),
+        0.25};
     VoxelGrid g = rest;
     VoxelOctree oct = built;
     const auto before = oct.cubesPerLevel();
@@ -418,7 +431,9 @@ TEST(OctreeSubdivision, ACutOnAFaceOfACubeOutsideTheRoundStartsTheNext) {
   boundary.points = {Vec3d(A.origin.x + s, yc + 0.5, A.origin.z + s / 2 + 0.25)};
   SubdivisionHooks hooks;
   SubdivisionWorkspace workspace;
-  hooks.testLink = [&](std::size_t v, int ax, VoxelPositionCache&) { return planeTest(g, n, d, v, ax); };
+  hooks.testLink = [&](std::size_t v, int ax, VoxelPositionCache&) {
+    return planeTest(g, n, d, v, ax);
+  };
   std::vector<LinkCut> cuts;
   const SubdivisionStats st = subdivideCutCubes(oct, g, cuts, hooks, workspace, true, boundary);
   // A, then B alone: around the cuts on their shared face, A's side holds no cube after the
@@ -452,12 +467,14 @@ TEST(OctreeSubdivision, GivenCutsGetTheirDataWithoutARound) {
       int cubes = 0;
       forEachCellAroundLink(g.dims(), g.coord(v), a,
                             [&](const Index3& c) { cubes += oct.cellCube[g.index(c)] >= 0; });
-      if (cubes == 0) cuts.push_back({VoxelGrid::linkId(v, a), Hermite{0.25f, {1.f, 0.f, 0.f}}, std::nullopt});
+      if (cubes == 0)
+        cuts.push_back({VoxelGrid::linkId(v, a), Hermite{0.25f, {1.f, 0.f, 0.f}}, std::nullopt});
     }
     if (!cuts.empty()) break;
   }
   ASSERT_EQ(cuts.size(), 1u);
-  g.setConnected(static_cast<std::size_t>(cuts[0].link / 3), static_cast<int>(cuts[0].link % 3), false);
+  g.setConnected(static_cast<std::size_t>(cuts[0].link / 3), static_cast<int>(cuts[0].link % 3),
+                 false);
   SubdivisionHooks hooks;
   SubdivisionWorkspace workspace;
   hooks.testLink = [](std::size_t, int, VoxelPositionCache&) -> std::optional<Hermite> {

@@ -38,10 +38,12 @@ TEST(VoxelOctree, CubeCountsFollowTheOctreeArithmetic) {
   for (int max = 1; max <= 4; ++max)
     counts.push_back(buildVoxelOctree(bunny(), OctreeParams::uniform(1, max, 0)).cubesPerLevel());
   for (int max = 1; max < 4; ++max) {
-    EXPECT_EQ(at(counts[max - 1], max), 8 * at(counts[max], max + 1) + at(counts[max], max)) << "max " << max;
+    EXPECT_EQ(at(counts[max - 1], max), 8 * at(counts[max], max + 1) + at(counts[max], max))
+        << "max " << max;
     // Lower levels do not change when the limit rises.
     for (int level = 1; level < max; ++level)
-      EXPECT_EQ(at(counts[max - 1], level), at(counts[max], level)) << "max " << max << " level " << level;
+      EXPECT_EQ(at(counts[max - 1], level), at(counts[max], level))
+          << "max " << max << " level " << level;
   }
   EXPECT_GT(at(counts[0], 1), 10000u);
   EXPECT_GT(at(counts[3], 4), 0u);
@@ -118,7 +120,8 @@ TEST(VoxelOctree, ActivationMarksShellAndFrameOnly) {
       inactive += !expected;
     }
     bool touched = (oct.state[v] & 7u) != 0;
-    for (int a = 0; a < 3; ++a) touched = touched || (c[a] > 0 && oct.linkActive(v - g.stride(a), a));
+    for (int a = 0; a < 3; ++a)
+      touched = touched || (c[a] > 0 && oct.linkActive(v - g.stride(a), a));
     ASSERT_EQ(oct.voxelActive(v), touched);
   }
   EXPECT_GT(inactive, 100000u);
@@ -143,7 +146,8 @@ TEST(VoxelOctree, BoundaryLevelZeroKeepsMaterialsApart) {
     for (int z = 0; z <= s; ++z)
       for (int y = 0; y <= s; ++y)
         for (int x = 0; x <= s; ++x)
-          ASSERT_EQ(g.material(g.index(cube.origin.x + x, cube.origin.y + y, cube.origin.z + z)), m);
+          ASSERT_EQ(g.material(g.index(cube.origin.x + x, cube.origin.y + y, cube.origin.z + z)),
+                    m);
   }
   // Per-material limits: no tumor cubes when its internal level is 0.
   OctreeParams p = OctreeParams::uniform(2, 4, 0);

@@ -68,8 +68,11 @@ void expectNoGap(const SimBody& b) {
 std::vector<Vec3d> pieceCentroids(const SimBody& b, const PieceLabels& labels) {
   std::vector<Vec3d> sum(static_cast<std::size_t>(labels.count), Vec3d::Zero());
   for (std::size_t v = 0; v < labels.label.size(); ++v)
-    if (labels.label[v] >= 0) sum[static_cast<std::size_t>(labels.label[v])] += b.cut.deformation.voxelPosition(v);
-  for (int k = 0; k < labels.count; ++k) sum[static_cast<std::size_t>(k)] /= static_cast<double>(labels.voxels[static_cast<std::size_t>(k)]);
+    if (labels.label[v] >= 0)
+      sum[static_cast<std::size_t>(labels.label[v])] += b.cut.deformation.voxelPosition(v);
+  for (int k = 0; k < labels.count; ++k)
+    sum[static_cast<std::size_t>(k)] /=
+        static_cast<double>(labels.voxels[static_cast<std::size_t>(k)]);
   return sum;
 }
 
@@ -116,7 +119,8 @@ TEST_P(ShippedCutScene, CutPartSeparatesAndSurfacesStayClosed) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenes, ShippedCutScene,
-                         ::testing::Values(CutScene{"bunny-ear.json", 0}, CutScene{"liver-tumor.json", 0},
+                         ::testing::Values(CutScene{"bunny-ear.json", 0},
+                                           CutScene{"liver-tumor.json", 0},
                                            CutScene{"starfish-arm.json", 0}),
                          [](const auto& param) {
                            std::string n = param.param.file;

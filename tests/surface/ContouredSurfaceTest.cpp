@@ -67,7 +67,8 @@ Canonical canonical(const SurfaceMesh& m) {
     const Vec3d& p = m.positions[static_cast<std::size_t>(v)];
     return VertexKey{p[0], p[1], p[2], m.vertexVoxel[static_cast<std::size_t>(v)]};
   };
-  for (std::size_t v = 0; v < m.positions.size(); ++v) c.vertices.push_back(key(static_cast<int>(v)));
+  for (std::size_t v = 0; v < m.positions.size(); ++v)
+    c.vertices.push_back(key(static_cast<int>(v)));
   for (const auto& t : m.triangles) {
     std::array<VertexKey, 3> k = {key(t[0]), key(t[1]), key(t[2])};
     std::rotate(k.begin(), std::min_element(k.begin(), k.end()), k.end());
@@ -88,7 +89,8 @@ struct Snapshot {
 
 Snapshot snapshot(const ContouredSurface& s) {
   Snapshot out;
-  for (std::size_t v = 0; v < s.vertexSlots(); ++v) out.alive.push_back(s.alive(static_cast<std::int32_t>(v)));
+  for (std::size_t v = 0; v < s.vertexSlots(); ++v)
+    out.alive.push_back(s.alive(static_cast<std::int32_t>(v)));
   out.positions = s.positions();
   out.voxels = s.vertexVoxels();
   out.triangles = s.triangles();
@@ -120,7 +122,8 @@ void expectExactUpdate(const Snapshot& before, const ContouredSurface& s, const 
       }
     }
   }
-  const std::set<std::int32_t> removedT(delta.removedTriangles.begin(), delta.removedTriangles.end());
+  const std::set<std::int32_t> removedT(delta.removedTriangles.begin(),
+                                        delta.removedTriangles.end());
   const std::set<std::int32_t> addedT(delta.addedTriangles.begin(), delta.addedTriangles.end());
   ASSERT_EQ(removedT.size(), delta.removedTriangles.size()) << what;
   for (std::size_t t = 0; t < s.triangles().size(); ++t) {
@@ -147,7 +150,8 @@ void expectExactUpdate(const Snapshot& before, const ContouredSurface& s, const 
   }
   for (const std::int32_t v : delta.addedVertices) {
     const Vec3d& p = s.positions()[static_cast<std::size_t>(v)];
-    ASSERT_FALSE(removedKeys.count({p[0], p[1], p[2], s.vertexVoxels()[static_cast<std::size_t>(v)]}))
+    ASSERT_FALSE(
+        removedKeys.count({p[0], p[1], p[2], s.vertexVoxels()[static_cast<std::size_t>(v)]}))
         << what << " vertex " << v << " removed and added unchanged";
   }
   const SurfaceMesh m = s.mesh();
@@ -162,7 +166,8 @@ void expectExactUpdate(const Snapshot& before, const ContouredSurface& s, const 
 
 // Patches of every cell, with its true neighbours; used to see the ring rule change a cell
 // whose own links did not change.
-std::map<std::size_t, std::pair<std::uint16_t, std::array<std::int8_t, 24>>> allPatches(const VoxelGrid& g) {
+std::map<std::size_t, std::pair<std::uint16_t, std::array<std::int8_t, 24>>> allPatches(
+    const VoxelGrid& g) {
   std::map<std::size_t, std::pair<std::uint16_t, std::array<std::int8_t, 24>>> out;
   const Index3 d = g.dims();
   for (int z = 0; z + 1 < d.z; ++z)
@@ -278,8 +283,9 @@ TEST(ContouredSurface, EmptiedVoxelsEqualRebuilds) {
   for (int round = 0; round < 5; ++round) {
     std::vector<std::uint64_t> changed;
     for (int k = 0; k < 6; ++k) {
-      const std::size_t v = g.index(1 + static_cast<int>(rng() % 10), 1 + static_cast<int>(rng() % 10),
-                                    1 + static_cast<int>(rng() % 10));
+      const std::size_t v =
+          g.index(1 + static_cast<int>(rng() % 10), 1 + static_cast<int>(rng() % 10),
+                  1 + static_cast<int>(rng() % 10));
       g.setMaterial(v, 0);
       for (int a = 0; a < 3; ++a)
         for (const std::size_t lo : {v, v - g.stride(a)}) {
@@ -306,7 +312,8 @@ void cutInBatches(VoxelGrid g, const Plane& plane, std::size_t batch, unsigned s
   const std::size_t batches = (links.size() + batch - 1) / batch;
   for (std::size_t b = 0; b < batches; ++b) {
     const auto first = links.begin() + static_cast<std::ptrdiff_t>(b * batch);
-    const std::vector<std::uint64_t> cut(first, first + static_cast<std::ptrdiff_t>(std::min(batch, links.size() - b * batch)));
+    const std::vector<std::uint64_t> cut(
+        first, first + static_cast<std::ptrdiff_t>(std::min(batch, links.size() - b * batch)));
     applyCuts(g, target, cut);
     const Snapshot before = snapshot(s);
     const SurfaceDelta d = s.update(g, cut);
@@ -326,7 +333,8 @@ void cutInBatches(VoxelGrid g, const Plane& plane, std::size_t batch, unsigned s
 TEST(ContouredSurface, BoxAndSphereCutInTwoInBatches) {
   VoxelizeParams p;
   p.resolution.resolution = 24;
-  cutInBatches(voxelize({{"b", makeBox(Vec3d(0.1, 0.06, 0.08))}}, p), {Vec3d(1, 0.3, 0.2), 0.004}, 25, 1);
+  cutInBatches(voxelize({{"b", makeBox(Vec3d(0.1, 0.06, 0.08))}}, p), {Vec3d(1, 0.3, 0.2), 0.004},
+               25, 1);
   cutInBatches(voxelize({{"s", makeSphere(0.05, 4)}}, p), {Vec3d(0.2, 1, -0.4), -0.003}, 40, 2);
 }
 

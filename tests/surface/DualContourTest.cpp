@@ -25,7 +25,8 @@ TEST(DualCell, PatchesAreConsistentAndCoverEveryIncidence) {
       cell.occupied = static_cast<std::uint8_t>(occ);
       for (int e = 0; e < 12; ++e) {
         const bool both = ((occ >> edgeCorner(e, 0)) & 1) && ((occ >> edgeCorner(e, 1)) & 1);
-        if (both && (rng() & 1)) cell.connected = static_cast<std::uint16_t>(cell.connected | (1u << e));
+        if (both && (rng() & 1))
+          cell.connected = static_cast<std::uint16_t>(cell.connected | (1u << e));
       }
       std::array<std::int8_t, 24> patch;
       std::array<std::int8_t, 8> comp;
@@ -34,7 +35,8 @@ TEST(DualCell, PatchesAreConsistentAndCoverEveryIncidence) {
       DualCell solid;
       solid.occupied = 0xff;
       solid.connected = 0xfff;
-      const int np = dualCellPatches(cell, patch, [&](int) { return trial % 2 ? solid : DualCell{}; });
+      const int np =
+          dualCellPatches(cell, patch, [&](int) { return trial % 2 ? solid : DualCell{}; });
       dualCellComponents(cell, comp);
       std::vector<int> size(np, 0);
       for (int s = 0; s < 24; ++s) {
@@ -50,8 +52,10 @@ TEST(DualCell, PatchesAreConsistentAndCoverEveryIncidence) {
           int first = -1;
           for (int s = 0; s < 24; ++s)
             if (patch[s] == p) {
-              if (first < 0) first = s;
-              else ASSERT_EQ(s / 2, first / 2);
+              if (first < 0)
+                first = s;
+              else
+                ASSERT_EQ(s / 2, first / 2);
             }
         } else {
           ASSERT_GE(size[p], 3);
@@ -77,7 +81,10 @@ TEST(DualContour, SingleVoxelIsAClosedOctahedronLikeShell) {
     for (int a = 0; a < 3; ++a) {
       const Index3 c = g.coord(u);
       if (c[a] + 1 >= 3) continue;
-      if (u == v || u + g.stride(a) == v) g.hermite().set(VoxelGrid::linkId(u, a), Hermite{0.5f, {a == 0 ? 1.f : 0.f, a == 1 ? 1.f : 0.f, a == 2 ? 1.f : 0.f}});
+      if (u == v || u + g.stride(a) == v)
+        g.hermite().set(
+            VoxelGrid::linkId(u, a),
+            Hermite{0.5f, {a == 0 ? 1.f : 0.f, a == 1 ? 1.f : 0.f, a == 2 ? 1.f : 0.f}});
     }
   const SurfaceMesh m = dualContour(g);
   EXPECT_EQ(m.positions.size(), 8u);
@@ -176,7 +183,8 @@ TEST(DualContour, PlaneCutsSeparatePiecesAndCracksStayClosed) {
     const double y0 = crack.position(v).y() - 0.001, y1 = y0 + crack.voxelSize();
     if ((y0 < 0) == (y1 < 0)) continue;
     crack.setConnected(v, 1, false);
-    crack.hermite().set(VoxelGrid::linkId(v, 1), Hermite{static_cast<float>(-y0 / crack.voxelSize()), {0, 1, 0}});
+    crack.hermite().set(VoxelGrid::linkId(v, 1),
+                        Hermite{static_cast<float>(-y0 / crack.voxelSize()), {0, 1, 0}});
     ++cut;
   }
   ASSERT_GT(cut, 10u);

@@ -25,7 +25,9 @@ VoxelGrid voxelizeOne(const TriangleMesh& mesh, int resolution, VoxelizeReport* 
   return voxelize({{"m", mesh}}, p, rep);
 }
 
-double voxelVolume(const VoxelGrid& g) { return std::pow(g.voxelSize(), 3); }
+double voxelVolume(const VoxelGrid& g) {
+  return std::pow(g.voxelSize(), 3);
+}
 
 // Every link obeys the model's rules: same material connected, material/empty disconnected
 // with Hermite data, two materials connected with Hermite data, empty/empty disconnected.
@@ -53,7 +55,8 @@ void expectLinkInvariants(const VoxelGrid& g) {
       if (h) {
         ASSERT_GT(h->t, 0.f);
         ASSERT_LT(h->t, 1.f);
-        ASSERT_NEAR(std::sqrt(h->n[0] * h->n[0] + h->n[1] * h->n[1] + h->n[2] * h->n[2]), 1.0, 1e-5);
+        ASSERT_NEAR(std::sqrt(h->n[0] * h->n[0] + h->n[1] * h->n[1] + h->n[2] * h->n[2]), 1.0,
+                    1e-5);
         ASSERT_GE(h->n[a], 0.f);
       }
     }
@@ -61,7 +64,8 @@ void expectLinkInvariants(const VoxelGrid& g) {
 }
 
 TEST(GridFrame, ResolutionCountsPaddingAndCentresTheModel) {
-  const GridFrame f = gridFrameFor({Vec3d(0, 0, 0), Vec3d(1.0, 0.5, 0.25)}, {.resolution = 12}, 1u << 20);
+  const GridFrame f =
+      gridFrameFor({Vec3d(0, 0, 0), Vec3d(1.0, 0.5, 0.25)}, {.resolution = 12}, 1u << 20);
   EXPECT_EQ(f.dims.x, 12);
   EXPECT_DOUBLE_EQ(f.voxelSize, 0.1);
   EXPECT_EQ(f.dims.y, 7);
@@ -136,7 +140,7 @@ TEST(Voxelizer, ImperfectMeshGivesTheExpectedVoxels) {
     }
     if (f % 7 == 3) std::swap(t[1], t[2]);  // flipped
     broken.faces.push_back(t);
-    if (f % 11 == 5) broken.faces.push_back(t);  // duplicate
+    if (f % 11 == 5) broken.faces.push_back(t);                   // duplicate
     if (f % 13 == 6) broken.faces.push_back({t[0], t[2], t[1]});  // duplicate, reversed
   }
   ASSERT_GT(removed, 10);
@@ -170,7 +174,8 @@ TEST(Voxelizer, DisjointShellsAndCavities) {
   const VoxelGrid g = voxelizeOne(two, 80);
   const PieceLabels pieces = findPieces(g);
   EXPECT_EQ(pieces.count, 2);
-  EXPECT_NEAR(static_cast<double>(pieces.voxels[0]) / static_cast<double>(pieces.voxels[1]), 1.0, 0.02);
+  EXPECT_NEAR(static_cast<double>(pieces.voxels[0]) / static_cast<double>(pieces.voxels[1]), 1.0,
+              0.02);
 
   // A hollow ball: the inner shell is inverted, so its inside stays empty.
   TriangleMesh hollow = makeSphere(0.05, 4);
@@ -191,9 +196,11 @@ TEST(Voxelizer, LaterMaterialsWinInsideThemselves) {
   const VoxelGrid g = voxelize({{"outer", makeSphere(R, 4)}, {"inner", makeSphere(r, 4)}}, p);
   ASSERT_EQ(g.materialNames().size(), 2u);
   const double vv = voxelVolume(g);
-  EXPECT_NEAR(static_cast<double>(countMaterial(g, 2)) / (4.0 / 3.0 * kPi * r * r * r / vv), 1.0, 0.04);
+  EXPECT_NEAR(static_cast<double>(countMaterial(g, 2)) / (4.0 / 3.0 * kPi * r * r * r / vv), 1.0,
+              0.04);
   EXPECT_NEAR(static_cast<double>(countMaterial(g, 1) + countMaterial(g, 2)) /
-                  (4.0 / 3.0 * kPi * R * R * R / vv), 1.0, 0.02);
+                  (4.0 / 3.0 * kPi * R * R * R / vv),
+              1.0, 0.02);
   expectLinkInvariants(g);
   // The interface carries Hermite data on the inner sphere.
   std::size_t interface = 0;
@@ -211,7 +218,8 @@ TEST(Voxelizer, LaterMaterialsWinInsideThemselves) {
 }
 
 TEST(Voxelizer, ResultDoesNotDependOnThreadCount) {
-  std::vector<MaterialMesh> mats{{"a", makeSphere(0.05, 4)}, {"b", makeBox(Vec3d(0.03, 0.05, 0.02))}};
+  std::vector<MaterialMesh> mats{{"a", makeSphere(0.05, 4)},
+                                 {"b", makeBox(Vec3d(0.03, 0.05, 0.02))}};
   VoxelizeParams p;
   p.resolution.resolution = 70;
   VoxelGrid g1, g2;

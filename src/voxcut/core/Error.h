@@ -21,12 +21,13 @@ class Interrupted : public std::runtime_error {
   Interrupted() : std::runtime_error("interrupted") {}
 };
 
-[[noreturn]] void assertionFailed(const char* expr, const char* file, int line, const std::string& msg);
+[[noreturn]] void assertionFailed(const char* expr, const char* file, int line,
+                                  const std::string& msg);
 
 }  // namespace voxcut
 
 /// Checked assertion for programming errors; active in every build type.
-#define VOXCUT_ASSERT(expr, msg)                                         \
-  do {                                                                   \
+#define VOXCUT_ASSERT(expr, msg)                                              \
+  do {                                                                        \
     if (!(expr)) ::voxcut::assertionFailed(#expr, __FILE__, __LINE__, (msg)); \
   } while (0)

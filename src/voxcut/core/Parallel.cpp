@@ -6,11 +6,13 @@ namespace voxcut {
 
 ThreadLimit::ThreadLimit(int threads) {
   if (threads > 0)
-    control_ = std::make_unique<tbb::global_control>(
-        tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+    control_ = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                     static_cast<std::size_t>(threads));
 }
 
-int threadSlots() { return tbb::this_task_arena::max_concurrency(); }
+int threadSlots() {
+  return tbb::this_task_arena::max_concurrency();
+}
 
 int threadSlot() {
   // Outside any arena (a serial caller) the index is negative: slot 0, which no task of a

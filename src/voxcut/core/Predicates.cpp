@@ -128,8 +128,8 @@ int orient3dExactImpl(std::array<double, 12> v) {
     for (int i = 0; i < 3; ++i) d[3 * k + i] = difference(v[3 * (k + 1) + i], v[i]);
   }
   // det[u, v, w] = sum over permutations (i, j, k) of sign * u_i v_j w_k.
-  constexpr int kPerms[6][4] = {{0, 1, 2, 1}, {0, 2, 1, -1}, {1, 2, 0, 1},
-                                {1, 0, 2, -1}, {2, 0, 1, 1}, {2, 1, 0, -1}};
+  constexpr int kPerms[6][4] = {{0, 1, 2, 1},  {0, 2, 1, -1}, {1, 2, 0, 1},
+                                {1, 0, 2, -1}, {2, 0, 1, 1},  {2, 1, 0, -1}};
   ExactSum<192> det;
   for (const auto& p : kPerms) {
     for (const double x : d[p[0]]) {

@@ -134,7 +134,7 @@ struct SymbolicKey {
 /// Antisymmetric: swapping two arguments (with their keys) negates the result.
 /// The four keys must be distinct (checked).
 [[nodiscard]] int orient3dSoS(const Vec3d& a, const Vec3d& b, const Vec3d& c, const Vec3d& d,
-                              const SymbolicKey& ka, const SymbolicKey& kb,
-                              const SymbolicKey& kc, const SymbolicKey& kd);
+                              const SymbolicKey& ka, const SymbolicKey& kb, const SymbolicKey& kc,
+                              const SymbolicKey& kd);
 
 }  // namespace voxcut

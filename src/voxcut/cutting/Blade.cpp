@@ -75,10 +75,10 @@ BladeSweep makeSweep(const BladePose& from, const BladePose& to,
       return orient2d(Vec2d(p[i], p[j]), Vec2d(q[i], q[j]), Vec2d(r[i], r[j]));
     };
     if (proj(0, 1) != 0 || proj(0, 2) != 0 || proj(1, 2) != 0) {
-      s.onPlaneSide[t] = orient3dSoS(p, q, r, p, SymbolicKey{kBladeGroup, s.ids[idx[0]]},
-                                     SymbolicKey{kBladeGroup, s.ids[idx[1]]},
-                                     SymbolicKey{kBladeGroup, s.ids[idx[2]]},
-                                     SymbolicKey{kVoxelGroup, 0});
+      s.onPlaneSide[t] =
+          orient3dSoS(p, q, r, p, SymbolicKey{kBladeGroup, s.ids[idx[0]]},
+                      SymbolicKey{kBladeGroup, s.ids[idx[1]]},
+                      SymbolicKey{kBladeGroup, s.ids[idx[2]]}, SymbolicKey{kVoxelGroup, 0});
     }
     n[t] = triangleNormal(p, q, r);
   }
@@ -96,8 +96,8 @@ BladeSweep makeSweep(const BladePose& from, const BladePose& to,
       break;
     }
   }
-  const Vec3d blade = (from.b - from.a).squaredNorm() > 0.0 ? Vec3d(from.b - from.a)
-                                                             : Vec3d(to.b - to.a);
+  const Vec3d blade =
+      (from.b - from.a).squaredNorm() > 0.0 ? Vec3d(from.b - from.a) : Vec3d(to.b - to.a);
   for (int t = 0; t < 2; ++t) {
     s.normals[t] = n[t] ? *n[t] : (n[1 - t] ? *n[1 - t] : perpendicularTo(blade));
   }
@@ -126,9 +126,9 @@ int planeSide(const BladeSweep& sweep, int triangle, const Vec3d& p) {
 
 /// orient3d(p0, p1, x, y), never 0 (perturbed where it is), from u = p1 - p0, wx = x - p0 and
 /// wy = y - p0, filter first.
-int lineEdgeSide(const Vec3d& p0, const Vec3d& p1, const Vec3d& x, const Vec3d& y,
-                 const Vec3d& u, const Vec3d& wx, const Vec3d& wy, const SymbolicKey& k0,
-                 const SymbolicKey& k1, const SymbolicKey& kx, const SymbolicKey& ky) {
+int lineEdgeSide(const Vec3d& p0, const Vec3d& p1, const Vec3d& x, const Vec3d& y, const Vec3d& u,
+                 const Vec3d& wx, const Vec3d& wy, const SymbolicKey& k0, const SymbolicKey& k1,
+                 const SymbolicKey& kx, const SymbolicKey& ky) {
   const int f = orient3dFilter(u, wx, wy);
   return f != 0 ? f : orient3dSoS(p0, p1, x, y, k0, k1, kx, ky);
 }
@@ -221,9 +221,8 @@ int flatCrossing(const BladeSweep& sweep, const Vec3d& p0, const Vec3d& p1, std:
 
 }  // namespace
 
-std::optional<SweepHit> intersectTriangle(const BladeSweep& sweep, int triangle,
-                                          const Vec3d& p0, const Vec3d& p1, std::uint64_t id0,
-                                          std::uint64_t id1) {
+std::optional<SweepHit> intersectTriangle(const BladeSweep& sweep, int triangle, const Vec3d& p0,
+                                          const Vec3d& p1, std::uint64_t id0, std::uint64_t id1) {
   VOXCUT_ASSERT(triangle == 0 || triangle == 1, "intersectTriangle: triangle is 0 or 1");
   VOXCUT_ASSERT(id0 != id1, "intersectTriangle: the segment's ends need distinct ids");
   if (boxesSeparated(sweep.bounds[triangle], p0, p1) ||
@@ -233,8 +232,8 @@ std::optional<SweepHit> intersectTriangle(const BladeSweep& sweep, int triangle,
   return hitOf(sweep, triangle, p0, p1);
 }
 
-std::optional<SweepHit> intersectSegment(const BladeSweep& sweep, const Vec3d& p0,
-                                         const Vec3d& p1, std::uint64_t id0, std::uint64_t id1) {
+std::optional<SweepHit> intersectSegment(const BladeSweep& sweep, const Vec3d& p0, const Vec3d& p1,
+                                         std::uint64_t id0, std::uint64_t id1) {
   VOXCUT_ASSERT(id0 != id1, "intersectSegment: the segment's ends need distinct ids");
   const bool near0 = !boxesSeparated(sweep.bounds[0], p0, p1);
   const bool near1 = !boxesSeparated(sweep.bounds[1], p0, p1);

@@ -49,11 +49,11 @@ struct BladeSweep {
   /// Corner indices of the two triangles.
   static constexpr std::array<std::array<int, 3>, 2> kTriangles{{{0, 1, 2}, {0, 2, 3}}};
 
-  std::array<Vec3d, 4> corners;          ///< a0, b0, b1, a1 (metres)
-  std::array<std::uint64_t, 4> ids{};    ///< symbolic ids of the corners (see file comment)
-  std::array<Vec3d, 2> normals;          ///< unit normals of the triangles (see makeSweep)
+  std::array<Vec3d, 4> corners;               ///< a0, b0, b1, a1 (metres)
+  std::array<std::uint64_t, 4> ids{};         ///< symbolic ids of the corners (see file comment)
+  std::array<Vec3d, 2> normals;               ///< unit normals of the triangles (see makeSweep)
   std::array<Eigen::AlignedBox3d, 2> bounds;  ///< exact axis-aligned boxes of the triangles
-  std::array<OrientPlane, 2> planes;     ///< the triangles' planes, prepared for orient3d
+  std::array<OrientPlane, 2> planes;          ///< the triangles' planes, prepared for orient3d
   /// Side (+1/-1) on which a voxel lying exactly on a triangle's plane counts (the same for
   /// every such voxel, see the tie-breaking rule); 0 for a degenerate triangle.
   std::array<int, 2> onPlaneSide{};
@@ -62,7 +62,7 @@ struct BladeSweep {
   /// a segment whose ends lie strictly on either side of that plane crosses at most one of
   /// them, which intersectSegment decides with fewer tests (the same decisions).
   bool flat = false;
-  std::uint64_t frame = 0;               ///< frame index of the start pose
+  std::uint64_t frame = 0;  ///< frame index of the start pose
 };
 
 /// Builds the sweep of frame `frame` from pose `from` (time t_frame) to pose `to`.
@@ -72,8 +72,7 @@ struct BladeSweep {
 /// Normal of triangle (p, q, r): (q - p) x (r - p) normalised; for a planar sweep both equal
 /// (b - a) x (motion) normalised. A degenerate triangle (zero area) takes the other
 /// triangle's normal; if both are degenerate, a unit vector perpendicular to the blade.
-[[nodiscard]] BladeSweep makeSweep(const BladePose& from, const BladePose& to,
-                                   std::uint64_t frame);
+[[nodiscard]] BladeSweep makeSweep(const BladePose& from, const BladePose& to, std::uint64_t frame);
 
 /// As makeSweep, with the corners' symbolic ids given (order a0, b0, b1, a1) instead of
 /// derived from a frame index. For a strip of sweeps that share corners (a blade edge sampled
@@ -85,9 +84,9 @@ struct BladeSweep {
 
 /// Where a segment crosses a sweep.
 struct SweepHit {
-  double t = 0;                 ///< crossing parameter along p0 -> p1, in [1e-6, 1 - 1e-6]
-  Vec3d normal = Vec3d::Zero(); ///< unit normal of the crossed triangle (BladeSweep::normals)
-  int triangle = 0;             ///< 0 or 1, index into BladeSweep::kTriangles
+  double t = 0;                  ///< crossing parameter along p0 -> p1, in [1e-6, 1 - 1e-6]
+  Vec3d normal = Vec3d::Zero();  ///< unit normal of the crossed triangle (BladeSweep::normals)
+  int triangle = 0;              ///< 0 or 1, index into BladeSweep::kTriangles
 };
 
 /// Whether the segment p0 -> p1 (metres) crosses triangle `triangle` (0 or 1) of the sweep.
@@ -111,9 +110,9 @@ struct SweepHit {
 
 /// An oriented box: the points centre + axes * s with |s_i| <= halfExtents_i.
 struct Obb {
-  Vec3d centre = Vec3d::Zero();                      ///< metres
+  Vec3d centre = Vec3d::Zero();                        ///< metres
   Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();  ///< orthonormal columns
-  Vec3d halfExtents = Vec3d::Zero();                 ///< metres, along each column of axes
+  Vec3d halfExtents = Vec3d::Zero();                   ///< metres, along each column of axes
 };
 
 /// An oriented box that holds the whole sweep, enlarged by `margin` (metres, >= 0) on every

@@ -20,10 +20,10 @@ namespace voxcut {
 
 /// How a body is set up for cutting.
 struct CutBodyParams {
-  bool useOctree = true;            ///< false: the baseline, every link active
-  OctreeParams octree;              ///< per-material levels (filled from defaults when empty)
+  bool useOctree = true;  ///< false: the baseline, every link active
+  OctreeParams octree;    ///< per-material levels (filled from defaults when empty)
   DeformationOctreeParams deformation;
-  double obbMargin = 0.0;           ///< metres added around the sweep's OBB (0: half a voxel)
+  double obbMargin = 0.0;  ///< metres added around the sweep's OBB (0: half a voxel)
 };
 
 /// A body being cut: voxels, activity marks, deformation octree and collision structures.
@@ -31,7 +31,7 @@ struct CutBodyParams {
 struct CutBody {
   VoxelGrid grid;
   DeformationOctree deformation;
-  VoxelOctree activity;             ///< the pseudo voxel octree, or everything active
+  VoxelOctree activity;  ///< the pseudo voxel octree, or everything active
   bool useOctree = true;
   double obbMargin = 0.0;
   /// Per entry of activity.activeVoxels: its position this frame (where the step positioned
@@ -43,14 +43,16 @@ struct CutBody {
   /// (refreshActiveEmbeddings) when either of the stamps it was gathered for has changed
   /// (a new active voxel array, a topology edit).
   std::vector<VoxelEmbedding> activeEmbeddings;
-  std::uint64_t activeEmbeddingsFor[2] = {0, 0};  ///< activity.activeStamp, deformation.embeddingStamp()
-  std::vector<std::uint8_t> activeMarked;    ///< per entry: its element is under the blade (scratch)
+  std::uint64_t activeEmbeddingsFor[2] = {
+      0, 0};                               ///< activity.activeStamp, deformation.embeddingStamp()
+  std::vector<std::uint8_t> activeMarked;  ///< per entry: its element is under the blade (scratch)
   std::vector<Eigen::AlignedBox3d> elementBoxes;
   SpatialHash hash;
 };
 
 /// Builds the deformation octree and the activity marks of `grid`.
-[[nodiscard]] CutBody makeCutBody(VoxelGrid grid, const CutBodyParams& params, bool threaded = true);
+[[nodiscard]] CutBody makeCutBody(VoxelGrid grid, const CutBodyParams& params,
+                                  bool threaded = true);
 
 /// Gathers body.activeEmbeddings again unless it is current (see CutBody). cutStep calls it
 /// first, and again after its deferred updates; a caller that edits the deformation octree's
@@ -59,10 +61,10 @@ void refreshActiveEmbeddings(CutBody& body, bool threaded = true);
 
 /// Timings (ms) and counts of one frame's cutting tool collision.
 struct CutStepResult {
-  std::vector<LinkCut> cuts;        ///< every link cut this frame, sorted by link id
+  std::vector<LinkCut> cuts;  ///< every link cut this frame, sorted by link id
   double positionUpdateMs = 0, intersectionMs = 0, subdivisionMs = 0, deferredMs = 0;
   std::size_t markedElements = 0;
-  std::size_t testedLinks = 0;      ///< in the intersection test
+  std::size_t testedLinks = 0;  ///< in the intersection test
   SubdivisionStats subdivision;
   [[nodiscard]] double totalMs() const { return positionUpdateMs + intersectionMs + subdivisionMs; }
 };

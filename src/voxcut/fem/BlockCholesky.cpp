@@ -45,8 +45,8 @@ inline void subtractProducts(const Eigen::Matrix3d* l, const std::uint32_t* rows
                              std::uint32_t count, const Eigen::Matrix3d& m, Eigen::Matrix3d* w) {
   // (l m^T)(r, c) = sum_t l(r, t) m(c, t); column-major: l(r, t) = l[3 t + r].
   const double* b = m.data();
-  const double m00 = b[0], m10 = b[1], m20 = b[2], m01 = b[3], m11 = b[4], m21 = b[5],
-               m02 = b[6], m12 = b[7], m22 = b[8];
+  const double m00 = b[0], m10 = b[1], m20 = b[2], m01 = b[3], m11 = b[4], m21 = b[5], m02 = b[6],
+               m12 = b[7], m22 = b[8];
   for (std::uint32_t q = 0; q < count; ++q) {
     const double* a = l[q].data();
     double* o = w[rows[q]].data();
@@ -184,7 +184,7 @@ void BlockCholesky::planTasks(const std::vector<std::uint32_t>& parent,
       roots.push_back(static_cast<std::uint32_t>(j));
       total += subtree[j];
     }
-  constexpr std::size_t kMaxTasks = 16;  // each needs a workspace of one block per row
+  constexpr std::size_t kMaxTasks = 16;     // each needs a workspace of one block per row
   constexpr double kMinParallelWork = 2e4;  // block updates; below this one task does it all
   auto costlier = [&](std::uint32_t a, std::uint32_t b) {
     return subtree[a] < subtree[b] || (subtree[a] == subtree[b] && a > b);
@@ -216,8 +216,8 @@ void BlockCholesky::planTasks(const std::vector<std::uint32_t>& parent,
   std::vector<double> load(tasks, 0.0);
   std::vector<std::uint32_t> taskOf(n, kNone);
   for (std::uint32_t root : heap) {
-    const auto least = static_cast<std::uint32_t>(
-        std::min_element(load.begin(), load.end()) - load.begin());
+    const auto least =
+        static_cast<std::uint32_t>(std::min_element(load.begin(), load.end()) - load.begin());
     taskOf[root] = least;
     load[least] += subtree[root];
   }
@@ -246,8 +246,9 @@ void BlockCholesky::planTasks(const std::vector<std::uint32_t>& parent,
   work_.clear();  // allocated by the first factorise
 }
 
-bool BlockCholesky::factorColumn(const BlockSparsity& sp, const std::vector<Eigen::Matrix3d>& blocks,
-                                 std::uint32_t j, Eigen::Matrix3d* work) {
+bool BlockCholesky::factorColumn(const BlockSparsity& sp,
+                                 const std::vector<Eigen::Matrix3d>& blocks, std::uint32_t j,
+                                 Eigen::Matrix3d* work) {
   // Column j of A on and below the diagonal: A(i, j) = A_(perm i, perm j) is the transpose of
   // the block at row perm j, column perm i.
   const std::uint32_t old = perm_[j];

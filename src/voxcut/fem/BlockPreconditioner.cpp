@@ -78,8 +78,8 @@ void factorIncompleteCholesky(const BlockSparsity& sp, const IncompleteCholeskyP
     for (std::uint32_t s = sp.rowStart[i]; s < diagonal; ++s) {
       Eigen::Matrix3d f = blocks[s];
       for (std::uint32_t p = pattern.pairStart[s]; p < pattern.pairStart[s + 1]; ++p)
-        f.noalias() -= factor.lower[pattern.pair[2 * p]] *
-                       factor.scaled[pattern.pair[2 * p + 1]].transpose();
+        f.noalias() -=
+            factor.lower[pattern.pair[2 * p]] * factor.scaled[pattern.pair[2 * p + 1]].transpose();
       const Eigen::Matrix3d l = f * factor.pivotInverse[sp.column[s]];
       pivot.noalias() -= l * f.transpose();
       factor.lower[s] = l;

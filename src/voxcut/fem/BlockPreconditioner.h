@@ -34,8 +34,9 @@ struct BlockSparsity;
 /// diagonal, the pairs (slot (i, j), slot (k, j)) with j < k present in both rows, in
 /// ascending j. Built once per sparsity (per ElasticModel::sparsityRevision).
 struct IncompleteCholeskyPattern {
-  std::vector<std::uint32_t> pairStart{0};  ///< #blocks + 1 offsets (empty range off the lower part)
-  std::vector<std::uint32_t> pair;          ///< 2 slots per pair: (i, j) then (k, j)
+  std::vector<std::uint32_t> pairStart{
+      0};                           ///< #blocks + 1 offsets (empty range off the lower part)
+  std::vector<std::uint32_t> pair;  ///< 2 slots per pair: (i, j) then (k, j)
 
   [[nodiscard]] std::size_t pairCount() const { return pair.size() / 2; }
 };
@@ -66,10 +67,10 @@ inline Vec3d blockRowProduct(const Eigen::Matrix3d* blocks, const std::uint32_t*
 /// mirrored upper slot (k, i), so both triangular solves gather along rows) and the inverse
 /// pivot blocks D_i^-1 per row.
 struct IncompleteCholeskyFactor {
-  std::vector<Eigen::Matrix3d> lower;          ///< L_ik at slot (i, k), L_ki^T at (i, k > i)
-  std::vector<Eigen::Matrix3d> scaled;         ///< F_ik = L_ik D_k at slot (i, k), #blocks
-  std::vector<Eigen::Matrix3d> pivotInverse;   ///< D_i^-1, #rows
-  std::size_t replacedPivots = 0;              ///< pivots replaced by A_ii (see file comment)
+  std::vector<Eigen::Matrix3d> lower;         ///< L_ik at slot (i, k), L_ki^T at (i, k > i)
+  std::vector<Eigen::Matrix3d> scaled;        ///< F_ik = L_ik D_k at slot (i, k), #blocks
+  std::vector<Eigen::Matrix3d> pivotInverse;  ///< D_i^-1, #rows
+  std::size_t replacedPivots = 0;             ///< pivots replaced by A_ii (see file comment)
 };
 
 /// Factorises A (`blocks`, one 3x3 per slot of `sparsity`) into `factor` (resized; reused

@@ -1,7 +1,5 @@
 #include "voxcut/fem/CutTopology.h"
 
-#include "voxcut/fem/TopologyEditor.h"
-
 #include <algorithm>
 #include <array>
 #include <string>
@@ -11,6 +9,7 @@
 
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
+#include "voxcut/fem/TopologyEditor.h"
 
 namespace voxcut {
 
@@ -20,11 +19,13 @@ std::uint64_t TopologyEditor::leafOf(const Index3& v, int minLevel) const {
   if (v.x < 0 || v.y < 0 || v.z < 0) return kNoKey;
   const Index3 t{v.x >> kTileLevel, v.y >> kTileLevel, v.z >> kTileLevel};
   if (t.x < tileDims_.x && t.y < tileDims_.y && t.z < tileDims_.z) {
-    const std::int32_t tile = tileIndex_[static_cast<std::size_t>(t.x + tileDims_.x * (t.y + tileDims_.y * t.z))];
+    const std::int32_t tile =
+        tileIndex_[static_cast<std::size_t>(t.x + tileDims_.x * (t.y + tileDims_.y * t.z))];
     if (tile >= 0) {
       const int m = kTileSize - 1;
       const int L = tileLevels_[static_cast<std::size_t>(tile) * kTileSize * kTileSize * kTileSize +
-                                static_cast<std::size_t>((v.x & m) + kTileSize * ((v.y & m) + kTileSize * (v.z & m)))];
+                                static_cast<std::size_t>(
+                                    (v.x & m) + kTileSize * ((v.y & m) + kTileSize * (v.z & m)))];
       // Leaves do not overlap, so the one leaf holding v answers for every minLevel.
       return L >= minLevel ? DeformationOctree::cubeKey(L, {v.x >> L, v.y >> L, v.z >> L}) : kNoKey;
     }
@@ -47,9 +48,11 @@ std::array<std::uint64_t, 8> TopologyEditor::leavesAround(const Index3& p) const
   if ((p.x & m) != 0 && (p.y & m) != 0 && (p.z & m) != 0) {
     const Index3 t{p.x >> kTileLevel, p.y >> kTileLevel, p.z >> kTileLevel};
     if (t.x < tileDims_.x && t.y < tileDims_.y && t.z < tileDims_.z) {
-      const std::int32_t tile = tileIndex_[static_cast<std::size_t>(t.x + tileDims_.x * (t.y + tileDims_.y * t.z))];
+      const std::int32_t tile =
+          tileIndex_[static_cast<std::size_t>(t.x + tileDims_.x * (t.y + tileDims_.y * t.z))];
       if (tile >= 0) {
-        const std::int8_t* lv = tileLevels_.data() + static_cast<std::size_t>(tile) * kTileSize * kTileSize * kTileSize;
+        const std::int8_t* lv =
+            tileLevels_.data() + static_cast<std::size_t>(tile) * kTileSize * kTileSize * kTileSize;
         for (int d = 0; d < 8; ++d) {
           const Index3 v{p.x - 1 + (d & 1), p.y - 1 + ((d >> 1) & 1), p.z - 1 + (d >> 2)};
           const int L = lv[(v.x & m) + kTileSize * ((v.y & m) + kTileSize * (v.z & m))];
@@ -61,7 +64,8 @@ std::array<std::uint64_t, 8> TopologyEditor::leavesAround(const Index3& p) const
     }
   }
   for (int d = 0; d < 8; ++d)
-    out[static_cast<std::size_t>(d)] = leafOf({p.x - 1 + (d & 1), p.y - 1 + ((d >> 1) & 1), p.z - 1 + (d >> 2)});
+    out[static_cast<std::size_t>(d)] =
+        leafOf({p.x - 1 + (d & 1), p.y - 1 + ((d >> 1) & 1), p.z - 1 + (d >> 2)});
   return out;
 }
 
@@ -69,7 +73,8 @@ void TopologyEditor::buildTile(const Index3& v) {
   if (v.x < 0 || v.y < 0 || v.z < 0) return;
   const Index3 t{v.x >> kTileLevel, v.y >> kTileLevel, v.z >> kTileLevel};
   if (t.x >= tileDims_.x || t.y >= tileDims_.y || t.z >= tileDims_.z) return;
-  std::int32_t& index = tileIndex_[static_cast<std::size_t>(t.x + tileDims_.x * (t.y + tileDims_.y * t.z))];
+  std::int32_t& index =
+      tileIndex_[static_cast<std::size_t>(t.x + tileDims_.x * (t.y + tileDims_.y * t.z))];
   if (index >= 0) return;
   constexpr std::size_t n = kTileSize * kTileSize * kTileSize;
   index = static_cast<std::int32_t>(tileLevels_.size() / n);
@@ -88,7 +93,8 @@ void TopologyEditor::buildTile(const Index3& v) {
   for (int z = f.z; z < std::min(f.z + kTileSize, gd.z); ++z)
     for (int y = f.y; y < std::min(f.y + kTileSize, gd.y); ++y)
       for (int x = f.x; x < std::min(f.x + kTileSize, gd.x); ++x) {
-        const std::size_t i = static_cast<std::size_t>((x - f.x) + kTileSize * ((y - f.y) + kTileSize * (z - f.z)));
+        const std::size_t i =
+            static_cast<std::size_t>((x - f.x) + kTileSize * ((y - f.y) + kTileSize * (z - f.z)));
         if (lv[i] >= 0 || !grid_.occupied(grid_.index(x, y, z))) continue;
         for (int L = 0; L < kTileLevel && L <= oc_.maxLevel_; ++L) {
           const Index3 c{x >> L, y >> L, z >> L};
@@ -110,12 +116,15 @@ void TopologyEditor::setLeafLevels(const Index3& first, int size, int level) {
       for (int x = first.x; x < first.x + size; x += kTileSize) {
         const Index3 t{x >> kTileLevel, y >> kTileLevel, z >> kTileLevel};
         if (t.x >= tileDims_.x || t.y >= tileDims_.y || t.z >= tileDims_.z) continue;
-        const std::int32_t tile = tileIndex_[static_cast<std::size_t>(t.x + tileDims_.x * (t.y + tileDims_.y * t.z))];
+        const std::int32_t tile =
+            tileIndex_[static_cast<std::size_t>(t.x + tileDims_.x * (t.y + tileDims_.y * t.z))];
         if (tile < 0) continue;
         // The run of the row inside this tile (size < 8 or x at a tile start).
         const int run = std::min(size, kTileSize - (x & m));
-        std::int8_t* row = tileLevels_.data() + static_cast<std::size_t>(tile) * kTileSize * kTileSize * kTileSize +
-                           static_cast<std::size_t>((x & m) + kTileSize * ((y & m) + kTileSize * (z & m)));
+        std::int8_t* row =
+            tileLevels_.data() +
+            static_cast<std::size_t>(tile) * kTileSize * kTileSize * kTileSize +
+            static_cast<std::size_t>((x & m) + kTileSize * ((y & m) + kTileSize * (z & m)));
         std::fill(row, row + run, static_cast<std::int8_t>(level));
       }
 }
@@ -143,7 +152,8 @@ void TopologyEditor::split(std::uint64_t first) {
     const int L = keyLevel(key);
     VOXCUT_ASSERT(L > 0, "cannot split a level-0 element");
     if (it->second != kNoElement) {
-      for (std::uint32_t e = it->second; e != kNoElement; e = oc_.nextCopy_[e]) removed_.push_back(e);
+      for (std::uint32_t e = it->second; e != kNoElement; e = oc_.nextCopy_[e])
+        removed_.push_back(e);
       removedCubes_.push_back(key);
     } else if (auto p = partitioned_.find(key); p != partitioned_.end()) {
       for (std::uint32_t id : p->second) copies_[id - oldElements_].alive = false;
@@ -161,7 +171,8 @@ void TopologyEditor::split(std::uint64_t first) {
       for (int y = f.y; y < std::min(f.y + s, gd.y); ++y)
         for (int x = f.x; x < std::min(f.x + s, gd.x); ++x)
           if (grid_.occupied(grid_.index(x, y, z)))
-            occupied[static_cast<std::size_t>((x - f.x) / h + 2 * ((y - f.y) / h) + 4 * ((z - f.z) / h))] = true;
+            occupied[static_cast<std::size_t>((x - f.x) / h + 2 * ((y - f.y) / h) +
+                                              4 * ((z - f.z) / h))] = true;
     for (int c = 0; c < 8; ++c) {
       if (!occupied[static_cast<std::size_t>(c)]) continue;
       const Index3 cc = cornerPoint(f, h, c);
@@ -252,8 +263,10 @@ CubeParts TopologyEditor::partition(std::uint64_t key) const {
   const Index3 hi{std::min(f.x + s, gd.x), std::min(f.y + s, gd.y), std::min(f.z + s, gd.z)};
   std::vector<std::int32_t> local(static_cast<std::size_t>(s) * s * s, -1);
   auto li = [&](int x, int y, int z) {
-    return static_cast<std::size_t>(x - f.x) + static_cast<std::size_t>(s) *
-           (static_cast<std::size_t>(y - f.y) + static_cast<std::size_t>(s) * static_cast<std::size_t>(z - f.z));
+    return static_cast<std::size_t>(x - f.x) +
+           static_cast<std::size_t>(s) *
+               (static_cast<std::size_t>(y - f.y) +
+                static_cast<std::size_t>(s) * static_cast<std::size_t>(z - f.z));
   };
   for (int z = f.z; z < hi.z; ++z)
     for (int y = f.y; y < hi.y; ++y)
@@ -361,7 +374,8 @@ TopologyChange updateCutTopology(DeformationOctree& octree, const VoxelGrid& gri
   if (editor.anythingDirty()) return editor.run();
   TopologyChange same;
   same.elementSource.resize(octree.elementCount());
-  for (std::size_t e = 0; e < octree.elementCount(); ++e) same.elementSource[e] = static_cast<std::uint32_t>(e);
+  for (std::size_t e = 0; e < octree.elementCount(); ++e)
+    same.elementSource[e] = static_cast<std::uint32_t>(e);
   same.nodeSource.resize(octree.nodeCount());
   for (std::size_t n = 0; n < octree.nodeCount(); ++n) {
     same.nodeSource[n].count = 1;

@@ -63,8 +63,8 @@ struct CutTopologyParams {
 /// Cost: proportional to the changed region (its cubes' voxels and points) plus O(#elements +
 /// #nodes) for the bookkeeping and the clearing of a one-bit-per-point bitmap over the node
 /// grid; no pass over the grid's voxels. Several rounds when hanging nodes are ambiguous
-/// (each regroups only the points whose surrounding leaves changed). Throws InputError for finestLevel
-/// outside [0, 7]. Returns the map from the old elements and nodes to the new ones.
+/// (each regroups only the points whose surrounding leaves changed). Throws InputError for
+/// finestLevel outside [0, 7]. Returns the map from the old elements and nodes to the new ones.
 TopologyChange updateCutTopology(DeformationOctree& octree, const VoxelGrid& grid,
                                  const std::vector<std::uint64_t>& newCutLinks,
                                  const CutTopologyParams& params = {});

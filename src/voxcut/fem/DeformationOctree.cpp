@@ -64,7 +64,8 @@ void DeformationOctree::rebuildCubeIndex() {
   // Backwards, so that each chain ends up in ascending id order.
   for (std::size_t i = elements_.size(); i-- > 0;) {
     const OctreeElement& e = elements_[i];
-    auto [it, fresh] = cubeFirst_.try_emplace(cubeKey(e.level, e.coord), static_cast<std::uint32_t>(i));
+    auto [it, fresh] =
+        cubeFirst_.try_emplace(cubeKey(e.level, e.coord), static_cast<std::uint32_t>(i));
     if (!fresh) {
       nextCopy_[i] = it->second;
       it->second = static_cast<std::uint32_t>(i);

@@ -67,7 +67,9 @@ struct OctreeElement {
   [[nodiscard]] int size() const { return 1 << level; }
   /// 1 / size(), exact (a power of two), from a table: a voxel's position needs it, and a
   /// division there costs more than the rest of the arithmetic.
-  [[nodiscard]] double inverseSize() const { return kInverseSizes[static_cast<std::size_t>(level)]; }
+  [[nodiscard]] double inverseSize() const {
+    return kInverseSizes[static_cast<std::size_t>(level)];
+  }
   /// Grid coordinates of the first voxel it covers (also its corner node 0's node coordinates).
   [[nodiscard]] Index3 firstVoxel() const {
     return {coord.x << level, coord.y << level, coord.z << level};

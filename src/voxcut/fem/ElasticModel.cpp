@@ -298,9 +298,9 @@ ElasticModel::SparsityReuse ElasticModel::sparsityReuse(
           if (same) {
             const std::uint32_t i0 = incidence_.start[n], i1 = incidence_.start[n + 1];
             const std::uint32_t o0 = oldIncidence.start[n], o1 = oldIncidence.start[n + 1];
-            same = i1 - i0 == o1 - o0 && std::equal(incidence_.index.begin() + i0,
-                                                    incidence_.index.begin() + i1,
-                                                    oldIncidence.index.begin() + o0);
+            same = i1 - i0 == o1 - o0 &&
+                   std::equal(incidence_.index.begin() + i0, incidence_.index.begin() + i1,
+                              oldIncidence.index.begin() + o0);
           }
           if (same) {
             const std::uint32_t p0 = prolongation_.start[n], p1 = prolongation_.start[n + 1];
@@ -642,8 +642,9 @@ std::vector<Vec3d> elasticForces(const ElasticModel& model, const DeformationOct
       0, model.elementCount(), 16,
       [&](std::size_t b, std::size_t end) {
         for (std::size_t e = b; e < end; ++e) {
-          const Corotation co = corotation(octree, static_cast<std::uint32_t>(e),
-                     model.element(static_cast<std::uint32_t>(e)).gradientMean);
+          const Corotation co =
+              corotation(octree, static_cast<std::uint32_t>(e),
+                         model.element(static_cast<std::uint32_t>(e)).gradientMean);
           const Eigen::Matrix<double, 24, 1> ky =
               model.element(static_cast<std::uint32_t>(e)).stiffness * co.displacement;
           for (int c = 0; c < 8; ++c)
@@ -673,7 +674,8 @@ double elasticEnergy(const ElasticModel& model, const DeformationOctree& octree)
         for (std::size_t e = b; e < end; ++e) {
           const Eigen::Matrix<double, 24, 1> y =
               corotation(octree, static_cast<std::uint32_t>(e),
-                     model.element(static_cast<std::uint32_t>(e)).gradientMean).displacement;
+                         model.element(static_cast<std::uint32_t>(e)).gradientMean)
+                  .displacement;
           energy[e] = 0.5 * y.dot(model.element(static_cast<std::uint32_t>(e)).stiffness * y);
         }
       },

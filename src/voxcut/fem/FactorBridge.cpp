@@ -4,8 +4,8 @@
 #include <utility>
 
 #include "voxcut/core/Error.h"
-#include "voxcut/fem/BlockPreconditioner.h"
 #include "voxcut/fem/BlockCholesky.h"
+#include "voxcut/fem/BlockPreconditioner.h"
 #include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/fem/ElasticModel.h"
 
@@ -29,7 +29,8 @@ void FactorBridge::update(const TopologyChange& change) {
   std::vector<double> weight;
   std::vector<std::uint8_t> dirty(change.nodeSource.size(), 0);
   std::vector<std::pair<std::uint32_t, double>> terms;
-  row.reserve(row_.size() + 8 * (change.nodeSource.size() - std::min(change.nodeSource.size(), oldNodes)));
+  row.reserve(row_.size() +
+              8 * (change.nodeSource.size() - std::min(change.nodeSource.size(), oldNodes)));
   for (std::size_t n = 0; n < change.nodeSource.size(); ++n) {
     const NodeSource& src = change.nodeSource[n];
     terms.clear();
@@ -44,7 +45,8 @@ void FactorBridge::update(const TopologyChange& change) {
       for (std::uint32_t q = start_[old]; q < start_[old + 1]; ++q)
         terms.emplace_back(row_[q], src.weights[static_cast<std::size_t>(k)] * weight_[q]);
     }
-    std::sort(terms.begin(), terms.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::sort(terms.begin(), terms.end(),
+              [](const auto& a, const auto& b) { return a.first < b.first; });
     const std::size_t first = row.size();
     for (const auto& [r, w] : terms) {
       if (row.size() > first && row.back() == r)
@@ -135,9 +137,9 @@ void FactorBridge::apply(const BlockSparsity& sp, const std::vector<Eigen::Matri
                          BlockCholesky& factor, const std::vector<Eigen::Matrix3d>& diagonalInverse,
                          const std::vector<Vec3d>& r, std::vector<Vec3d>& z) {
   const std::size_t rows = local_.size();
-  VOXCUT_ASSERT(valid_ && r.size() == rows && diagonalInverse.size() == rows &&
-                    sp.diagonal.size() == rows,
-                "FactorBridge::apply: prepare() first, for this system");
+  VOXCUT_ASSERT(
+      valid_ && r.size() == rows && diagonalInverse.size() == rows && sp.diagonal.size() == rows,
+      "FactorBridge::apply: prepare() first, for this system");
   const Eigen::Matrix3d* a = blocks.data();
   const std::uint32_t* column = sp.column.data();
   const auto rowProduct = [&](const std::vector<Vec3d>& x, std::uint32_t i) {
@@ -153,10 +155,12 @@ void FactorBridge::apply(const BlockSparsity& sp, const std::vector<Eigen::Matri
   // Coarse correction through the earlier factor: u += B C^-1 B^T t.
   std::fill(coarse_.begin(), coarse_.end(), Vec3d::Zero());
   for (std::size_t i = 0; i < rows; ++i)
-    for (std::uint32_t q = freeStart_[i]; q < freeStart_[i + 1]; ++q) coarse_[freeRow_[q]] += freeWeight_[q] * t_[i];
+    for (std::uint32_t q = freeStart_[i]; q < freeStart_[i + 1]; ++q)
+      coarse_[freeRow_[q]] += freeWeight_[q] * t_[i];
   factor.solve(coarse_, coarse_);
   for (std::size_t i = 0; i < rows; ++i)
-    for (std::uint32_t q = freeStart_[i]; q < freeStart_[i + 1]; ++q) u_[i] += freeWeight_[q] * coarse_[freeRow_[q]];
+    for (std::uint32_t q = freeStart_[i]; q < freeStart_[i + 1]; ++q)
+      u_[i] += freeWeight_[q] * coarse_[freeRow_[q]];
   // Backward Gauss-Seidel over the local rows on the correction d (in z, zero elsewhere),
   // which needs r - A u on those rows only.
   for (const std::uint32_t i : localList_) t_[i] = r[i] - rowProduct(u_, i);

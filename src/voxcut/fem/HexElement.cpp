@@ -179,8 +179,7 @@ Eigen::Matrix3d centreDeformationGradient(const std::array<Vec3d, 8>& displaceme
 
 Eigen::Matrix3d materialDeformationGradient(const std::array<Vec3d, 8>& x,
                                             const std::array<Vec3d, 8>& rest,
-                                            const std::array<Vec3d, 8>& gradientMean,
-                                            double edge) {
+                                            const std::array<Vec3d, 8>& gradientMean, double edge) {
   Vec3d xbar = Vec3d::Zero(), rbar = Vec3d::Zero();
   for (std::size_t c = 0; c < 8; ++c) {
     xbar += x[c];

@@ -102,12 +102,18 @@ void prolong(const WeightedRows& p, const std::vector<Vec3d>& reduced, std::vect
 
 const char* preconditionerName(Preconditioner p) {
   switch (p) {
-    case Preconditioner::Jacobi: return "jacobi";
-    case Preconditioner::BlockJacobi: return "block_jacobi";
-    case Preconditioner::SymmetricGaussSeidel: return "symmetric_gauss_seidel";
-    case Preconditioner::IncompleteCholesky: return "incomplete_cholesky";
-    case Preconditioner::TwoLevel: return "two_level";
-    case Preconditioner::Cholesky: return "cholesky";
+    case Preconditioner::Jacobi:
+      return "jacobi";
+    case Preconditioner::BlockJacobi:
+      return "block_jacobi";
+    case Preconditioner::SymmetricGaussSeidel:
+      return "symmetric_gauss_seidel";
+    case Preconditioner::IncompleteCholesky:
+      return "incomplete_cholesky";
+    case Preconditioner::TwoLevel:
+      return "two_level";
+    case Preconditioner::Cholesky:
+      return "cholesky";
   }
   return "unknown";
 }
@@ -156,8 +162,8 @@ Eigen::SparseMatrix<double> ImplicitEuler::reducedMatrix(const ElasticModel& mod
     for (std::uint32_t slot = sp.rowStart[i]; slot < sp.rowStart[i + 1]; ++slot)
       for (int a = 0; a < 3; ++a)
         for (int c = 0; c < 3; ++c)
-          entries.emplace_back(static_cast<int>(3 * i) + a, static_cast<int>(3 * sp.column[slot]) + c,
-                               blocks_[slot](a, c));
+          entries.emplace_back(static_cast<int>(3 * i) + a,
+                               static_cast<int>(3 * sp.column[slot]) + c, blocks_[slot](a, c));
   Eigen::SparseMatrix<double> m(static_cast<Eigen::Index>(3 * rows),
                                 static_cast<Eigen::Index>(3 * rows));
   m.setFromTriplets(entries.begin(), entries.end());
@@ -368,8 +374,7 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
   });
   bool finite = std::isfinite(rr);
   if (finite && rr > stop && status.iterations < params_.maxIterations && !pointwise) {
-    if (kind == Preconditioner::IncompleteCholesky)
-    {
+    if (kind == Preconditioner::IncompleteCholesky) {
       if (icRevision_ != model.sparsityRevision()) {
         icPattern_ = incompleteCholeskyPattern(sp);
         icRevision_ = model.sparsityRevision();
@@ -498,7 +503,8 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
   if (params_.preconditioner == Preconditioner::Cholesky && bridge_.valid() &&
       cholesky_.factorised() && model.sparsityRevision() != choleskyRevision_ &&
       bridgeRevision_ != model.sparsityRevision()) {
-    if (bridge_.prepare(model, octree, cholesky_.rows())) bridgeRevision_ = model.sparsityRevision();
+    if (bridge_.prepare(model, octree, cholesky_.rows()))
+      bridgeRevision_ = model.sparsityRevision();
   }
   Timer timer;
   assemble(model, octree);

@@ -80,9 +80,12 @@ enum class Preconditioner {
 };
 
 /// Every preconditioner, in declaration order.
-inline constexpr Preconditioner kPreconditioners[] = {
-    Preconditioner::Jacobi, Preconditioner::BlockJacobi, Preconditioner::SymmetricGaussSeidel,
-    Preconditioner::IncompleteCholesky, Preconditioner::TwoLevel, Preconditioner::Cholesky};
+inline constexpr Preconditioner kPreconditioners[] = {Preconditioner::Jacobi,
+                                                      Preconditioner::BlockJacobi,
+                                                      Preconditioner::SymmetricGaussSeidel,
+                                                      Preconditioner::IncompleteCholesky,
+                                                      Preconditioner::TwoLevel,
+                                                      Preconditioner::Cholesky};
 
 /// Name of a preconditioner ("jacobi", "block_jacobi", "symmetric_gauss_seidel",
 /// "incomplete_cholesky", "two_level", "cholesky"), for reports and scene files.
@@ -128,10 +131,10 @@ struct ImplicitEulerParams {
 /// correction after them (ImplicitEulerParams::rigidCorrection) is a Galerkin projection, so
 /// it can only lower the error in the energy norm.
 struct StepStatus {
-  int iterations = 0;      ///< conjugate-gradient iterations run
-  double residual = 0.0;   ///< final |r| / |b| (0 when b = 0)
-  bool converged = false;  ///< residual <= tolerance within maxIterations
-  bool finite = true;      ///< false: a non-finite value appeared; nothing was moved
+  int iterations = 0;       ///< conjugate-gradient iterations run
+  double residual = 0.0;    ///< final |r| / |b| (0 when b = 0)
+  bool converged = false;   ///< residual <= tolerance within maxIterations
+  bool finite = true;       ///< false: a non-finite value appeared; nothing was moved
   double assemblyMs = 0.0;  ///< wall time of the assembly (rotations, forces, blocks), ms
   double solveMs = 0.0;     ///< wall time of the preconditioner set-up and the solve, ms
   bool factorised = false;  ///< Cholesky: this step computed a new factor
@@ -200,18 +203,18 @@ class ImplicitEuler {
   std::vector<Vec3d> nodeRhs_;
   std::vector<Eigen::Matrix3d> blocks_;          ///< reduced matrix, one per sparsity block
   std::vector<Eigen::Matrix3d> preconditioner_;  ///< per free node: (block) diagonal inverse
-  IncompleteCholeskyPattern icPattern_;  ///< of the sparsity with revision icRevision_
+  IncompleteCholeskyPattern icPattern_;          ///< of the sparsity with revision icRevision_
   std::uint64_t icRevision_ = 0;
   IncompleteCholeskyFactor factor_;
   TwoLevelPreconditioner twoLevel_;
-  BlockCholesky cholesky_;                ///< analysed for the sparsity with choleskyRevision_
-  FactorBridge bridge_;                   ///< from cholesky_'s model to the current one
-  std::uint64_t bridgeRevision_ = 0;      ///< sparsity the bridge was last prepared for
+  BlockCholesky cholesky_;            ///< analysed for the sparsity with choleskyRevision_
+  FactorBridge bridge_;               ///< from cholesky_'s model to the current one
+  std::uint64_t bridgeRevision_ = 0;  ///< sparsity the bridge was last prepared for
   std::uint64_t choleskyRevision_ = 0;
   std::uint64_t costlyRevision_ = 0;  ///< a sparsity whose factor would cost too much
   std::size_t costlyRows_ = 0;        ///< its rows (0: none so far)
-  int lastIterations_ = 0;  ///< of the previous step (Cholesky: decides a refactorisation)
-  bool lastBridged_ = false;  ///< the previous step ran on the bridge
+  int lastIterations_ = 0;          ///< of the previous step (Cholesky: decides a refactorisation)
+  bool lastBridged_ = false;        ///< the previous step ran on the bridge
   std::uint64_t stepRevision_ = 0;  ///< sparsity revision of the last step
   int stepsOnStructure_ = 0;        ///< steps before this one on the same sparsity
   std::vector<Vec3d> freePositions_;  ///< current positions of the free nodes

@@ -40,8 +40,8 @@ class RigidModes {
   /// metres) and weights `weights` (#free, the nodes' masses): the six columns are
   /// translations along x, y, z and rotations about x, y, z through each piece's weighted
   /// centroid (about the centre of mass the mass matrix couples no translation to a rotation,
-  /// which keeps a large translation's round-off out of the rotations), scaled by the piece's radius so that all six have the
-  /// same size.
+  /// which keeps a large translation's round-off out of the rotations), scaled by the piece's
+  /// radius so that all six have the same size.
   void setup(const BlockSparsity& sparsity, std::uint64_t revision,
              const std::vector<Vec3d>& positions, const std::vector<double>& weights);
 
@@ -72,7 +72,7 @@ class RigidModes {
   std::size_t pieceCount_ = 0;
   std::vector<std::uint32_t> piece_;
   std::array<std::vector<Vec3d>, 6> modes_;
-  std::array<std::vector<Vec3d>, 6> products_;  ///< A times each mode
+  std::array<std::vector<Vec3d>, 6> products_;        ///< A times each mode
   std::vector<Eigen::Matrix<double, 6, 6>> inverse_;  ///< per piece, (Z^T A Z)^+
 };
 

@@ -16,9 +16,9 @@ namespace voxcut {
 /// 2, 4 or 8 sources for a node that refinement created at an old element's edge midpoint,
 /// face centre or centre (its old element's corner nodes with the trilinear weights there).
 struct NodeSource {
-  std::uint8_t count = 0;                 ///< number of sources used, 1..8
-  std::array<std::uint32_t, 8> nodes{};   ///< old node ids, the first `count` entries are used
-  std::array<double, 8> weights{};        ///< their weights, the first `count` entries are used
+  std::uint8_t count = 0;                ///< number of sources used, 1..8
+  std::array<std::uint32_t, 8> nodes{};  ///< old node ids, the first `count` entries are used
+  std::array<double, 8> weights{};       ///< their weights, the first `count` entries are used
 };
 
 /// The map from an octree before an update to the octree after it.

@@ -167,8 +167,7 @@ bool TwoLevelPreconditioner::setup(const BlockSparsity& sp, const NodeAggregatio
         const Vec3d d = (*positions)[agg.member[m]] - centre;
         moment += d * d.transpose();
       }
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(moment,
-                                                              Eigen::EigenvaluesOnly);
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(moment, Eigen::EigenvaluesOnly);
       const Vec3d lambda = eig.eigenvalues();  // ascending
       if (lambda(2) > 0.0 && lambda(1) > 1e-3 * lambda(2)) {
         modes = 6;
@@ -204,7 +203,8 @@ bool TwoLevelPreconditioner::setup(const BlockSparsity& sp, const NodeAggregatio
       threaded);
   // A_c(I, J) = sum over the members i of I, ascending, of T_i^T B_iJ, per aggregate I in its
   // own task; the blocks of I's row are kept per neighbour J in the order first reached.
-  std::vector<std::vector<std::pair<std::uint32_t, Eigen::Matrix<double, 6, 6>>>> rowBlocks(agg.count());
+  std::vector<std::vector<std::pair<std::uint32_t, Eigen::Matrix<double, 6, 6>>>> rowBlocks(
+      agg.count());
   parallelFor(
       0, agg.count(), 4,
       [&](std::size_t b, std::size_t e) {

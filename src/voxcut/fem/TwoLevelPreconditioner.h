@@ -111,10 +111,10 @@ class TwoLevelPreconditioner {
  private:
   using LinkBlock = Eigen::Matrix<double, 3, 6>;
   using Mode = Eigen::Matrix<double, 6, 1>;  ///< translation, rotation
-  std::vector<LinkBlock> link_;  ///< B_iJ per entry of NodeAggregation::linkAggregate
-  std::vector<Vec3d> offset_;    ///< per row: (x_i - centre_I) / radius_I, 0 without rotations
-  std::vector<std::uint32_t> columnStart_;  ///< per aggregate, its first coarse unknown
-  Eigen::SparseMatrix<double> coarse_;  ///< lower triangle of A_c
+  std::vector<LinkBlock> link_;              ///< B_iJ per entry of NodeAggregation::linkAggregate
+  std::vector<Vec3d> offset_;  ///< per row: (x_i - centre_I) / radius_I, 0 without rotations
+  std::vector<std::uint32_t> columnStart_;        ///< per aggregate, its first coarse unknown
+  Eigen::SparseMatrix<double> coarse_;            ///< lower triangle of A_c
   std::vector<int> patternOuter_, patternInner_;  ///< coarse_'s pattern at the last analysis
   std::vector<Eigen::Triplet<double>> coarseTriplets_;
   /// Empty until the first setup (on the heap: Eigen's sparse factors cannot be moved).

@@ -14,16 +14,18 @@ namespace {
 struct Candidate {
   bool valid = false;
   bool mixed = false;
-  std::uint8_t material = 0;      // when not mixed
-  std::int16_t minBoundary = 0;   // when mixed: smallest boundary limit of its materials
+  std::uint8_t material = 0;     // when not mixed
+  std::int16_t minBoundary = 0;  // when mixed: smallest boundary limit of its materials
 };
 
 struct LevelGrid {
   Index3 n;  // candidates per axis
   std::vector<Candidate> cand;
   [[nodiscard]] std::size_t index(int x, int y, int z) const {
-    return static_cast<std::size_t>(x) + static_cast<std::size_t>(n.x) *
-                                             (static_cast<std::size_t>(y) + static_cast<std::size_t>(n.y) * static_cast<std::size_t>(z));
+    return static_cast<std::size_t>(x) +
+           static_cast<std::size_t>(n.x) *
+               (static_cast<std::size_t>(y) +
+                static_cast<std::size_t>(n.y) * static_cast<std::size_t>(z));
   }
 };
 
@@ -98,8 +100,9 @@ void VoxelOctree::setCubeCells(const Index3& origin, int level, std::int32_t val
   const auto dx = static_cast<std::size_t>(dims.x), dy = static_cast<std::size_t>(dims.y);
   for (int z = 0; z < n; ++z)
     for (int y = 0; y < n; ++y) {
-      const std::size_t row = static_cast<std::size_t>(origin.x) +
-                              dx * (static_cast<std::size_t>(origin.y + y) + dy * static_cast<std::size_t>(origin.z + z));
+      const std::size_t row =
+          static_cast<std::size_t>(origin.x) + dx * (static_cast<std::size_t>(origin.y + y) +
+                                                     dy * static_cast<std::size_t>(origin.z + z));
       std::fill_n(cellCube.begin() + static_cast<std::ptrdiff_t>(row), n, value);
     }
 }
@@ -155,7 +158,8 @@ VoxelOctree buildVoxelOctree(const VoxelGrid& grid, const OctreeParams& params, 
   int top = 0;
   for (std::size_t m = 0; m < nMat; ++m)
     top = std::max({top, params.maxInternalLevel[m], params.maxBoundaryLevel[m]});
-  while (top > 0 && ((d.x - 1) >> top) < 1 && ((d.y - 1) >> top) < 1 && ((d.z - 1) >> top) < 1) --top;
+  while (top > 0 && ((d.x - 1) >> top) < 1 && ((d.y - 1) >> top) < 1 && ((d.z - 1) >> top) < 1)
+    --top;
 
   // Candidates, level by level: level 1 from voxels and links, higher from 8 children.
   std::vector<LevelGrid> levels(static_cast<std::size_t>(top) + 1);
@@ -163,25 +167,29 @@ VoxelOctree buildVoxelOctree(const VoxelGrid& grid, const OctreeParams& params, 
     LevelGrid& lg = levels[L];
     for (int a = 0; a < 3; ++a) lg.n[a] = (d[a] - 1) >> L;
     lg.cand.assign(static_cast<std::size_t>(lg.n.x) * lg.n.y * lg.n.z, {});
-    parallelFor(0, static_cast<std::size_t>(lg.n.z), 1, [&](std::size_t z0, std::size_t z1) {
-      for (int z = static_cast<int>(z0); z < static_cast<int>(z1); ++z)
-        for (int y = 0; y < lg.n.y; ++y)
-          for (int x = 0; x < lg.n.x; ++x) {
-            Candidate& c = lg.cand[lg.index(x, y, z)];
-            if (L == 1) {
-              c = levelOne(grid, {2 * x, 2 * y, 2 * z}, params);
-              continue;
-            }
-            const LevelGrid& child = levels[L - 1];
-            Candidate acc;
-            for (int k = 0; k < 8; ++k) {
-              const Candidate& ch = child.cand[child.index(2 * x + (k & 1), 2 * y + ((k >> 1) & 1), 2 * z + (k >> 2))];
-              acc = k == 0 ? ch : merge(acc, ch, params);
-              if (!acc.valid) break;
-            }
-            c = acc;
-          }
-    }, threaded);
+    parallelFor(
+        0, static_cast<std::size_t>(lg.n.z), 1,
+        [&](std::size_t z0, std::size_t z1) {
+          for (int z = static_cast<int>(z0); z < static_cast<int>(z1); ++z)
+            for (int y = 0; y < lg.n.y; ++y)
+              for (int x = 0; x < lg.n.x; ++x) {
+                Candidate& c = lg.cand[lg.index(x, y, z)];
+                if (L == 1) {
+                  c = levelOne(grid, {2 * x, 2 * y, 2 * z}, params);
+                  continue;
+                }
+                const LevelGrid& child = levels[L - 1];
+                Candidate acc;
+                for (int k = 0; k < 8; ++k) {
+                  const Candidate& ch = child.cand[child.index(
+                      2 * x + (k & 1), 2 * y + ((k >> 1) & 1), 2 * z + (k >> 2))];
+                  acc = k == 0 ? ch : merge(acc, ch, params);
+                  if (!acc.valid) break;
+                }
+                c = acc;
+              }
+        },
+        threaded);
   }
 
   // Keep the largest cubes: top down, a cube inside a kept cube is not kept.
@@ -196,7 +204,8 @@ VoxelOctree buildVoxelOctree(const VoxelGrid& grid, const OctreeParams& params, 
           bool cov = false;
           if (L < top) {
             const LevelGrid& up = levels[L + 1];
-            if (x / 2 < up.n.x && y / 2 < up.n.y && z / 2 < up.n.z) cov = covered[L + 1][up.index(x / 2, y / 2, z / 2)];
+            if (x / 2 < up.n.x && y / 2 < up.n.y && z / 2 < up.n.z)
+              cov = covered[L + 1][up.index(x / 2, y / 2, z / 2)];
           }
           if (!cov && passes(lg.cand[i], L, params)) {
             oct.cubes.push_back({{x << L, y << L, z << L}, static_cast<std::uint8_t>(L), false});
@@ -208,53 +217,68 @@ VoxelOctree buildVoxelOctree(const VoxelGrid& grid, const OctreeParams& params, 
 
   // Cube map over unit cells.
   oct.cellCube.assign(grid.voxelCount(), -1);
-  parallelFor(0, oct.cubes.size(), 16, [&](std::size_t c0, std::size_t c1) {
-    for (std::size_t c = c0; c < c1; ++c)
-      oct.setCubeCells(oct.cubes[c].origin, oct.cubes[c].level, static_cast<std::int32_t>(c));
-  }, threaded);
+  parallelFor(
+      0, oct.cubes.size(), 16,
+      [&](std::size_t c0, std::size_t c1) {
+        for (std::size_t c = c0; c < c1; ++c)
+          oct.setCubeCells(oct.cubes[c].origin, oct.cubes[c].level, static_cast<std::int32_t>(c));
+      },
+      threaded);
 
   // Activation steps (2)-(4).
   oct.state.assign(grid.voxelCount(), 0);
-  parallelFor(0, static_cast<std::size_t>(d.z), 1, [&](std::size_t z0, std::size_t z1) {
-    for (int z = static_cast<int>(z0); z < static_cast<int>(z1); ++z)
-      for (int y = 0; y < d.y; ++y)
-        for (int x = 0; x < d.x; ++x) {
-          const Index3 c{x, y, z};
-          const std::size_t v = grid.index(c);
-          std::uint8_t bits = 0;
-          for (int a = 0; a < 3; ++a) {
-            if (!grid.connected(v, a)) continue;
-            // Surrounded: all 4 cells around the link exist and lie in cubes.
-            int inCubes = 0;
-            const int cells = forEachCellAroundLink(d, c, a, [&](const Index3& cell) {
-              inCubes += oct.cellCube[grid.index(cell)] >= 0;
-            });
-            if (cells < 4 || inCubes < 4) bits = static_cast<std::uint8_t>(bits | (1u << a));
-          }
-          oct.state[v] = bits;
-        }
-  }, threaded);
-  parallelFor(0, oct.cubes.size(), 16, [&](std::size_t c0, std::size_t c1) {
-    for (std::size_t c = c0; c < c1; ++c) activateCubeFrame(oct, grid, oct.cubes[c]);
-  }, threaded);
+  parallelFor(
+      0, static_cast<std::size_t>(d.z), 1,
+      [&](std::size_t z0, std::size_t z1) {
+        for (int z = static_cast<int>(z0); z < static_cast<int>(z1); ++z)
+          for (int y = 0; y < d.y; ++y)
+            for (int x = 0; x < d.x; ++x) {
+              const Index3 c{x, y, z};
+              const std::size_t v = grid.index(c);
+              std::uint8_t bits = 0;
+              for (int a = 0; a < 3; ++a) {
+                if (!grid.connected(v, a)) continue;
+                // Surrounded: all 4 cells around the link exist and lie in cubes.
+                int inCubes = 0;
+                const int cells = forEachCellAroundLink(d, c, a, [&](const Index3& cell) {
+                  inCubes += oct.cellCube[grid.index(cell)] >= 0;
+                });
+                if (cells < 4 || inCubes < 4) bits = static_cast<std::uint8_t>(bits | (1u << a));
+              }
+              oct.state[v] = bits;
+            }
+      },
+      threaded);
+  parallelFor(
+      0, oct.cubes.size(), 16,
+      [&](std::size_t c0, std::size_t c1) {
+        for (std::size_t c = c0; c < c1; ++c) activateCubeFrame(oct, grid, oct.cubes[c]);
+      },
+      threaded);
   // Step (4): voxels touching an active link (own links or links from the -a neighbours).
   std::vector<std::uint8_t> touched(grid.voxelCount(), 0);
-  parallelFor(0, static_cast<std::size_t>(d.z), 1, [&](std::size_t z0, std::size_t z1) {
-    for (int z = static_cast<int>(z0); z < static_cast<int>(z1); ++z)
-      for (int y = 0; y < d.y; ++y)
-        for (int x = 0; x < d.x; ++x) {
-          const Index3 c{x, y, z};
-          const std::size_t v = grid.index(c);
-          bool t = (oct.state[v] & 7u) != 0;
-          for (int a = 0; a < 3 && !t; ++a)
-            t = c[a] > 0 && ((oct.state[v - grid.stride(a)] >> a) & 1u);
-          touched[v] = t;
-        }
-  }, threaded);
-  parallelFor(0, grid.voxelCount(), 1 << 16, [&](std::size_t b, std::size_t e) {
-    for (std::size_t v = b; v < e; ++v)
-      if (touched[v]) oct.state[v] = static_cast<std::uint8_t>(oct.state[v] | kActiveVoxel);
-  }, threaded);
+  parallelFor(
+      0, static_cast<std::size_t>(d.z), 1,
+      [&](std::size_t z0, std::size_t z1) {
+        for (int z = static_cast<int>(z0); z < static_cast<int>(z1); ++z)
+          for (int y = 0; y < d.y; ++y)
+            for (int x = 0; x < d.x; ++x) {
+              const Index3 c{x, y, z};
+              const std::size_t v = grid.index(c);
+              bool t = (oct.state[v] & 7u) != 0;
+              for (int a = 0; a < 3 && !t; ++a)
+                t = c[a] > 0 && ((oct.state[v - grid.stride(a)] >> a) & 1u);
+              touched[v] = t;
+            }
+      },
+      threaded);
+  parallelFor(
+      0, grid.voxelCount(), 1 << 16,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t v = b; v < e; ++v)
+          if (touched[v]) oct.state[v] = static_cast<std::uint8_t>(oct.state[v] | kActiveVoxel);
+      },
+      threaded);
   rebuildActiveVoxels(oct, threaded);
   return oct;
 }
@@ -264,26 +288,31 @@ VoxelOctree allActive(const VoxelGrid& grid, bool threaded) {
   oct.dims = grid.dims();
   oct.cellCube.assign(grid.voxelCount(), -1);
   oct.state.assign(grid.voxelCount(), 0);
-  parallelFor(0, grid.voxelCount(), 1 << 16, [&](std::size_t b, std::size_t e) {
-    for (std::size_t v = b; v < e; ++v) {
-      if (!grid.occupied(v)) continue;
-      std::uint8_t s = kActiveVoxel;
-      for (int a = 0; a < 3; ++a)
-        if (grid.connected(v, a)) s = static_cast<std::uint8_t>(s | (1u << a));
-      oct.state[v] = s;
-    }
-  }, threaded);
+  parallelFor(
+      0, grid.voxelCount(), 1 << 16,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t v = b; v < e; ++v) {
+          if (!grid.occupied(v)) continue;
+          std::uint8_t s = kActiveVoxel;
+          for (int a = 0; a < 3; ++a)
+            if (grid.connected(v, a)) s = static_cast<std::uint8_t>(s | (1u << a));
+          oct.state[v] = s;
+        }
+      },
+      threaded);
   rebuildActiveVoxels(oct, threaded);
   return oct;
 }
 
 void compactCubes(VoxelOctree& oct, bool threaded) {
-  VOXCUT_ASSERT(oct.unmappedCubes.empty(), "compaction before the cube map is written (activateNewCubeFrames)");
+  VOXCUT_ASSERT(oct.unmappedCubes.empty(),
+                "compaction before the cube map is written (activateNewCubeFrames)");
   // Each deleted slot, in ascending order, takes the last live cube; only the moved cubes'
   // cells are rewritten (a deleted cube covers no cell any more).
   const std::size_t before = oct.cubes.size();
   std::vector<std::int32_t> remap(before);
-  for (std::size_t c = 0; c < before; ++c) remap[c] = oct.cubes[c].deleted ? -1 : static_cast<std::int32_t>(c);
+  for (std::size_t c = 0; c < before; ++c)
+    remap[c] = oct.cubes[c].deleted ? -1 : static_cast<std::int32_t>(c);
   std::vector<std::uint32_t> moved;  // new slots of moved cubes
   std::size_t last = before;
   auto dropDeletedTail = [&] {
@@ -300,12 +329,15 @@ void compactCubes(VoxelOctree& oct, bool threaded) {
   }
   if (last == before) return;
   oct.cubes.resize(last);
-  parallelFor(0, moved.size(), 4, [&](std::size_t b, std::size_t e) {
-    for (std::size_t i = b; i < e; ++i) {
-      const OctreeCube& cube = oct.cubes[moved[i]];
-      oct.setCubeCells(cube.origin, cube.level, static_cast<std::int32_t>(moved[i]));
-    }
-  }, threaded);
+  parallelFor(
+      0, moved.size(), 4,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) {
+          const OctreeCube& cube = oct.cubes[moved[i]];
+          oct.setCubeCells(cube.origin, cube.level, static_cast<std::int32_t>(moved[i]));
+        }
+      },
+      threaded);
   std::vector<std::uint32_t> fresh;
   for (std::uint32_t c : oct.newCubes)
     if (remap[c] >= 0) fresh.push_back(static_cast<std::uint32_t>(remap[c]));
@@ -314,21 +346,27 @@ void compactCubes(VoxelOctree& oct, bool threaded) {
 
 void activateNewCubeFrames(VoxelOctree& oct, const VoxelGrid& grid, bool threaded) {
   // The cube map: these cubes do not overlap one another.
-  parallelFor(0, oct.unmappedCubes.size(), 16, [&](std::size_t c0, std::size_t c1) {
-    for (std::size_t i = c0; i < c1; ++i) {
-      const std::uint32_t id = oct.unmappedCubes[i];
-      const OctreeCube& cube = oct.cubes[id];
-      VOXCUT_ASSERT(!cube.deleted, "an unmapped cube was split before its cells were written");
-      oct.setCubeCells(cube.origin, cube.level, static_cast<std::int32_t>(id));
-    }
-  }, threaded);
+  parallelFor(
+      0, oct.unmappedCubes.size(), 16,
+      [&](std::size_t c0, std::size_t c1) {
+        for (std::size_t i = c0; i < c1; ++i) {
+          const std::uint32_t id = oct.unmappedCubes[i];
+          const OctreeCube& cube = oct.cubes[id];
+          VOXCUT_ASSERT(!cube.deleted, "an unmapped cube was split before its cells were written");
+          oct.setCubeCells(cube.origin, cube.level, static_cast<std::int32_t>(id));
+        }
+      },
+      threaded);
   oct.unmappedCubes.clear();
-  parallelFor(0, oct.newCubes.size(), 16, [&](std::size_t c0, std::size_t c1) {
-    for (std::size_t i = c0; i < c1; ++i) {
-      const OctreeCube& cube = oct.cubes[oct.newCubes[i]];
-      if (!cube.deleted) activateCubeFrame(oct, grid, cube);
-    }
-  }, threaded);
+  parallelFor(
+      0, oct.newCubes.size(), 16,
+      [&](std::size_t c0, std::size_t c1) {
+        for (std::size_t i = c0; i < c1; ++i) {
+          const OctreeCube& cube = oct.cubes[oct.newCubes[i]];
+          if (!cube.deleted) activateCubeFrame(oct, grid, cube);
+        }
+      },
+      threaded);
   // The frames' voxels, for the incremental rebuild of the active tables.
   for (std::uint32_t id : oct.newCubes) {
     const OctreeCube& cube = oct.cubes[id];
@@ -363,7 +401,8 @@ namespace {
 
 // Index steps of the grid's axes.
 std::array<std::size_t, 3> axisStrides(const Index3& d) {
-  return {1, static_cast<std::size_t>(d.x), static_cast<std::size_t>(d.x) * static_cast<std::size_t>(d.y)};
+  return {1, static_cast<std::size_t>(d.x),
+          static_cast<std::size_t>(d.x) * static_cast<std::size_t>(d.y)};
 }
 
 // The link-table row of voxel v (activeIndex must be current): per axis, the entry of the voxel
@@ -383,36 +422,46 @@ void rebuildAllActive(VoxelOctree& oct, bool threaded) {
   constexpr std::size_t kChunk = 1 << 16;
   std::vector<std::vector<std::uint32_t>> parts((n + kChunk - 1) / kChunk);
   oct.activeIndex.resize(n);
-  parallelFor(0, parts.size(), 1, [&](std::size_t p0, std::size_t p1) {
-    for (std::size_t p = p0; p < p1; ++p)
-      for (std::size_t v = p * kChunk; v < std::min(n, (p + 1) * kChunk); ++v) {
-        std::uint8_t& s = oct.state[v];
-        s = static_cast<std::uint8_t>(s & ~kListedVoxel);
-        oct.activeIndex[v] = kNoActive;
-        if (s & kActiveVoxel) parts[p].push_back(static_cast<std::uint32_t>(v));
-      }
-  }, threaded);
+  parallelFor(
+      0, parts.size(), 1,
+      [&](std::size_t p0, std::size_t p1) {
+        for (std::size_t p = p0; p < p1; ++p)
+          for (std::size_t v = p * kChunk; v < std::min(n, (p + 1) * kChunk); ++v) {
+            std::uint8_t& s = oct.state[v];
+            s = static_cast<std::uint8_t>(s & ~kListedVoxel);
+            oct.activeIndex[v] = kNoActive;
+            if (s & kActiveVoxel) parts[p].push_back(static_cast<std::uint32_t>(v));
+          }
+      },
+      threaded);
   std::vector<std::size_t> offset(parts.size() + 1, 0);
   for (std::size_t p = 0; p < parts.size(); ++p) offset[p + 1] = offset[p] + parts[p].size();
   oct.activeVoxels.resize(offset.back());
-  parallelFor(0, parts.size(), 1, [&](std::size_t p0, std::size_t p1) {
-    for (std::size_t p = p0; p < p1; ++p)
-      for (std::size_t k = 0; k < parts[p].size(); ++k) {
-        oct.activeVoxels[offset[p] + k] = parts[p][k];
-        oct.activeIndex[parts[p][k]] = static_cast<std::uint32_t>(offset[p] + k);
-      }
-  }, threaded);
+  parallelFor(
+      0, parts.size(), 1,
+      [&](std::size_t p0, std::size_t p1) {
+        for (std::size_t p = p0; p < p1; ++p)
+          for (std::size_t k = 0; k < parts[p].size(); ++k) {
+            oct.activeVoxels[offset[p] + k] = parts[p][k];
+            oct.activeIndex[parts[p][k]] = static_cast<std::uint32_t>(offset[p] + k);
+          }
+      },
+      threaded);
 
   // Link table through the index map.
   const std::vector<std::uint32_t>& act = oct.activeVoxels;
   oct.activeNext.resize(act.size());
   const auto strides = axisStrides(oct.dims);
   std::atomic<bool> broken{false};
-  parallelFor(0, act.size(), 4096, [&](std::size_t b, std::size_t e) {
-    bool ok = true;
-    for (std::size_t i = b; i < e; ++i) ok = linkRow(oct, act[i], strides, oct.activeNext[i]) && ok;
-    if (!ok) broken.store(true, std::memory_order_relaxed);
-  }, threaded);
+  parallelFor(
+      0, act.size(), 4096,
+      [&](std::size_t b, std::size_t e) {
+        bool ok = true;
+        for (std::size_t i = b; i < e; ++i)
+          ok = linkRow(oct, act[i], strides, oct.activeNext[i]) && ok;
+        if (!ok) broken.store(true, std::memory_order_relaxed);
+      },
+      threaded);
   VOXCUT_ASSERT(!broken.load(), "an active link ends at an inactive voxel");
 }
 
@@ -435,7 +484,8 @@ void updateActive(VoxelOctree& oct, bool threaded) {
   // Merge: the added voxels go in before their successors; newPos maps old entries.
   std::vector<std::size_t> insertAt(added.size());
   for (std::size_t k = 0; k < added.size(); ++k)
-    insertAt[k] = static_cast<std::size_t>(std::lower_bound(old.begin(), old.end(), added[k]) - old.begin());
+    insertAt[k] =
+        static_cast<std::size_t>(std::lower_bound(old.begin(), old.end(), added[k]) - old.begin());
   const std::size_t total = old.size() + added.size();
   oct.activeVoxels.resize(total);
   std::vector<std::uint32_t>& newPos = oct.spareMap;
@@ -451,17 +501,22 @@ void updateActive(VoxelOctree& oct, bool threaded) {
     from = to;
   }
   const std::size_t firstMoved = added.empty() ? total : insertAt[0];
-  for (std::size_t p = firstMoved; p < total; ++p) oct.activeIndex[oct.activeVoxels[p]] = static_cast<std::uint32_t>(p);
+  for (std::size_t p = firstMoved; p < total; ++p)
+    oct.activeIndex[oct.activeVoxels[p]] = static_cast<std::uint32_t>(p);
   // Link table: old entries remapped, then the listed voxels' rows recomputed.
   oct.activeNext.resize(total);
-  for (std::size_t k = 0; k < added.size(); ++k) oct.activeNext[insertAt[k] + k] = {kNoActive, kNoActive, kNoActive};
-  parallelFor(0, old.size(), 4096, [&](std::size_t b, std::size_t e) {
-    for (std::size_t i = b; i < e; ++i)
-      for (std::size_t a = 0; a < 3; ++a) {
-        const std::uint32_t j = oldNext[i][a];
-        oct.activeNext[newPos[i]][a] = j == kNoActive ? kNoActive : newPos[j];
-      }
-  }, threaded);
+  for (std::size_t k = 0; k < added.size(); ++k)
+    oct.activeNext[insertAt[k] + k] = {kNoActive, kNoActive, kNoActive};
+  parallelFor(
+      0, old.size(), 4096,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i)
+          for (std::size_t a = 0; a < 3; ++a) {
+            const std::uint32_t j = oldNext[i][a];
+            oct.activeNext[newPos[i]][a] = j == kNoActive ? kNoActive : newPos[j];
+          }
+      },
+      threaded);
   const auto strides = axisStrides(oct.dims);
   for (std::uint32_t v : changed) {
     const std::uint32_t i = oct.activeIndex[v];
@@ -474,8 +529,8 @@ void updateActive(VoxelOctree& oct, bool threaded) {
 }  // namespace
 
 void rebuildActiveVoxels(VoxelOctree& oct, bool threaded) {
-  const bool incremental =
-      oct.activeIndex.size() == oct.state.size() && oct.activeNext.size() == oct.activeVoxels.size();
+  const bool incremental = oct.activeIndex.size() == oct.state.size() &&
+                           oct.activeNext.size() == oct.activeVoxels.size();
   if (incremental && oct.changed.empty()) return;  // nothing was raised: the tables stand
   if (incremental)
     updateActive(oct, threaded);

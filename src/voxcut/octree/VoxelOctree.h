@@ -49,15 +49,15 @@ enum VoxelState : std::uint8_t {
 /// except through the atomic helpers the subdivision uses.
 struct VoxelOctree {
   Index3 dims;
-  std::vector<OctreeCube> cubes;       ///< stored cubes; deleted ones until compaction
-  std::vector<std::int32_t> cellCube;  ///< per unit cell (its min voxel): covering cube or -1
-  std::vector<std::uint8_t> state;     ///< per voxel: VoxelState bits
+  std::vector<OctreeCube> cubes;            ///< stored cubes; deleted ones until compaction
+  std::vector<std::int32_t> cellCube;       ///< per unit cell (its min voxel): covering cube or -1
+  std::vector<std::uint8_t> state;          ///< per voxel: VoxelState bits
   std::vector<std::uint32_t> activeVoxels;  ///< sorted indices of active voxels
   /// Per entry i of activeVoxels and axis a: the entry of the voxel across link
   /// (activeVoxels[i], a) when that link is active (its far voxel is then active too), else
   /// kNoActive. Lets a pass over the active voxels keep per-voxel data in active order.
   std::vector<std::array<std::uint32_t, 3>> activeNext;
-  std::vector<std::uint32_t> activeIndex;   ///< per voxel: its entry in activeVoxels, or kNoActive
+  std::vector<std::uint32_t> activeIndex;  ///< per voxel: its entry in activeVoxels, or kNoActive
   /// Stamp of activeVoxels (see core/Stamp.h): a new one whenever rebuildActiveVoxels changes
   /// it. Data kept per entry elsewhere is current while it stays the same.
   std::uint64_t activeStamp = 0;
@@ -81,7 +81,7 @@ struct VoxelOctree {
     state[v] = static_cast<std::uint8_t>(state[v] | kListedVoxel);
     changed.push_back(static_cast<std::uint32_t>(v));
   }
-  std::vector<std::uint32_t> newCubes;      ///< cubes created since the last frame activation
+  std::vector<std::uint32_t> newCubes;  ///< cubes created since the last frame activation
   /// Of those, the ones whose cells in cellCube still hold the id of the cube they were split
   /// from (the subdivision's last round leaves the map to activateNewCubeFrames).
   std::vector<std::uint32_t> unmappedCubes;

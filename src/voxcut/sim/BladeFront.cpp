@@ -12,7 +12,8 @@ std::vector<Vec3d> sampleBlade(const BladePose& pose, int segments) {
   std::vector<Vec3d> out(static_cast<std::size_t>(segments) + 1);
   for (int i = 0; i <= segments; ++i) {
     const double s = static_cast<double>(i) / segments;
-    out[static_cast<std::size_t>(i)] = i == segments ? pose.b : Vec3d(pose.a + s * (pose.b - pose.a));
+    out[static_cast<std::size_t>(i)] =
+        i == segments ? pose.b : Vec3d(pose.a + s * (pose.b - pose.a));
   }
   return out;
 }
@@ -43,10 +44,12 @@ BladeFront embedFront(const std::vector<Vec3d>& points, const std::vector<std::u
         vox[k] += std::clamp(static_cast<int>(std::floor(xi[k] * el.size())), 0, el.size() - 1);
       const Index3& dims = d.gridDims();
       const bool inGrid = vox.x < dims.x && vox.y < dims.y && vox.z < dims.z;
-      const bool owns = inGrid && d.owner(static_cast<std::size_t>(vox.x) +
-                                          static_cast<std::size_t>(dims.x) *
-                                              (static_cast<std::size_t>(vox.y) +
-                                               static_cast<std::size_t>(dims.y) * static_cast<std::size_t>(vox.z))) == e;
+      const bool owns =
+          inGrid &&
+          d.owner(static_cast<std::size_t>(vox.x) +
+                  static_cast<std::size_t>(dims.x) *
+                      (static_cast<std::size_t>(vox.y) +
+                       static_cast<std::size_t>(dims.y) * static_cast<std::size_t>(vox.z))) == e;
       if (f.element[i] == kNoElement || owns) {
         f.element[i] = e;
         f.local[i] = xi;
@@ -76,17 +79,19 @@ void frontStart(const BladeFront& f, const DeformationOctree& d, std::uint64_t n
   }
 }
 
-std::vector<BladeSweep> sweepStrip(const std::vector<Vec3d>& start, const std::vector<std::uint64_t>& startIds,
-                                   const std::vector<Vec3d>& end, const std::vector<std::uint64_t>& endIds,
-                                   std::uint64_t frame) {
-  VOXCUT_ASSERT(start.size() == end.size() && start.size() >= 2 && startIds.size() == start.size() &&
-                    endIds.size() == end.size(),
+std::vector<BladeSweep> sweepStrip(const std::vector<Vec3d>& start,
+                                   const std::vector<std::uint64_t>& startIds,
+                                   const std::vector<Vec3d>& end,
+                                   const std::vector<std::uint64_t>& endIds, std::uint64_t frame) {
+  VOXCUT_ASSERT(start.size() == end.size() && start.size() >= 2 &&
+                    startIds.size() == start.size() && endIds.size() == end.size(),
                 "sweepStrip: two polylines of equal length with ids");
   std::vector<BladeSweep> out;
   out.reserve(start.size() - 1);
   for (std::size_t i = 0; i + 1 < start.size(); ++i) {
     const BladePose from{start[i], start[i + 1]}, to{end[i], end[i + 1]};
-    out.push_back(makeSweep(from, to, {startIds[i], startIds[i + 1], endIds[i + 1], endIds[i]}, frame));
+    out.push_back(
+        makeSweep(from, to, {startIds[i], startIds[i + 1], endIds[i + 1], endIds[i]}, frame));
   }
   return out;
 }

@@ -14,32 +14,35 @@ ModelStats countModel(const VoxelGrid& grid, bool threaded) {
     std::size_t connected = 0, surface = 0, cut = 0, interface = 0;
   };
   std::vector<Count> slices(static_cast<std::size_t>(d.z));
-  parallelFor(0, slices.size(), 1, [&](std::size_t z0, std::size_t z1) {
-    for (std::size_t z = z0; z < z1; ++z) {
-      Count& c = slices[z];
-      c.perMaterial.assign(nMat + 1, 0);
-      for (int y = 0; y < d.y; ++y)
-        for (int x = 0; x < d.x; ++x) {
-          const Index3 ci{x, y, static_cast<int>(z)};
-          const std::size_t v = grid.index(ci);
-          const std::uint8_t m0 = grid.material(v);
-          ++c.perMaterial[m0 <= nMat ? m0 : 0];
-          for (int a = 0; a < 3; ++a) {
-            if (ci[a] + 1 >= d[a]) continue;
-            const std::uint8_t m1 = grid.material(v + grid.stride(a));
-            if (m0 == 0 && m1 == 0) continue;
-            if (grid.connected(v, a)) {
-              ++c.connected;
-              if (m0 != m1) ++c.interface;
-            } else if (m0 != 0 && m1 != 0) {
-              ++c.cut;
-            } else {
-              ++c.surface;
+  parallelFor(
+      0, slices.size(), 1,
+      [&](std::size_t z0, std::size_t z1) {
+        for (std::size_t z = z0; z < z1; ++z) {
+          Count& c = slices[z];
+          c.perMaterial.assign(nMat + 1, 0);
+          for (int y = 0; y < d.y; ++y)
+            for (int x = 0; x < d.x; ++x) {
+              const Index3 ci{x, y, static_cast<int>(z)};
+              const std::size_t v = grid.index(ci);
+              const std::uint8_t m0 = grid.material(v);
+              ++c.perMaterial[m0 <= nMat ? m0 : 0];
+              for (int a = 0; a < 3; ++a) {
+                if (ci[a] + 1 >= d[a]) continue;
+                const std::uint8_t m1 = grid.material(v + grid.stride(a));
+                if (m0 == 0 && m1 == 0) continue;
+                if (grid.connected(v, a)) {
+                  ++c.connected;
+                  if (m0 != m1) ++c.interface;
+                } else if (m0 != 0 && m1 != 0) {
+                  ++c.cut;
+                } else {
+                  ++c.surface;
+                }
+              }
             }
-          }
         }
-    }
-  }, threaded);
+      },
+      threaded);
   ModelStats s;
   std::vector<std::size_t> perMaterial(nMat + 1, 0);
   for (const auto& c : slices) {

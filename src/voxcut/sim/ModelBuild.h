@@ -10,8 +10,8 @@
 
 #include "voxcut/core/Timer.h"
 #include "voxcut/fem/DeformationOctree.h"
-#include "voxcut/sim/MemoryEstimate.h"
 #include "voxcut/octree/VoxelOctree.h"
+#include "voxcut/sim/MemoryEstimate.h"
 #include "voxcut/surface/SurfaceMesh.h"
 #include "voxcut/voxel/PlaneCut.h"
 #include "voxcut/voxel/Voxelizer.h"
@@ -22,9 +22,9 @@ namespace voxcut {
 struct ModelBuildParams {
   VoxelizeParams voxelize;
   std::vector<Plane> cuts;
-  OctreeParams octree;                   ///< empty: max internal level 4, boundary level 0
+  OctreeParams octree;  ///< empty: max internal level 4, boundary level 0
   DeformationOctreeParams deformation;
-  bool octrees = true;                   ///< build both octrees to report them
+  bool octrees = true;  ///< build both octrees to report them
   bool threaded = true;
   /// Refuse (InputError) when the memory estimate (MemoryEstimate.h) exceeds this many bytes;
   /// 0: no limit.
@@ -41,11 +41,11 @@ struct ModelStats {
   std::size_t interfaceLinks = 0;  ///< connected, two different materials
   int pieces = 0;                  ///< connected voxel components
   SurfaceTopology topology;
-  std::size_t bytes = 0;           ///< memory held by the voxel grid
-  std::vector<std::size_t> octreeCubes;          ///< voxel octree cubes, level 1 up
+  std::size_t bytes = 0;                          ///< memory held by the voxel grid
+  std::vector<std::size_t> octreeCubes;           ///< voxel octree cubes, level 1 up
   std::size_t activeVoxels = 0, activeLinks = 0;  ///< marked by the voxel octree
-  std::vector<std::size_t> deformationElements;  ///< per level, level 0 up
-  std::vector<std::size_t> deformationNodes;     ///< per level (finest adjacent element)
+  std::vector<std::size_t> deformationElements;   ///< per level, level 0 up
+  std::vector<std::size_t> deformationNodes;      ///< per level (finest adjacent element)
   std::size_t hangingNodes = 0;
 };
 
@@ -55,7 +55,7 @@ struct ModelBuild {
   SurfaceMesh surface;
   ModelStats stats;
   VoxelizeReport voxelizeReport;
-  StageTimings timings;  ///< voxelize, cut, contour, pieces, topology, octrees (ms)
+  StageTimings timings;   ///< voxelize, cut, contour, pieces, topology, octrees (ms)
   MemoryEstimate memory;  ///< the estimate made before building
 };
 

@@ -26,7 +26,9 @@ enum Stage : std::size_t {
   kStageCount
 };
 
-bool samePose(const BladePose& p, const BladePose& q) { return p.a == q.a && p.b == q.b; }
+bool samePose(const BladePose& p, const BladePose& q) {
+  return p.a == q.a && p.b == q.b;
+}
 
 /// Material table of a body indexed by grid material (entry 0, empty space, is unused).
 std::vector<ElasticMaterial> elasticMaterials(const SceneBody& body, const VoxelGrid& grid) {
@@ -70,8 +72,8 @@ const std::vector<std::string>& frameStageNames() {
 Simulation::Simulation(Scene scene, std::vector<VoxelGrid> grids, const SimulationParams& params)
     : scene_(std::move(scene)), params_(params) {
   if (grids.size() != scene_.bodies.size())
-    throw InputError(scene_.source + ": " + std::to_string(scene_.bodies.size()) +
-                     " bodies but " + std::to_string(grids.size()) + " voxel grids");
+    throw InputError(scene_.source + ": " + std::to_string(scene_.bodies.size()) + " bodies but " +
+                     std::to_string(grids.size()) + " voxel grids");
   ImplicitEulerParams solver;
   solver.timeStep = scene_.timeStep;
   solver.gravity = scene_.gravity;
@@ -137,18 +139,24 @@ void Simulation::embedVertices(SimBody& b, const std::vector<std::int32_t>* only
     for (std::int32_t v : *only) embed(static_cast<std::size_t>(v));
     return;
   }
-  parallelFor(0, b.embedding.size(), 4096, [&](std::size_t lo, std::size_t hi) {
-    for (std::size_t v = lo; v < hi; ++v) embed(v);
-  }, params_.threaded);
+  parallelFor(
+      0, b.embedding.size(), 4096,
+      [&](std::size_t lo, std::size_t hi) {
+        for (std::size_t v = lo; v < hi; ++v) embed(v);
+      },
+      params_.threaded);
 }
 
 void Simulation::updateVertexPositions(SimBody& b) const {
   const DeformationOctree& d = b.cut.deformation;
-  parallelFor(0, b.embedding.size(), 4096, [&](std::size_t lo, std::size_t hi) {
-    for (std::size_t v = lo; v < hi; ++v)
-      if (b.embedding[v].element != kNoElement)
-        b.vertexPositions[v] = d.pointInElement(b.embedding[v].element, b.embedding[v].local);
-  }, params_.threaded);
+  parallelFor(
+      0, b.embedding.size(), 4096,
+      [&](std::size_t lo, std::size_t hi) {
+        for (std::size_t v = lo; v < hi; ++v)
+          if (b.embedding[v].element != kNoElement)
+            b.vertexPositions[v] = d.pointInElement(b.embedding[v].element, b.embedding[v].local);
+      },
+      params_.threaded);
 }
 
 void Simulation::stepBody(SimBody& b, std::vector<double>& ms, FrameReport& report) {
@@ -246,8 +254,7 @@ std::optional<std::vector<BladeSweep>> Simulation::toolSweeps(SimBody& b, std::s
       start = sampleBlade(from, segs);
       for (std::uint64_t i = 0; i < n; ++i) startIds.push_back(2 * frame * n + i);
     } else {
-      frontStart(b.fronts[ti], b.cut.deformation, 2 * frame * n, start, startIds,
-                 &ends.points[ti]);
+      frontStart(b.fronts[ti], b.cut.deformation, 2 * frame * n, start, startIds, &ends.points[ti]);
     }
     sweeps = sweepStrip(start, startIds, ends.points[ti], ends.ids[ti], frame);
   }
@@ -341,7 +348,8 @@ SurfaceMesh Simulation::deformedSurface(std::size_t bi) const {
   }
   for (const auto& t : b.surface.triangles()) {
     if (t[0] < 0) continue;
-    m.triangles.push_back({index[static_cast<std::size_t>(t[0])], index[static_cast<std::size_t>(t[1])],
+    m.triangles.push_back({index[static_cast<std::size_t>(t[0])],
+                           index[static_cast<std::size_t>(t[1])],
                            index[static_cast<std::size_t>(t[2])]});
   }
   // Normals follow the deformation: area-weighted from the deformed triangles.
@@ -366,7 +374,8 @@ double Simulation::maxDisplacement() const {
           for (std::size_t c = c0; c < c1; ++c) {
             double m = 0.0;
             for (std::size_t v = kChunk * c; v < std::min(n, kChunk * (c + 1)); ++v)
-              if (grid.occupied(v)) m = std::max(m, (octree.voxelPosition(v) - grid.position(v)).norm());
+              if (grid.occupied(v))
+                m = std::max(m, (octree.voxelPosition(v) - grid.position(v)).norm());
             partial[c] = m;
           }
         },
@@ -376,6 +385,8 @@ double Simulation::maxDisplacement() const {
   return best;
 }
 
-int Simulation::pieces(std::size_t b) const { return findPieces(bodies_[b].cut.grid).count; }
+int Simulation::pieces(std::size_t b) const {
+  return findPieces(bodies_[b].cut.grid).count;
+}
 
 }  // namespace voxcut

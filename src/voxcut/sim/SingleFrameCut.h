@@ -25,20 +25,20 @@ struct BladeMotion {
 
 /// Settings of one single-frame test.
 struct SingleFrameParams {
-  int repeat = 1;          ///< runs on fresh copies of the body; timings are the medians
-  bool contour = true;     ///< count pieces and contour the cut surface afterwards
+  int repeat = 1;       ///< runs on fresh copies of the body; timings are the medians
+  bool contour = true;  ///< count pieces and contour the cut surface afterwards
   bool threaded = true;
 };
 
 /// What one single-frame test measured.
 struct SingleFrameResult {
-  CutStepResult step;               ///< the last run's cuts and counts, median timings
+  CutStepResult step;  ///< the last run's cuts and counts, median timings
   std::uint64_t cutHash = 0;
   std::size_t activeVoxelsBefore = 0, activeVoxelsAfter = 0;
   int pieces = 0;
   SurfaceTopology topology;
-  SurfaceMesh surface;              ///< rest frame, when contoured
-  CutBody body;                     ///< the body after the (last) cut
+  SurfaceMesh surface;  ///< rest frame, when contoured
+  CutBody body;         ///< the body after the (last) cut
 };
 
 /// Runs the test on copies of `prepared` (already deformed). Deterministic cuts for any

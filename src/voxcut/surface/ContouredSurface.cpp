@@ -23,9 +23,13 @@ std::uint64_t edgeLink(const VoxelGrid& grid, std::uint64_t cell, int e) {
   return VoxelGrid::linkId(v, e / 4);
 }
 
-std::uint64_t faceKey(std::uint64_t cell, int a) { return cell * 3 + static_cast<std::uint64_t>(a); }
+std::uint64_t faceKey(std::uint64_t cell, int a) {
+  return cell * 3 + static_cast<std::uint64_t>(a);
+}
 
-bool samePoint(const Vec3d& p, const Vec3d& q) { return p[0] == q[0] && p[1] == q[1] && p[2] == q[2]; }
+bool samePoint(const Vec3d& p, const Vec3d& q) {
+  return p[0] == q[0] && p[1] == q[1] && p[2] == q[2];
+}
 
 template <class T>
 void sortUnique(std::vector<T>& v) {
@@ -34,11 +38,14 @@ void sortUnique(std::vector<T>& v) {
 }
 
 // Whether a face's segments can need split vertices (two or more segments).
-bool multiSegment(const FaceSegments& fs) { return fs.count >= 2; }
+bool multiSegment(const FaceSegments& fs) {
+  return fs.count >= 2;
+}
 
 // Whether two face segment lists are equal.
 bool sameSegments(const FaceSegments& x, const FaceSegments& y) {
-  return x.count == y.count && std::equal(x.slots.begin(), x.slots.begin() + x.count, y.slots.begin());
+  return x.count == y.count &&
+         std::equal(x.slots.begin(), x.slots.begin() + x.count, y.slots.begin());
 }
 
 // Solved cells of one z slice of cells (build).
@@ -48,7 +55,7 @@ struct SliceCells {
   std::vector<std::uint8_t> count;
   std::vector<std::array<FaceSegments, 6>> segments;
   std::vector<std::uint8_t> ringFaces;  // bit f: the ring rule read the cell across face f
-  std::vector<Vec3d> positions;                 // per vertex, in cell order then patch order
+  std::vector<Vec3d> positions;         // per vertex, in cell order then patch order
   std::vector<std::uint64_t> voxel;
 };
 
@@ -63,26 +70,31 @@ ContouredSurface ContouredSurface::build(const VoxelGrid& grid, const DualContou
 
   // Solve every cell that holds surface, one z slice of cells per task.
   std::vector<SliceCells> slices(static_cast<std::size_t>(d.z - 1));
-  parallelFor(0, slices.size(), 1, [&](std::size_t z0, std::size_t z1) {
-    for (std::size_t z = z0; z < z1; ++z) {
-      SliceCells& out = slices[z];
-      for (int y = 0; y + 1 < d.y; ++y)
-        for (int x = 0; x + 1 < d.x; ++x) {
-          const Index3 m{x, y, static_cast<int>(z)};
-          if (!gatherDualCell(grid, m).hasSurface()) continue;
-          std::array<FaceSegments, 6> seg;
-          std::uint8_t ring = 0;
-          const DualCellVertices cv = dualCellVertices(grid, m, params.qefThreshold, &seg, &ring);
-          out.cell.push_back(grid.index(m));
-          out.patch.push_back(cv.patch);
-          out.count.push_back(static_cast<std::uint8_t>(cv.count));
-          out.segments.push_back(seg);
-          out.ringFaces.push_back(ring);
-          out.positions.insert(out.positions.end(), cv.position.begin(), cv.position.begin() + cv.count);
-          out.voxel.insert(out.voxel.end(), cv.voxel.begin(), cv.voxel.begin() + cv.count);
+  parallelFor(
+      0, slices.size(), 1,
+      [&](std::size_t z0, std::size_t z1) {
+        for (std::size_t z = z0; z < z1; ++z) {
+          SliceCells& out = slices[z];
+          for (int y = 0; y + 1 < d.y; ++y)
+            for (int x = 0; x + 1 < d.x; ++x) {
+              const Index3 m{x, y, static_cast<int>(z)};
+              if (!gatherDualCell(grid, m).hasSurface()) continue;
+              std::array<FaceSegments, 6> seg;
+              std::uint8_t ring = 0;
+              const DualCellVertices cv =
+                  dualCellVertices(grid, m, params.qefThreshold, &seg, &ring);
+              out.cell.push_back(grid.index(m));
+              out.patch.push_back(cv.patch);
+              out.count.push_back(static_cast<std::uint8_t>(cv.count));
+              out.segments.push_back(seg);
+              out.ringFaces.push_back(ring);
+              out.positions.insert(out.positions.end(), cv.position.begin(),
+                                   cv.position.begin() + cv.count);
+              out.voxel.insert(out.voxel.end(), cv.voxel.begin(), cv.voxel.begin() + cv.count);
+            }
         }
-    }
-  }, params.threaded);
+      },
+      params.threaded);
 
   // Records in slice order, then split vertices, then the sheets of every surface link (each
   // found once, as edge 4a of the cell whose min corner is the link's low voxel).
@@ -104,8 +116,10 @@ ContouredSurface ContouredSurface::build(const VoxelGrid& grid, const DualContou
       DualCellVertices cv;
       cv.patch = sc.patch[i];
       cv.count = sc.count[i];
-      std::copy_n(sc.positions.begin() + static_cast<std::ptrdiff_t>(first), cv.count, cv.position.begin());
-      std::copy_n(sc.voxel.begin() + static_cast<std::ptrdiff_t>(first), cv.count, cv.voxel.begin());
+      std::copy_n(sc.positions.begin() + static_cast<std::ptrdiff_t>(first), cv.count,
+                  cv.position.begin());
+      std::copy_n(sc.voxel.begin() + static_cast<std::ptrdiff_t>(first), cv.count,
+                  cv.voxel.begin());
       s.applyCell(sc.cell[i], cv, sc.segments[i], sc.ringFaces[i], ignored);
     }
   for (const SliceCells& sc : slices)
@@ -122,7 +136,8 @@ ContouredSurface ContouredSurface::build(const VoxelGrid& grid, const DualContou
 
 SurfaceDelta ContouredSurface::update(const VoxelGrid& grid,
                                       const std::vector<std::uint64_t>& changedLinks) {
-  VOXCUT_ASSERT(grid.dims() == dims_, "ContouredSurface::update: grid dimensions differ from build");
+  VOXCUT_ASSERT(grid.dims() == dims_,
+                "ContouredSurface::update: grid dimensions differ from build");
   SurfaceDelta delta;
   const Index3 d = dims_;
 
@@ -196,24 +211,27 @@ SurfaceDelta ContouredSurface::update(const VoxelGrid& grid,
     const std::uint64_t cell = key / 3;
     const int a = static_cast<int>(key % 3);
     const CellRecord* lower = cells_.find(cell);
-    const bool candidate = lower ? multiSegment(lower->segments[a]) || ((lower->splitFaces >> a) & 1)
-                                 : faceSplits_.find(key) != nullptr;
+    const bool candidate = lower
+                               ? multiSegment(lower->segments[a]) || ((lower->splitFaces >> a) & 1)
+                               : faceSplits_.find(key) != nullptr;
     if (!candidate || !refreshFace(grid, cell, a, delta)) continue;
     for (int e = 0; e < 12; ++e)  // the 4 edges on the cell's +a face
-      if (e / 4 != a && cornerBit(edgeCorner(e, 0), a) == 1) links.push_back(edgeLink(grid, cell, e));
+      if (e / 4 != a && cornerBit(edgeCorner(e, 0), a) == 1)
+        links.push_back(edgeLink(grid, cell, e));
   }
 
   // Sheets of the links whose cells or faces changed.
   sortUnique(links);
-  for (const std::uint64_t link : links) refreshLink(grid, link / 3, static_cast<int>(link % 3), delta);
+  for (const std::uint64_t link : links)
+    refreshLink(grid, link / 3, static_cast<int>(link % 3), delta);
 
   finish(delta);
   return delta;
 }
 
 int ContouredSurface::applyCell(std::uint64_t cell, const DualCellVertices& cv,
-                                const std::array<FaceSegments, 6>& segments,
-                                std::uint8_t ringFaces, SurfaceDelta& delta) {
+                                const std::array<FaceSegments, 6>& segments, std::uint8_t ringFaces,
+                                SurfaceDelta& delta) {
   // Edges with an incidence in a patch array.
   auto incidentEdges = [](const std::array<std::int8_t, 24>& patch) {
     int edges = 0;
@@ -253,7 +271,8 @@ int ContouredSurface::applyCell(std::uint64_t cell, const DualCellVertices& cv,
     for (int q = 0; q < old->count; ++q)
       if (!matched[q]) dropVertex(old->vertex[q], delta);
     const bool changed = old->count != rec.count || old->patch != rec.patch ||
-                         old->vertex != rec.vertex || !sameSegments(old->segments[0], rec.segments[0]) ||
+                         old->vertex != rec.vertex ||
+                         !sameSegments(old->segments[0], rec.segments[0]) ||
                          !sameSegments(old->segments[1], rec.segments[1]) ||
                          !sameSegments(old->segments[2], rec.segments[2]);
     edges = changed ? edges | incidentEdges(old->patch) : -1;
@@ -282,12 +301,14 @@ bool ContouredSurface::refreshFace(const VoxelGrid& grid, std::uint64_t cell, in
       next.vertex[i] = -1;
       const std::int32_t v1 = lower->vertex[doubled[i].lowerPatch];
       const std::int32_t v2 = upper->vertex[doubled[i].upperPatch];
-      const Vec3d p = 0.5 * (positions_[static_cast<std::size_t>(v1)] + positions_[static_cast<std::size_t>(v2)]);
+      const Vec3d p = 0.5 * (positions_[static_cast<std::size_t>(v1)] +
+                             positions_[static_cast<std::size_t>(v2)]);
       const std::uint64_t voxel = voxel_[static_cast<std::size_t>(v1)];
       for (int q = 0; old && q < old->count; ++q) {
         const std::int32_t o = old->vertex[q];
         if (!matched[q] && old->slots[q] == next.slots[i] &&
-            samePoint(positions_[static_cast<std::size_t>(o)], p) && voxel_[static_cast<std::size_t>(o)] == voxel) {
+            samePoint(positions_[static_cast<std::size_t>(o)], p) &&
+            voxel_[static_cast<std::size_t>(o)] == voxel) {
           matched[q] = true;
           next.vertex[i] = o;
           break;
@@ -302,9 +323,10 @@ bool ContouredSurface::refreshFace(const VoxelGrid& grid, std::uint64_t cell, in
       if (std::find(next.vertex.begin(), next.vertex.begin() + next.count, old->vertex[q]) ==
           next.vertex.begin() + next.count)
         dropVertex(old->vertex[q], delta);
-    changed = old->count != next.count ||
-              !std::equal(old->slots.begin(), old->slots.begin() + old->count, next.slots.begin()) ||
-              !std::equal(old->vertex.begin(), old->vertex.begin() + old->count, next.vertex.begin());
+    changed =
+        old->count != next.count ||
+        !std::equal(old->slots.begin(), old->slots.begin() + old->count, next.slots.begin()) ||
+        !std::equal(old->vertex.begin(), old->vertex.begin() + old->count, next.vertex.begin());
   }
   if (lower)
     lower->splitFaces = static_cast<std::uint8_t>(next.count > 0 ? lower->splitFaces | (1u << a)
@@ -316,7 +338,8 @@ bool ContouredSurface::refreshFace(const VoxelGrid& grid, std::uint64_t cell, in
   return changed;
 }
 
-void ContouredSurface::refreshLink(const VoxelGrid& grid, std::uint64_t v, int a, SurfaceDelta& delta) {
+void ContouredSurface::refreshLink(const VoxelGrid& grid, std::uint64_t v, int a,
+                                   SurfaceDelta& delta) {
   const auto vi = static_cast<std::size_t>(v);
   const bool open = !grid.connected(vi, a);
   LinkRing ring;
@@ -349,7 +372,8 @@ void ContouredSurface::refreshLink(const VoxelGrid& grid, std::uint64_t v, int a
         VOXCUT_ASSERT(fs != nullptr, "a face marked split has no split vertices");
         const int slot = 2 * edges[f.lower] + side;
         for (int i = 0; i < fs->count; ++i)
-          if (fs->slots[i][0] == slot || fs->slots[i][1] == slot) ring.split[side][k] = fs->vertex[i];
+          if (fs->slots[i][0] == slot || fs->slots[i][1] == slot)
+            ring.split[side][k] = fs->vertex[i];
       }
     }
   }
@@ -383,19 +407,23 @@ void ContouredSurface::refreshLink(const VoxelGrid& grid, std::uint64_t v, int a
     SheetRecord rec;
     if (sh.polygonSize > 0) {
       // A polygon with split edges, fanned around its own centre.
-      rec.centre = newVertex(polygonCentre(sh, positions_), voxel_[static_cast<std::size_t>(sh.polygon[0])], delta);
+      rec.centre = newVertex(polygonCentre(sh, positions_),
+                             voxel_[static_cast<std::size_t>(sh.polygon[0])], delta);
       rec.count = static_cast<std::int8_t>(sh.polygonSize);
       for (int i = 0; i < sh.polygonSize; ++i)
-        rec.triangle[i] = newTriangle({sh.polygon[i], sh.polygon[(i + 1) % sh.polygonSize], rec.centre}, delta);
+        rec.triangle[i] =
+            newTriangle({sh.polygon[i], sh.polygon[(i + 1) % sh.polygonSize], rec.centre}, delta);
     } else {
       rec.count = static_cast<std::int8_t>(sh.triangleCount);
-      for (int i = 0; i < sh.triangleCount; ++i) rec.triangle[i] = newTriangle(sh.triangles[i], delta);
+      for (int i = 0; i < sh.triangleCount; ++i)
+        rec.triangle[i] = newTriangle(sh.triangles[i], delta);
     }
     sheets_[key] = rec;
   }
 }
 
-std::int32_t ContouredSurface::newVertex(const Vec3d& position, std::uint64_t voxel, SurfaceDelta& delta) {
+std::int32_t ContouredSurface::newVertex(const Vec3d& position, std::uint64_t voxel,
+                                         SurfaceDelta& delta) {
   std::int32_t id;
   if (!freeVertices_.empty()) {
     id = freeVertices_.back();
@@ -455,7 +483,8 @@ void ContouredSurface::finish(SurfaceDelta& delta) {
     std::sort(list->begin(), list->end());
   // Freed ids become reusable only now, so that no id is both removed and added in one update.
   // Highest ids are pushed first and so reused last.
-  freeVertices_.insert(freeVertices_.end(), delta.removedVertices.rbegin(), delta.removedVertices.rend());
+  freeVertices_.insert(freeVertices_.end(), delta.removedVertices.rbegin(),
+                       delta.removedVertices.rend());
   freeTriangles_.insert(freeTriangles_.end(), delta.removedTriangles.rbegin(),
                         delta.removedTriangles.rend());
 }

@@ -20,7 +20,8 @@ struct Tables {
       for (int s = 0; s < 2; ++s) {
         const int u = (a + 1) % 3, w = (a + 2) % 3, f = 2 * a + s;
         const int cyc[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
-        for (int i = 0; i < 4; ++i) faceCorner[f][i] = (s << a) | (cyc[i][0] << u) | (cyc[i][1] << w);
+        for (int i = 0; i < 4; ++i)
+          faceCorner[f][i] = (s << a) | (cyc[i][0] << u) | (cyc[i][1] << w);
         for (int i = 0; i < 4; ++i) {
           const int c0 = faceCorner[f][i], c1 = faceCorner[f][(i + 1) % 4];
           const int diff = c0 ^ c1;
@@ -41,7 +42,9 @@ int find(std::array<std::int8_t, 24>& parent, int i) {
 
 }  // namespace
 
-int edgeCorner(int edge, int side) { return kTables.edgeCorner[edge][side]; }
+int edgeCorner(int edge, int side) {
+  return kTables.edgeCorner[edge][side];
+}
 
 bool DualCell::hasSurface() const {
   if (occupied == 0) return false;
@@ -73,7 +76,8 @@ int dualCellComponents(const DualCell& cell, std::array<std::int8_t, 8>& comp) {
   for (int c = 0; c < 8; ++c) parent[c] = static_cast<std::int8_t>(c);
   for (int e = 0; e < 12; ++e)
     if ((cell.connected >> e) & 1) {
-      const int a = find(parent, kTables.edgeCorner[e][0]), b = find(parent, kTables.edgeCorner[e][1]);
+      const int a = find(parent, kTables.edgeCorner[e][0]),
+                b = find(parent, kTables.edgeCorner[e][1]);
       if (a != b) parent[std::max(a, b)] = static_cast<std::int8_t>(std::min(a, b));
     }
   int n = 0;
@@ -138,7 +142,8 @@ int dualCellPatches(const DualCell& cell, std::array<std::int8_t, 24>& patch,
       const int start = ring ? runStart[(r + 1) % 2] : runStart[r];
       join(runEnd[r], start);
       if (segments)
-        (*segments)[f].slots[r] = {static_cast<std::int8_t>(runEnd[r]), static_cast<std::int8_t>(start)};
+        (*segments)[f].slots[r] = {static_cast<std::int8_t>(runEnd[r]),
+                                   static_cast<std::int8_t>(start)};
     }
   }
   int n = 0;
@@ -194,10 +199,13 @@ DualCellVertices dualCellVertices(const VoxelGrid& grid, const Index3& m, double
   if (neighbourFaces) {
     *neighbourFaces = 0;
     const NeighbourCell across = gridNeighbour(grid, m);
-    out.count = dualCellPatches(cell, out.patch, [&](int f) {
-      *neighbourFaces = static_cast<std::uint8_t>(*neighbourFaces | (1u << f));
-      return across(f);
-    }, segments);
+    out.count = dualCellPatches(
+        cell, out.patch,
+        [&](int f) {
+          *neighbourFaces = static_cast<std::uint8_t>(*neighbourFaces | (1u << f));
+          return across(f);
+        },
+        segments);
   } else {
     out.count = dualCellPatches(cell, out.patch, gridNeighbour(grid, m), segments);
   }

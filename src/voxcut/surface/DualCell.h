@@ -21,8 +21,8 @@ namespace voxcut {
 
 /// Occupancy and connectivity of one dual cell.
 struct DualCell {
-  std::uint8_t occupied = 0;     ///< bit c: corner c holds material
-  std::uint16_t connected = 0;   ///< bit e: edge e is a connected link
+  std::uint8_t occupied = 0;    ///< bit c: corner c holds material
+  std::uint16_t connected = 0;  ///< bit e: edge e is a connected link
 
   /// Whether some edge is disconnected and has an occupied end (the cell holds surface).
   [[nodiscard]] bool hasSurface() const;
@@ -31,7 +31,9 @@ struct DualCell {
 /// Corner at `side` (0 low, 1 high) of edge e.
 [[nodiscard]] int edgeCorner(int edge, int side);
 /// Offset (0/1) of corner c along axis a.
-[[nodiscard]] inline int cornerBit(int corner, int a) { return (corner >> a) & 1; }
+[[nodiscard]] inline int cornerBit(int corner, int a) {
+  return (corner >> a) & 1;
+}
 
 /// Reads the cell with min corner `m` from the grid (all 8 corners must be inside the grid).
 [[nodiscard]] DualCell gatherDualCell(const VoxelGrid& grid, const Index3& m);
@@ -73,10 +75,10 @@ int dualCellPatches(const DualCell& cell, std::array<std::int8_t, 24>& patch,
 
 /// Dual-contouring vertices of one cell: one per surface patch.
 struct DualCellVertices {
-  std::array<std::int8_t, 24> patch{};     ///< patch of each incidence slot, -1 for none
-  int count = 0;                           ///< number of patches (at most 12)
-  std::array<Vec3d, 12> position;          ///< per patch: rest-frame position (metres)
-  std::array<std::uint64_t, 12> voxel{};   ///< per patch: lowest material voxel of its incidences
+  std::array<std::int8_t, 24> patch{};    ///< patch of each incidence slot, -1 for none
+  int count = 0;                          ///< number of patches (at most 12)
+  std::array<Vec3d, 12> position;         ///< per patch: rest-frame position (metres)
+  std::array<std::uint64_t, 12> voxel{};  ///< per patch: lowest material voxel of its incidences
 };
 
 /// Patches of the cell with min corner `m` (all 8 corners inside `grid`) and one vertex each:

@@ -12,10 +12,10 @@ namespace {
 
 // Vertices of the cells of one z slice of cells.
 struct SliceVertices {
-  std::vector<std::size_t> cells;                 // cell index (= index of its min voxel)
+  std::vector<std::size_t> cells;                  // cell index (= index of its min voxel)
   std::vector<std::array<std::int8_t, 24>> patch;  // per cell
-  std::vector<Vec3d> positions;                   // per vertex, in cell order then patch order
-  std::vector<std::uint64_t> voxel;               // per vertex
+  std::vector<Vec3d> positions;                    // per vertex, in cell order then patch order
+  std::vector<std::uint64_t> voxel;                // per vertex
 };
 
 // Cells that hold vertices, numbered in slice order.
@@ -31,7 +31,8 @@ struct ContourCells {
 // Two surface segments on one face can join the same two patches (the vertex of each cell);
 // their dual edges would then coincide and carry four triangles. Every such segment but the
 // first gets its own vertex, at the middle of the two, so that the edges stay apart.
-void splitDoubledSegments(const VoxelGrid& grid, ContourCells& cc, SurfaceMesh& mesh, bool threaded) {
+void splitDoubledSegments(const VoxelGrid& grid, ContourCells& cc, SurfaceMesh& mesh,
+                          bool threaded) {
   struct Split {
     std::uint64_t key[2];
     Vec3d position;
@@ -42,30 +43,36 @@ void splitDoubledSegments(const VoxelGrid& grid, ContourCells& cc, SurfaceMesh& 
   constexpr std::size_t kChunk = 4096;
   const std::size_t n = cc.cell.size();
   std::vector<std::vector<Split>> chunks((n + kChunk - 1) / kChunk);
-  parallelFor(0, chunks.size(), 1, [&](std::size_t c0, std::size_t c1) {
-    for (std::size_t c = c0; c < c1; ++c)
-      for (std::size_t o = c * kChunk; o < std::min(n, (c + 1) * kChunk); ++o) {
-        const std::size_t cell = cc.cell[o];
-        const Index3 m = grid.coord(cell);
-        std::array<std::int8_t, 24> patch;
-        std::array<FaceSegments, 6> seg;
-        (void)dualCellPatches(gatherDualCell(grid, m), patch, gridNeighbour(grid, m), &seg);
-        for (int a = 0; a < 3; ++a) {
-          const FaceSegments& fs = seg[2 * a + 1];
-          if (fs.count < 2) continue;
-          const std::int32_t other = cc.ordinal[cell + grid.stride(a)];
-          std::array<DoubledSegment, 4> doubled;
-          const int nd = doubledSegments(fs, a, patch, cc.patches[other], doubled);
-          for (int i = 0; i < nd; ++i) {
-            const int v1 = cc.firstVertex[o] + doubled[i].lowerPatch;
-            const int v2 = cc.firstVertex[other] + doubled[i].upperPatch;
-            chunks[c].push_back({{faceSlotKey(cell, a, doubled[i].slots[0]), faceSlotKey(cell, a, doubled[i].slots[1])},
-                                 0.5 * (mesh.positions[v1] + mesh.positions[v2]),
-                                 mesh.vertexVoxel[v1], o, a});
+  parallelFor(
+      0, chunks.size(), 1,
+      [&](std::size_t c0, std::size_t c1) {
+        for (std::size_t c = c0; c < c1; ++c)
+          for (std::size_t o = c * kChunk; o < std::min(n, (c + 1) * kChunk); ++o) {
+            const std::size_t cell = cc.cell[o];
+            const Index3 m = grid.coord(cell);
+            std::array<std::int8_t, 24> patch;
+            std::array<FaceSegments, 6> seg;
+            (void)dualCellPatches(gatherDualCell(grid, m), patch, gridNeighbour(grid, m), &seg);
+            for (int a = 0; a < 3; ++a) {
+              const FaceSegments& fs = seg[2 * a + 1];
+              if (fs.count < 2) continue;
+              const std::int32_t other = cc.ordinal[cell + grid.stride(a)];
+              std::array<DoubledSegment, 4> doubled;
+              const int nd = doubledSegments(fs, a, patch, cc.patches[other], doubled);
+              for (int i = 0; i < nd; ++i) {
+                const int v1 = cc.firstVertex[o] + doubled[i].lowerPatch;
+                const int v2 = cc.firstVertex[other] + doubled[i].upperPatch;
+                chunks[c].push_back({{faceSlotKey(cell, a, doubled[i].slots[0]),
+                                      faceSlotKey(cell, a, doubled[i].slots[1])},
+                                     0.5 * (mesh.positions[v1] + mesh.positions[v2]),
+                                     mesh.vertexVoxel[v1],
+                                     o,
+                                     a});
+              }
+            }
           }
-        }
-      }
-  }, threaded);
+      },
+      threaded);
   for (const auto& chunk : chunks)
     for (const Split& sp : chunk) {
       const auto id = static_cast<std::int32_t>(mesh.positions.size());
@@ -89,26 +96,30 @@ SurfaceLinks findSurfaceLinks(const VoxelGrid& grid, bool threaded) {
   SurfaceLinks s;
   s.bits.assign(grid.voxelCount(), 0);
   s.rowAny.assign(static_cast<std::size_t>(d.y) * static_cast<std::size_t>(d.z), 0);
-  parallelFor(0, static_cast<std::size_t>(d.z), 1, [&](std::size_t z0, std::size_t z1) {
-    for (std::size_t z = z0; z < z1; ++z)
-      for (int y = 0; y < d.y; ++y) {
-        const std::size_t row = static_cast<std::size_t>(y) + static_cast<std::size_t>(d.y) * z;
-        const std::size_t v0 = grid.index(0, y, static_cast<int>(z));
-        std::uint8_t any = 0;
-        for (int x = 0; x < d.x; ++x) {
-          const std::size_t v = v0 + static_cast<std::size_t>(x);
-          const Index3 c{x, y, static_cast<int>(z)};
-          std::uint8_t b = 0;
-          for (int a = 0; a < 3; ++a) {
-            if (c[a] + 1 >= d[a] || grid.connected(v, a)) continue;
-            if (grid.occupied(v) || grid.occupied(v + grid.stride(a))) b = static_cast<std::uint8_t>(b | (1u << a));
+  parallelFor(
+      0, static_cast<std::size_t>(d.z), 1,
+      [&](std::size_t z0, std::size_t z1) {
+        for (std::size_t z = z0; z < z1; ++z)
+          for (int y = 0; y < d.y; ++y) {
+            const std::size_t row = static_cast<std::size_t>(y) + static_cast<std::size_t>(d.y) * z;
+            const std::size_t v0 = grid.index(0, y, static_cast<int>(z));
+            std::uint8_t any = 0;
+            for (int x = 0; x < d.x; ++x) {
+              const std::size_t v = v0 + static_cast<std::size_t>(x);
+              const Index3 c{x, y, static_cast<int>(z)};
+              std::uint8_t b = 0;
+              for (int a = 0; a < 3; ++a) {
+                if (c[a] + 1 >= d[a] || grid.connected(v, a)) continue;
+                if (grid.occupied(v) || grid.occupied(v + grid.stride(a)))
+                  b = static_cast<std::uint8_t>(b | (1u << a));
+              }
+              s.bits[v] = b;
+              any |= b;
+            }
+            s.rowAny[row] = any != 0;
           }
-          s.bits[v] = b;
-          any |= b;
-        }
-        s.rowAny[row] = any != 0;
-      }
-  }, threaded);
+      },
+      threaded);
   return s;
 }
 
@@ -119,7 +130,8 @@ void contourCellSlice(const VoxelGrid& grid, const SurfaceLinks& sl, int z, doub
   const auto ny = static_cast<std::size_t>(d.y);
   for (int y = 0; y + 1 < d.y; ++y) {
     const std::size_t row = static_cast<std::size_t>(y) + ny * static_cast<std::size_t>(z);
-    if (!(sl.rowAny[row] | sl.rowAny[row + 1] | sl.rowAny[row + ny] | sl.rowAny[row + ny + 1])) continue;
+    if (!(sl.rowAny[row] | sl.rowAny[row + 1] | sl.rowAny[row + ny] | sl.rowAny[row + ny + 1]))
+      continue;
     const std::uint8_t* b = sl.bits.data() + grid.index(0, y, z);
     for (int x = 0; x + 1 < d.x; ++x, ++b) {
       // The cell's 12 edges are links of its corners: all 3 of corner 0, two of each corner
@@ -131,7 +143,8 @@ void contourCellSlice(const VoxelGrid& grid, const SurfaceLinks& sl, int z, doub
       const DualCellVertices cv = dualCellVertices(grid, m, threshold);
       out.cells.push_back(grid.index(m));
       out.patch.push_back(cv.patch);
-      out.positions.insert(out.positions.end(), cv.position.begin(), cv.position.begin() + cv.count);
+      out.positions.insert(out.positions.end(), cv.position.begin(),
+                           cv.position.begin() + cv.count);
       out.voxel.insert(out.voxel.end(), cv.voxel.begin(), cv.voxel.begin() + cv.count);
     }
   }
@@ -148,10 +161,13 @@ SurfaceMesh dualContour(const VoxelGrid& grid, const DualContourParams& params) 
 
   // Pass 1: vertices, one z slice of cells per task.
   std::vector<SliceVertices> slices(static_cast<std::size_t>(d.z - 1));
-  parallelFor(0, slices.size(), 1, [&](std::size_t z0, std::size_t z1) {
-    for (std::size_t z = z0; z < z1; ++z)
-      contourCellSlice(grid, sl, static_cast<int>(z), params.qefThreshold, slices[z]);
-  }, params.threaded);
+  parallelFor(
+      0, slices.size(), 1,
+      [&](std::size_t z0, std::size_t z1) {
+        for (std::size_t z = z0; z < z1; ++z)
+          contourCellSlice(grid, sl, static_cast<int>(z), params.qefThreshold, slices[z]);
+      },
+      params.threaded);
 
   // Global numbering in slice order.
   ContourCells cc;
@@ -163,7 +179,8 @@ SurfaceMesh dualContour(const VoxelGrid& grid, const DualContourParams& params) 
       cc.cell.push_back(s.cells[i]);
       cc.firstVertex.push_back(static_cast<std::int32_t>(mesh.positions.size() + local));
       cc.patches.push_back(s.patch[i]);
-      local += static_cast<std::size_t>(*std::max_element(s.patch[i].begin(), s.patch[i].end()) + 1);
+      local +=
+          static_cast<std::size_t>(*std::max_element(s.patch[i].begin(), s.patch[i].end()) + 1);
     }
     mesh.positions.insert(mesh.positions.end(), s.positions.begin(), s.positions.end());
     mesh.vertexVoxel.insert(mesh.vertexVoxel.end(), s.voxel.begin(), s.voxel.end());
@@ -175,55 +192,60 @@ SurfaceMesh dualContour(const VoxelGrid& grid, const DualContourParams& params) 
   // Pass 2: quads of disconnected links, one z slice of voxels per task.
   std::vector<std::vector<std::array<int, 3>>> tris(static_cast<std::size_t>(d.z));
   std::vector<std::vector<LinkSheet>> polygons(static_cast<std::size_t>(d.z));
-  parallelFor(0, static_cast<std::size_t>(d.z), 1, [&](std::size_t z0, std::size_t z1) {
-    for (std::size_t z = z0; z < z1; ++z)
-      for (int y = 0; y < d.y; ++y) {
-        if (!sl.rowAny[static_cast<std::size_t>(y) + static_cast<std::size_t>(d.y) * z]) continue;
-        for (int x = 0; x < d.x; ++x) {
-          const Index3 c{x, y, static_cast<int>(z)};
-          const std::size_t v = grid.index(c);
-          if (!sl.bits[v]) continue;
-          for (int a = 0; a < 3; ++a) {
-            if (!((sl.bits[v] >> a) & 1)) continue;
-            const std::size_t nb = v + grid.stride(a);
-            bool occ[2] = {grid.occupied(v), grid.occupied(nb)};
-            if (!occ[0] && !occ[1]) continue;
-            const int u = (a + 1) % 3, w = (a + 2) % 3;
-            // Material never reaches the padding layer, so the 4 cells exist.
-            VOXCUT_ASSERT(c[u] >= 1 && c[w] >= 1 && c[u] + 1 < d[u] && c[w] + 1 < d[w],
-                          "material in the padding layer");
-            std::array<std::size_t, 4> cells;
-            std::array<int, 4> edges;
-            cellsAroundLink(grid, v, a, cells, edges);
-            LinkRing ring;
-            for (int side = 0; side < 2; ++side) {
-              ring.sheet[side] = occ[side];
-              ring.split[side].fill(-1);
-              if (!occ[side]) continue;
-              for (int k = 0; k < 4; ++k) {
-                const std::int32_t ord = cc.ordinal[cells[k]];
-                ring.vertex[side][k] = cc.firstVertex[ord] + cc.patches[ord][2 * edges[k] + side];
+  parallelFor(
+      0, static_cast<std::size_t>(d.z), 1,
+      [&](std::size_t z0, std::size_t z1) {
+        for (std::size_t z = z0; z < z1; ++z)
+          for (int y = 0; y < d.y; ++y) {
+            if (!sl.rowAny[static_cast<std::size_t>(y) + static_cast<std::size_t>(d.y) * z])
+              continue;
+            for (int x = 0; x < d.x; ++x) {
+              const Index3 c{x, y, static_cast<int>(z)};
+              const std::size_t v = grid.index(c);
+              if (!sl.bits[v]) continue;
+              for (int a = 0; a < 3; ++a) {
+                if (!((sl.bits[v] >> a) & 1)) continue;
+                const std::size_t nb = v + grid.stride(a);
+                bool occ[2] = {grid.occupied(v), grid.occupied(nb)};
+                if (!occ[0] && !occ[1]) continue;
+                const int u = (a + 1) % 3, w = (a + 2) % 3;
+                // Material never reaches the padding layer, so the 4 cells exist.
+                VOXCUT_ASSERT(c[u] >= 1 && c[w] >= 1 && c[u] + 1 < d[u] && c[w] + 1 < d[w],
+                              "material in the padding layer");
+                std::array<std::size_t, 4> cells;
+                std::array<int, 4> edges;
+                cellsAroundLink(grid, v, a, cells, edges);
+                LinkRing ring;
+                for (int side = 0; side < 2; ++side) {
+                  ring.sheet[side] = occ[side];
+                  ring.split[side].fill(-1);
+                  if (!occ[side]) continue;
+                  for (int k = 0; k < 4; ++k) {
+                    const std::int32_t ord = cc.ordinal[cells[k]];
+                    ring.vertex[side][k] =
+                        cc.firstVertex[ord] + cc.patches[ord][2 * edges[k] + side];
+                  }
+                  for (int k = 0; k < 4; ++k) {
+                    const LinkFace f = linkFace(a, k);
+                    const std::int32_t ord = cc.ordinal[cells[f.lower]];
+                    if (!((cc.splitFaces[ord] >> f.axis) & 1)) continue;
+                    const auto it = cc.splitVertex.find(
+                        faceSlotKey(cells[f.lower], f.axis, 2 * edges[f.lower] + side));
+                    if (it != cc.splitVertex.end()) ring.split[side][k] = it->second;
+                  }
+                }
+                std::array<LinkSheet, 2> sheets;
+                triangulateLink(ring, mesh.positions, sheets);
+                for (int side = 0; side < 2; ++side) {
+                  const LinkSheet& sh = sheets[side];
+                  if (sh.polygonSize > 0) polygons[z].push_back(sh);
+                  for (int t = 0; t < sh.triangleCount; ++t) tris[z].push_back(sh.triangles[t]);
+                }
               }
-              for (int k = 0; k < 4; ++k) {
-                const LinkFace f = linkFace(a, k);
-                const std::int32_t ord = cc.ordinal[cells[f.lower]];
-                if (!((cc.splitFaces[ord] >> f.axis) & 1)) continue;
-                const auto it = cc.splitVertex.find(
-                    faceSlotKey(cells[f.lower], f.axis, 2 * edges[f.lower] + side));
-                if (it != cc.splitVertex.end()) ring.split[side][k] = it->second;
-              }
-            }
-            std::array<LinkSheet, 2> sheets;
-            triangulateLink(ring, mesh.positions, sheets);
-            for (int side = 0; side < 2; ++side) {
-              const LinkSheet& sh = sheets[side];
-              if (sh.polygonSize > 0) polygons[z].push_back(sh);
-              for (int t = 0; t < sh.triangleCount; ++t) tris[z].push_back(sh.triangles[t]);
             }
           }
-        }
-      }
-  }, params.threaded);
+      },
+      params.threaded);
   for (const auto& t : tris) mesh.triangles.insert(mesh.triangles.end(), t.begin(), t.end());
   for (const auto& slice : polygons)
     for (const LinkSheet& poly : slice) {
@@ -232,7 +254,8 @@ SurfaceMesh dualContour(const VoxelGrid& grid, const DualContourParams& params) 
       mesh.positions.push_back(polygonCentre(poly, mesh.positions));
       mesh.vertexVoxel.push_back(mesh.vertexVoxel[poly.polygon[0]]);
       for (int i = 0; i < poly.polygonSize; ++i)
-        mesh.triangles.push_back({poly.polygon[i], poly.polygon[(i + 1) % poly.polygonSize], centre});
+        mesh.triangles.push_back(
+            {poly.polygon[i], poly.polygon[(i + 1) % poly.polygonSize], centre});
     }
 
   mesh.normals = vertexNormals(mesh.positions, mesh.triangles);

@@ -22,10 +22,10 @@ struct SurfaceMesh {
 
 /// Topology summary of a surface.
 struct SurfaceTopology {
-  bool closed = false;      ///< every edge used once in each direction
-  bool manifold = false;    ///< closed, and every vertex's triangle fan is a single disk
-  int pieces = 0;           ///< connected components (through shared vertices)
-  int genusSum = 0;         ///< sum of genera of the pieces (0 for spheres)
+  bool closed = false;    ///< every edge used once in each direction
+  bool manifold = false;  ///< closed, and every vertex's triangle fan is a single disk
+  int pieces = 0;         ///< connected components (through shared vertices)
+  int genusSum = 0;       ///< sum of genera of the pieces (0 for spheres)
 };
 
 /// Checks closedness, vertex-manifoldness and counts pieces and genus. O(T log T).

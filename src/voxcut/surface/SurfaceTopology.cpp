@@ -20,7 +20,9 @@ SurfaceTopology surfaceTopology(const SurfaceMesh& mesh) {
   struct Half {
     int lo, hi;
     bool forward;
-    bool operator<(const Half& o) const { return std::tie(lo, hi, forward) < std::tie(o.lo, o.hi, o.forward); }
+    bool operator<(const Half& o) const {
+      return std::tie(lo, hi, forward) < std::tie(o.lo, o.hi, o.forward);
+    }
   };
   std::vector<Half> halves;
   halves.reserve(3 * mesh.triangles.size());
@@ -82,7 +84,8 @@ SurfaceTopology surfaceTopology(const SurfaceMesh& mesh) {
       int cur = corner[s][1];
       const int start = cur;
       do {
-        auto it = std::find_if(corner.begin() + static_cast<long>(s), corner.begin() + static_cast<long>(e),
+        auto it = std::find_if(corner.begin() + static_cast<long>(s),
+                               corner.begin() + static_cast<long>(e),
                                [&](const std::array<int, 3>& c) { return c[2] == cur; });
         if (it == corner.begin() + static_cast<long>(e)) {
           manifold = false;

@@ -40,10 +40,11 @@ GridFrame gridFrameFor(const std::array<Vec3d, 2>& bounds, const Resolution& res
     const double m = ext[a] / h;
     const double oddCount = 2.0 * std::ceil(m / 2.0 - 1e-9) - 1.0;
     const double evenCount = 2.0 * std::ceil((m - 1.0) / 2.0 - 1e-9);
-    const double inside = std::abs(oddCount - m) < std::abs(evenCount - m) ||
-                                  (std::abs(oddCount - m) == std::abs(evenCount - m) && oddCount > evenCount)
-                              ? oddCount
-                              : evenCount;
+    const double inside =
+        std::abs(oddCount - m) < std::abs(evenCount - m) ||
+                (std::abs(oddCount - m) == std::abs(evenCount - m) && oddCount > evenCount)
+            ? oddCount
+            : evenCount;
     const double n = std::max(inside, 0.0) + 2.0;
     total *= n;
     if (n > 2e9 || total > static_cast<double>(maxVoxels)) {

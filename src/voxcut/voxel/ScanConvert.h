@@ -17,9 +17,9 @@ namespace voxcut {
 
 /// One surface crossing on a grid line.
 struct LineCrossing {
-  double s;   ///< coordinate along the line in voxel units (voxel k is at s = k)
-  int face;   ///< crossed triangle
-  int sign;   ///< +1 when the face normal points along +axis, -1 otherwise
+  double s;  ///< coordinate along the line in voxel units (voxel k is at s = k)
+  int face;  ///< crossed triangle
+  int sign;  ///< +1 when the face normal points along +axis, -1 otherwise
 };
 
 /// Crossings of all lines along one axis a; lines are numbered iu + nu * iw with
@@ -34,12 +34,17 @@ struct AxisCrossings {
     return static_cast<std::size_t>(voxel[(axis + 1) % 3]) +
            static_cast<std::size_t>(nu) * static_cast<std::size_t>(voxel[(axis + 2) % 3]);
   }
-  [[nodiscard]] const LineCrossing* begin(std::size_t line) const { return crossings.data() + offsets[line]; }
-  [[nodiscard]] const LineCrossing* end(std::size_t line) const { return crossings.data() + offsets[line + 1]; }
+  [[nodiscard]] const LineCrossing* begin(std::size_t line) const {
+    return crossings.data() + offsets[line];
+  }
+  [[nodiscard]] const LineCrossing* end(std::size_t line) const {
+    return crossings.data() + offsets[line + 1];
+  }
 };
 
 /// Crossings along x, y and z lines. Deterministic for any thread count.
-[[nodiscard]] std::array<AxisCrossings, 3> scanConvert(const TriangleMesh& mesh, const GridFrame& frame,
+[[nodiscard]] std::array<AxisCrossings, 3> scanConvert(const TriangleMesh& mesh,
+                                                       const GridFrame& frame,
                                                        bool threaded = true);
 
 }  // namespace voxcut

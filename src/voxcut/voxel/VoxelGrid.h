@@ -47,18 +47,22 @@ class VoxelGrid {
   [[nodiscard]] std::size_t index(int x, int y, int z) const {
     return static_cast<std::size_t>(x) +
            static_cast<std::size_t>(dims_.x) *
-               (static_cast<std::size_t>(y) + static_cast<std::size_t>(dims_.y) * static_cast<std::size_t>(z));
+               (static_cast<std::size_t>(y) +
+                static_cast<std::size_t>(dims_.y) * static_cast<std::size_t>(z));
   }
   [[nodiscard]] std::size_t index(const Index3& c) const { return index(c.x, c.y, c.z); }
   /// Grid coordinates of voxel v.
   [[nodiscard]] Index3 coord(std::size_t v) const {
     const auto nx = static_cast<std::size_t>(dims_.x), ny = static_cast<std::size_t>(dims_.y);
-    return {static_cast<int>(v % nx), static_cast<int>((v / nx) % ny), static_cast<int>(v / (nx * ny))};
+    return {static_cast<int>(v % nx), static_cast<int>((v / nx) % ny),
+            static_cast<int>(v / (nx * ny))};
   }
   /// Linear-index step along axis a.
   [[nodiscard]] std::size_t stride(int a) const {
-    return a == 0 ? 1 : (a == 1 ? static_cast<std::size_t>(dims_.x)
-                                : static_cast<std::size_t>(dims_.x) * static_cast<std::size_t>(dims_.y));
+    return a == 0
+               ? 1
+               : (a == 1 ? static_cast<std::size_t>(dims_.x)
+                         : static_cast<std::size_t>(dims_.x) * static_cast<std::size_t>(dims_.y));
   }
   /// Rest position of voxel v's centre (metres).
   [[nodiscard]] Vec3d position(std::size_t v) const {

@@ -46,60 +46,66 @@ void labelInside(const PreparedMesh& pm, const GridFrame& frame, bool threaded,
   auto pos = [&](int x, int y, int z) {
     return Vec3d(frame.origin + frame.voxelSize * Vec3d(x, y, z));
   };
-  parallelFor(0, static_cast<std::size_t>(ny), 1, [&](std::size_t y0, std::size_t y1) {
-    for (std::size_t y = y0; y < y1; ++y)
-      for (int x = 0; x < nx; ++x) {
-        const std::size_t line = static_cast<std::size_t>(x) + static_cast<std::size_t>(nx) * y;
-        const LineCrossing* c = zc.begin(line);
-        const LineCrossing* e = zc.end(line);
-        auto at = [&](int z) -> std::uint8_t& { return inside[line + sz * static_cast<std::size_t>(z)]; };
-        if (!pm.gwn) {
-          // Watertight: the winding number is the signed count of crossings below.
-          int wind = 0;
-          for (int z = 0; z < nz; ++z) {
-            for (; c != e && c->s < z; ++c) wind -= c->sign;
-            at(z) = wind != 0;
-          }
-          continue;
-        }
-        // Open mesh: w is continuous between crossings except near holes; sample each
-        // segment at its ends and middle and subdivide where the samples disagree.
-        auto label = [&](int z) -> std::uint8_t {
-          return std::abs((*pm.gwn)(pos(x, static_cast<int>(y), z))) > 0.5;
-        };
-        int z = 0;
-        while (z < nz) {
-          for (; c != e && c->s < z; ++c) {
-          }
-          int zEnd = nz - 1;  // last voxel before the next crossing
-          if (c != e) zEnd = std::min(nz - 1, static_cast<int>(std::ceil(c->s)) - 1);
-          if (zEnd < z) zEnd = z;
-          // Recursive fill of [z, zEnd].
-          struct Seg {
-            int a, b;
-            std::uint8_t la, lb;
-          };
-          std::vector<Seg> stack{{z, zEnd, label(z), z == zEnd ? std::uint8_t{0} : label(zEnd)}};
-          if (z == zEnd) stack.back().lb = stack.back().la;
-          while (!stack.empty()) {
-            Seg s = stack.back();
-            stack.pop_back();
-            at(s.a) = s.la;
-            at(s.b) = s.lb;
-            if (s.b - s.a <= 1) continue;
-            const int m = (s.a + s.b) / 2;
-            const std::uint8_t lm = label(m);
-            if (s.la == lm && lm == s.lb) {
-              for (int k = s.a + 1; k < s.b; ++k) at(k) = lm;
+  parallelFor(
+      0, static_cast<std::size_t>(ny), 1,
+      [&](std::size_t y0, std::size_t y1) {
+        for (std::size_t y = y0; y < y1; ++y)
+          for (int x = 0; x < nx; ++x) {
+            const std::size_t line = static_cast<std::size_t>(x) + static_cast<std::size_t>(nx) * y;
+            const LineCrossing* c = zc.begin(line);
+            const LineCrossing* e = zc.end(line);
+            auto at = [&](int z) -> std::uint8_t& {
+              return inside[line + sz * static_cast<std::size_t>(z)];
+            };
+            if (!pm.gwn) {
+              // Watertight: the winding number is the signed count of crossings below.
+              int wind = 0;
+              for (int z = 0; z < nz; ++z) {
+                for (; c != e && c->s < z; ++c) wind -= c->sign;
+                at(z) = wind != 0;
+              }
               continue;
             }
-            stack.push_back({s.a, m, s.la, lm});
-            stack.push_back({m, s.b, lm, s.lb});
+            // Open mesh: w is continuous between crossings except near holes; sample each
+            // segment at its ends and middle and subdivide where the samples disagree.
+            auto label = [&](int z) -> std::uint8_t {
+              return std::abs((*pm.gwn)(pos(x, static_cast<int>(y), z))) > 0.5;
+            };
+            int z = 0;
+            while (z < nz) {
+              for (; c != e && c->s < z; ++c) {
+              }
+              int zEnd = nz - 1;  // last voxel before the next crossing
+              if (c != e) zEnd = std::min(nz - 1, static_cast<int>(std::ceil(c->s)) - 1);
+              if (zEnd < z) zEnd = z;
+              // Recursive fill of [z, zEnd].
+              struct Seg {
+                int a, b;
+                std::uint8_t la, lb;
+              };
+              std::vector<Seg> stack{
+                  {z, zEnd, label(z), z == zEnd ? std::uint8_t{0} : label(zEnd)}};
+              if (z == zEnd) stack.back().lb = stack.back().la;
+              while (!stack.empty()) {
+                Seg s = stack.back();
+                stack.pop_back();
+                at(s.a) = s.la;
+                at(s.b) = s.lb;
+                if (s.b - s.a <= 1) continue;
+                const int m = (s.a + s.b) / 2;
+                const std::uint8_t lm = label(m);
+                if (s.la == lm && lm == s.lb) {
+                  for (int k = s.a + 1; k < s.b; ++k) at(k) = lm;
+                  continue;
+                }
+                stack.push_back({s.a, m, s.la, lm});
+                stack.push_back({m, s.b, lm, s.lb});
+              }
+              z = zEnd + 1;
+            }
           }
-          z = zEnd + 1;
-        }
-      }
-  }, threaded);
+      },
+      threaded);
 }
 
 // Hermite data of link (voxel c, axis a) of mesh pm, whose inside flags at the two ends differ.
@@ -182,10 +188,13 @@ VoxelGrid voxelize(const std::vector<MaterialMesh>& materials, const VoxelizePar
     reportProgress(params.progress, "voxelize", (2.0 * m + 1.0) / steps);
     labelInside(pm, frame, params.threaded, inside);
     const auto id = static_cast<std::uint8_t>(m + 1);
-    parallelFor(0, nVox, 1 << 16, [&](std::size_t b, std::size_t e) {
-      for (std::size_t v = b; v < e; ++v)
-        if (inside[v]) mat[v] = id;
-    }, params.threaded);
+    parallelFor(
+        0, nVox, 1 << 16,
+        [&](std::size_t b, std::size_t e) {
+          for (std::size_t v = b; v < e; ++v)
+            if (inside[v]) mat[v] = id;
+        },
+        params.threaded);
   }
   const Index3 d = frame.dims;
   reportProgress(params.progress, "voxelize", (2.0 * nMat) / steps);
@@ -205,39 +214,46 @@ VoxelGrid voxelize(const std::vector<MaterialMesh>& materials, const VoxelizePar
     }
   const std::size_t nRows = static_cast<std::size_t>(d.y) * static_cast<std::size_t>(d.z);
   std::vector<std::uint8_t> rowOccupied(nRows, 0);
-  parallelFor(0, nRows, 256, [&](std::size_t r0, std::size_t r1) {
-    for (std::size_t r = r0; r < r1; ++r) {
-      const std::uint8_t* row = mat + r * static_cast<std::size_t>(d.x);
-      rowOccupied[r] = std::any_of(row, row + d.x, [](std::uint8_t m) { return m != 0; });
-    }
-  }, params.threaded);
-  parallelFor(0, static_cast<std::size_t>(d.z), 1, [&](std::size_t z0, std::size_t z1) {
-    for (std::size_t z = z0; z < z1; ++z)
-      for (int y = 0; y < d.y; ++y) {
-        // A row's links reach its own row, the next in y and the next in z.
-        const std::size_t row = static_cast<std::size_t>(y) + static_cast<std::size_t>(d.y) * z;
-        const bool busy = rowOccupied[row] || (y + 1 < d.y && rowOccupied[row + 1]) ||
-                          (static_cast<int>(z) + 1 < d.z && rowOccupied[row + static_cast<std::size_t>(d.y)]);
-        if (!busy) continue;
-        for (int x = 0; x < d.x; ++x) {
-          const Index3 c{x, y, static_cast<int>(z)};
-          const std::size_t v = grid.index(c);
-          std::uint8_t bits = 0;
-          for (int a = 0; a < 3; ++a) {
-            if (c[a] + 1 >= d[a]) continue;
-            const std::uint8_t m0 = mat[v], m1 = mat[v + grid.stride(a)];
-            if (m0 == 0 && m1 == 0) continue;
-            if (m0 != 0 && m1 != 0) bits = static_cast<std::uint8_t>(bits | (1u << a));
-            if (m0 == m1) continue;
-            bool hole = false;
-            const Hermite h = linkHermite(prepared[std::max(m0, m1) - 1], frame, c, a, hole);
-            holeLinks[z] += hole;
-            slices[z].emplace_back(VoxelGrid::linkId(v, a), h);
-          }
-          links[v] = bits;
+  parallelFor(
+      0, nRows, 256,
+      [&](std::size_t r0, std::size_t r1) {
+        for (std::size_t r = r0; r < r1; ++r) {
+          const std::uint8_t* row = mat + r * static_cast<std::size_t>(d.x);
+          rowOccupied[r] = std::any_of(row, row + d.x, [](std::uint8_t m) { return m != 0; });
         }
-      }
-  }, params.threaded);
+      },
+      params.threaded);
+  parallelFor(
+      0, static_cast<std::size_t>(d.z), 1,
+      [&](std::size_t z0, std::size_t z1) {
+        for (std::size_t z = z0; z < z1; ++z)
+          for (int y = 0; y < d.y; ++y) {
+            // A row's links reach its own row, the next in y and the next in z.
+            const std::size_t row = static_cast<std::size_t>(y) + static_cast<std::size_t>(d.y) * z;
+            const bool busy =
+                rowOccupied[row] || (y + 1 < d.y && rowOccupied[row + 1]) ||
+                (static_cast<int>(z) + 1 < d.z && rowOccupied[row + static_cast<std::size_t>(d.y)]);
+            if (!busy) continue;
+            for (int x = 0; x < d.x; ++x) {
+              const Index3 c{x, y, static_cast<int>(z)};
+              const std::size_t v = grid.index(c);
+              std::uint8_t bits = 0;
+              for (int a = 0; a < 3; ++a) {
+                if (c[a] + 1 >= d[a]) continue;
+                const std::uint8_t m0 = mat[v], m1 = mat[v + grid.stride(a)];
+                if (m0 == 0 && m1 == 0) continue;
+                if (m0 != 0 && m1 != 0) bits = static_cast<std::uint8_t>(bits | (1u << a));
+                if (m0 == m1) continue;
+                bool hole = false;
+                const Hermite h = linkHermite(prepared[std::max(m0, m1) - 1], frame, c, a, hole);
+                holeLinks[z] += hole;
+                slices[z].emplace_back(VoxelGrid::linkId(v, a), h);
+              }
+              links[v] = bits;
+            }
+          }
+      },
+      params.threaded);
   std::size_t total = 0;
   for (const auto& s : slices) total += s.size();
   grid.hermite().reserve(total);

@@ -25,10 +25,10 @@ namespace voxcut {
 
 /// Voxelizer settings.
 struct VoxelizeParams {
-  Resolution resolution;                              ///< voxels along the longest side, or voxel size
+  Resolution resolution;  ///< voxels along the longest side, or voxel size
   std::size_t maxVoxels = VoxelGrid::kDefaultMaxVoxels;  ///< refuse larger grids
-  bool threaded = true;                               ///< run parallel loops on oneTBB
-  ProgressCallback progress;                          ///< progress and interruption, optional
+  bool threaded = true;                                  ///< run parallel loops on oneTBB
+  ProgressCallback progress;                             ///< progress and interruption, optional
 };
 
 /// What the voxelizer found, per material mesh.

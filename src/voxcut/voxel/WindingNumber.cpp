@@ -77,7 +77,8 @@ int WindingNumberTree::build(int first, int count, int depth) {
 }
 
 double WindingNumberTree::exactSolidAngle(int t, const Vec3d& p) const {
-  // Van Oosterom & Strackee: tan(Omega/2) = a.(b x c) / (|a||b||c| + (a.b)|c| + (b.c)|a| + (c.a)|b|).
+  // Van Oosterom & Strackee: tan(Omega/2) = a.(b x c) / (|a||b||c| + (a.b)|c| + (b.c)|a| +
+  // (c.a)|b|).
   const Vec3d a = v0_[t] - p, b = v1_[t] - p, c = v2_[t] - p;
   const double la = a.norm(), lb = b.norm(), lc = c.norm();
   const double num = a.dot(b.cross(c));

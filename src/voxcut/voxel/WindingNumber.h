@@ -23,9 +23,9 @@ class WindingNumberTree {
 
  private:
   struct Node {
-    Vec3d centre;      // area-weighted centroid of the node's triangles
-    Vec3d areaNormal;  // sum of (area * unit normal) = half the sum of edge cross products
-    double radius = 0;  // max distance from centre to a vertex of the node's triangles
+    Vec3d centre;              // area-weighted centroid of the node's triangles
+    Vec3d areaNormal;          // sum of (area * unit normal) = half the sum of edge cross products
+    double radius = 0;         // max distance from centre to a vertex of the node's triangles
     int first = 0, count = 0;  // triangle range (leaves)
     int left = -1, right = -1;
   };
