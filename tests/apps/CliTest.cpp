@@ -23,6 +23,7 @@
 #include <utility>
 #include <vector>
 
+#include "CliProcess.h"
 #include "voxcut/io/ModelSource.h"
 
 extern char** environ;
@@ -73,15 +74,6 @@ class ScratchDir {
   fs::path path_;
 };
 
-std::string readFile(const std::string& path) {
-  std::error_code ec;
-  const auto size = fs::file_size(path, ec);
-  if (ec) return {};
-  std::string bytes(size, '\0');
-  std::ifstream(path, std::ios::binary).read(bytes.data(), static_cast<std::streamsize>(size));
-  return bytes;
-}
-
 /// What one run of the binary did.
 struct RunResult {
   int status = -1;  ///< exit code, or 128 + signal when killed by a signal
@@ -130,8 +122,8 @@ RunResult voxcut(const std::vector<std::string>& args) {
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   r.maxRssKiB = usage.ru_maxrss;
   r.status = WIFEXITED(wstatus) ? WEXITSTATUS(wstatus) : 128 + WTERMSIG(wstatus);
-  r.out = readFile(outPath);
-  r.err = readFile(errPath);
+  r.out = cli::readText(outPath);
+  r.err = cli::readText(errPath);
   fs::remove(outPath);
   fs::remove(errPath);
   return r;
@@ -231,7 +223,7 @@ struct ObjMesh {
 
 ObjMesh readObj(const std::string& path) {
   ObjMesh m;
-  std::istringstream in(readFile(path));
+  std::istringstream in(cli::readText(path));
   std::string line;
   while (std::getline(in, line)) {
     std::istringstream ls(line);
@@ -439,7 +431,7 @@ TEST(Cli, SurfaceFilesIdenticalWithOneAndTwoThreads) {
       const RunResult r = voxcut(args);
       ASSERT_EQ(r.status, 0) << describe(args, r);
     }
-    const std::string a = readFile(files[0]), b = readFile(files[1]);
+    const std::string a = cli::readText(files[0]), b = cli::readText(files[1]);
     EXPECT_FALSE(a.empty());
     EXPECT_TRUE(a == b) << ext << " files differ between --threads 1 and --threads 2";
   }
@@ -469,7 +461,7 @@ TEST(Cli, SurfaceWritesObjAndPly) {
   const RunResult r2 = voxcut(plyArgs);
   ASSERT_EQ(r2.status, 0) << describe(plyArgs, r2);
   ASSERT_TRUE(fs::is_regular_file(ply));
-  const std::string bytes = readFile(ply);
+  const std::string bytes = cli::readText(ply);
   EXPECT_EQ(bytes.rfind("ply\n", 0), 0u);
   EXPECT_NE(bytes.find("element vertex " + std::to_string(nv) + "\n"), std::string::npos);
   EXPECT_NE(bytes.find("element face " + std::to_string(nt) + "\n"), std::string::npos);
@@ -694,7 +686,7 @@ TEST(Cli, RunCutsASphereInTwoAndReportsEveryKey) {
   }
   for (const char* k : {"mean", "p95", "max"}) EXPECT_TRUE(j["frame_ms"].contains(k)) << k;
   // One CSV row per frame after the header; surfaces at frames 0, 10, 20 and 30, closed.
-  const std::string rows = readFile(csv);
+  const std::string rows = cli::readText(csv);
   EXPECT_EQ(std::count(rows.begin(), rows.end(), '\n'), 31);
   EXPECT_NE(
       rows.substr(0, rows.find('\n')).find(",solver_iterations,converged,solver_factorisations"),
