@@ -143,8 +143,9 @@ TEST(FreeFall, SmallStepsFollowHalfGTSquaredWithoutTurning) {
   expectFreeFall(0.004, 101, 1e-6);
 }
 
-// A second per step over 101 s: the box falls 50 km, and there the positions' own round-off
-// (7e-12 m on a 0.1 m box) is what turns it (docs/algorithms.md, "Rigid-mode correction").
+// A second per step over 101 s: the box falls 50 km at up to 1 km/s, and the round-off of the
+// stiff step (dt^2 K about 1e7 times a node's mass) turns it by about 2.5e-5 rad
+// (docs/algorithms.md, "Rigid-mode correction").
 TEST(FreeFall, OneSecondStepsFollowHalfGTSquared) {
   expectFreeFall(1.0, 101, 1e-4);
 }
