@@ -71,7 +71,9 @@ TEST(MemoryEstimate, UnusableMeshesAreLeftToTheVoxelizer) {
   m.mesh.faces = {{0, 1, 2}};
   EXPECT_EQ(estimateModelMemory({m}, {}).bytes, 0u);
   m.mesh.vertices[2] = Vec3d(0, 1, 0);
-  m.mesh.faces = {{0, 1, 7}};  // a bad index is skipped, the bounds still count
+  m.mesh.faces = {{0, 1, 7}};  // a face with an index out of range is skipped, never read
+  EXPECT_EQ(estimateModelMemory({m}, {}).bytes, 0u);
+  m.mesh.faces = {{0, 1, 7}, {0, 1, 2}};  // the valid faces still count
   EXPECT_GT(estimateModelMemory({m}, {}).bytes, 0u);
 }
 

@@ -76,13 +76,21 @@ MemoryEstimate estimateModelMemory(const std::vector<MaterialMesh>& materials,
                                    const MemoryEstimateParams& params) {
   MemoryEstimate e;
   if (!usable(materials)) return e;
+  // The bounds of the faces the voxelizer would take (TriangleMesh::bounds trusts every index;
+  // a face with an index out of range is left to the voxelizer's own check).
   std::array<Vec3d, 2> bounds{Vec3d::Constant(std::numeric_limits<double>::infinity()),
                               Vec3d::Constant(-std::numeric_limits<double>::infinity())};
   for (const MaterialMesh& m : materials) {
-    const auto b = m.mesh.bounds();
-    bounds[0] = bounds[0].cwiseMin(b[0]);
-    bounds[1] = bounds[1].cwiseMax(b[1]);
+    const int n = static_cast<int>(m.mesh.vertices.size());
+    for (const auto& f : m.mesh.faces) {
+      if (std::any_of(f.begin(), f.end(), [n](int i) { return i < 0 || i >= n; })) continue;
+      for (const int i : f) {
+        bounds[0] = bounds[0].cwiseMin(m.mesh.vertices[static_cast<std::size_t>(i)]);
+        bounds[1] = bounds[1].cwiseMax(m.mesh.vertices[static_cast<std::size_t>(i)]);
+      }
+    }
   }
+  if (!(bounds[0].array() <= bounds[1].array()).all()) return e;
   e.frame = gridFrameFor(bounds, params.resolution, params.maxVoxels);
   const Index3 d = e.frame.dims;
   const double h = e.frame.voxelSize;
