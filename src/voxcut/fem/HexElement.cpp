@@ -163,20 +163,6 @@ ElementMatrices hexElementMatrices(int level, double voxelSize,
   return out;
 }
 
-Eigen::Matrix3d centreDeformationGradient(const std::array<Vec3d, 8>& displacement, double edge) {
-  Eigen::Matrix3d f = Eigen::Matrix3d::Zero();
-  for (int c = 0; c < 8; ++c) {
-    const Vec3d& u = displacement[static_cast<std::size_t>(c)];
-    for (int k = 0; k < 3; ++k) {
-      if (cornerBit(c, k) != 0)
-        f.col(k) += u;
-      else
-        f.col(k) -= u;
-    }
-  }
-  return Eigen::Matrix3d::Identity() + f * (0.25 / edge);
-}
-
 Eigen::Matrix3d materialDeformationGradient(const std::array<Vec3d, 8>& x,
                                             const std::array<Vec3d, 8>& rest,
                                             const std::array<Vec3d, 8>& gradientMean, double edge) {

@@ -3,8 +3,8 @@
 /// Pure kernels of the composite hexahedral element (docs/algorithms.md, "Composite
 /// elements", "Corotation" and "Corotation from the material"): rest stiffness and lumped mass
 /// of a level-L element integrated over the voxels it holds, each voxel with its own material;
-/// the corotational frame (the deformation gradient averaged over the element's material, or
-/// at its centre, and its polar rotation).
+/// the corotational frame (the deformation gradient averaged over the element's material and
+/// its polar rotation).
 ///
 /// Element frame. A level-L element is a cube of edge H = h * 2^L (h the voxel size, metres)
 /// with unit coordinates t in [0, 1]^3; corner c in 0..7 sits at t = (c & 1, (c >> 1) & 1,
@@ -95,12 +95,6 @@ struct ElementMatrices {
 [[nodiscard]] ElementMatrices hexElementMatrices(int level, double voxelSize,
                                                  std::span<const MaterialMoments> region,
                                                  std::span<const ElasticMaterial> materials);
-
-/// Deformation gradient at the centre of an element of rest edge `edge` (metres) from its 8
-/// corner displacements u_c = x_c - X_c (metres): F = I + sum_c u_c grad N_c(centre)^T, where
-/// grad N_c(centre) = (+-1, +-1, +-1) / (4 edge). Exactly I for zero displacements. Pure.
-[[nodiscard]] Eigen::Matrix3d centreDeformationGradient(const std::array<Vec3d, 8>& displacement,
-                                                        double edge);
 
 /// Deformation gradient averaged over an element's material, from its 8 current corners `x`
 /// and rest corners `rest` (metres): F = I + sum_c ((x_c - xbar) - (X_c - Xbar)) g_c^T / edge

@@ -1,24 +1,15 @@
 #include "voxcut/fem/RigidModes.h"
 
 #include <Eigen/Eigenvalues>
-#include <numeric>
 
 #include "voxcut/core/Error.h"
+#include "voxcut/core/UnionFind.h"
 
 namespace voxcut {
 namespace {
 
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 using Vector6d = Eigen::Matrix<double, 6, 1>;
-
-/// Root of i in the forest `parent`, halving paths on the way.
-std::uint32_t findRoot(std::vector<std::uint32_t>& parent, std::uint32_t i) {
-  while (parent[i] != i) {
-    parent[i] = parent[parent[i]];
-    i = parent[i];
-  }
-  return i;
-}
 
 }  // namespace
 
@@ -28,20 +19,16 @@ void RigidModes::setup(const BlockSparsity& sparsity, std::uint64_t revision,
   VOXCUT_ASSERT(positions.size() == rows && weights.size() == rows,
                 "one position and weight per free node");
   if (!labelled_ || revision != revision_ || piece_.size() != rows) {
-    std::vector<std::uint32_t> parent(rows);
-    std::iota(parent.begin(), parent.end(), 0u);
+    UnionFind sets(rows);
     for (std::size_t i = 0; i < rows; ++i)
-      for (std::uint32_t s = sparsity.rowStart[i]; s < sparsity.rowStart[i + 1]; ++s) {
-        const std::uint32_t a = findRoot(parent, static_cast<std::uint32_t>(i));
-        const std::uint32_t b = findRoot(parent, sparsity.column[s]);
-        if (a != b) parent[std::max(a, b)] = std::min(a, b);
-      }
+      for (std::uint32_t s = sparsity.rowStart[i]; s < sparsity.rowStart[i + 1]; ++s)
+        sets.unite(static_cast<std::uint32_t>(i), sparsity.column[s]);
     // Pieces numbered in order of their first row: deterministic.
     piece_.assign(rows, 0);
     std::vector<std::uint32_t> label(rows, kNotFree);
     pieceCount_ = 0;
     for (std::size_t i = 0; i < rows; ++i) {
-      const std::uint32_t root = findRoot(parent, static_cast<std::uint32_t>(i));
+      const std::uint32_t root = sets.find(static_cast<std::uint32_t>(i));
       if (label[root] == kNotFree) label[root] = static_cast<std::uint32_t>(pieceCount_++);
       piece_[i] = label[root];
     }
