@@ -6,10 +6,10 @@
 ///   (M + dt C + dt^2 K) dv = dt (f_el + f_ext - C v - dt K v),  v += dv,  x += dt v,
 ///
 /// with K = sum_e R_e K_e R_e^T (R_e from the polar decomposition of the deformation gradient
-/// averaged over the element's material, Corotation.h, dR ignored), f_el = -sum_e R_e K_e y_e (y_e the corotated
-/// displacement), C = alpha M (exact per voxel, lumped) + sum_e beta_e R_e K_e R_e^T (beta_e
-/// the element's E-weighted mean), f_ext = M g. Everything is reduced by the hanging-node and
-/// fixed-node prolongation P (ElasticModel.h): the solve is on P^T A P with P^T b, so hanging
+/// averaged over the element's material, Corotation.h, dR ignored), f_el = -sum_e R_e K_e y_e (y_e
+/// the corotated displacement), C = alpha M (exact per voxel, lumped) + sum_e beta_e R_e K_e R_e^T
+/// (beta_e the element's E-weighted mean), f_ext = M g. Everything is reduced by the hanging-node
+/// and fixed-node prolongation P (ElasticModel.h): the solve is on P^T A P with P^T b, so hanging
 /// nodes stay at the mean of their masters and fixed nodes keep their position and zero
 /// velocity.
 ///
