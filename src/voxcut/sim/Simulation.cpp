@@ -192,7 +192,7 @@ std::vector<std::uint64_t> Simulation::cutBody(SimBody& b, BladeEnds& ends,
   ends.ids.assign(scene_.tools.size(), {});
   for (std::size_t ti = 0; ti < scene_.tools.size(); ++ti) {
     const std::optional<std::vector<BladeSweep>> moving = toolSweeps(b, ti, ends);
-    if (!moving) continue;
+    if (!moving || moving->empty()) continue;
     const std::vector<BladeSweep>& sweeps = *moving;
     CutStepResult r = cutStep(b.cut, sweeps, b.subdivision, params_.threaded);
     ms[kPositionUpdate] += r.positionUpdateMs;
@@ -258,6 +258,15 @@ std::optional<std::vector<BladeSweep>> Simulation::toolSweeps(SimBody& b, std::s
     }
     sweeps = sweepStrip(start, startIds, ends.points[ti], ends.ids[ti], frame);
   }
+  // Only sweeps that reach the body can cross its links (every voxel lies in the hull of its
+  // element's nodes): a blade much longer than the body keeps the few sweeps near it.
+  Eigen::AlignedBox3d body;
+  for (const Vec3d& x : b.cut.deformation.positions()) body.extend(x);
+  body.extend(body.min() - Vec3d::Constant(b.cut.grid.voxelSize()));
+  body.extend(body.max() + Vec3d::Constant(b.cut.grid.voxelSize()));
+  std::erase_if(sweeps, [&](const BladeSweep& s) {
+    return !s.bounds[0].merged(s.bounds[1]).intersects(body);
+  });
   return sweeps;
 }
 
