@@ -100,6 +100,30 @@ void prolong(const WeightedRows& p, const std::vector<Vec3d>& reduced, std::vect
 
 }  // namespace
 
+/// Per free row of `model`: 1 when an element holding voxels couples it to a node whose
+/// prolongation row does not sum to one (a fixed node, or a hanging node with a fixed
+/// master). The reduced stiffness annihilates the translations of a piece without such rows
+/// (docs/algorithms.md, "Rigid-mode correction").
+std::vector<std::uint8_t> anchoredRows(const ElasticModel& model) {
+  const WeightedRows& p = model.prolongation();
+  std::vector<std::uint8_t> deficient(model.nodeCount(), 0);
+  for (std::size_t n = 0; n < model.nodeCount(); ++n) {
+    double sum = 0.0;
+    for (std::uint32_t k = p.start[n]; k < p.start[n + 1]; ++k) sum += p.weight[k];
+    deficient[n] = std::abs(sum - 1.0) > 1e-9 ? 1 : 0;
+  }
+  std::vector<std::uint8_t> anchored(model.freeNodeCount(), 0);
+  for (std::size_t e = 0; e < model.elementCount(); ++e) {
+    if (!(model.element(static_cast<std::uint32_t>(e)).volume > 0.0)) continue;
+    const auto& corners = model.elementNodes()[e];
+    if (std::none_of(corners.begin(), corners.end(), [&](std::uint32_t n) { return deficient[n]; }))
+      continue;
+    for (std::uint32_t n : corners)
+      for (std::uint32_t k = p.start[n]; k < p.start[n + 1]; ++k) anchored[p.index[k]] = 1;
+  }
+  return anchored;
+}
+
 const char* preconditionerName(Preconditioner p) {
   switch (p) {
     case Preconditioner::Jacobi:
@@ -182,7 +206,8 @@ void ImplicitEuler::resize(const ElasticModel& model) {
   nodeRhs_.resize(nodes);
   blocks_.resize(model.sparsity().blockCount());
   preconditioner_.resize(free);
-  for (auto* v : {&b_, &x_, &r_, &z_, &p_, &q_, &vr_}) v->resize(free);
+  for (auto* v : {&b_, &x_, &r_, &z_, &p_, &q_, &vr_, &shift_}) v->resize(free);
+  massRow_.resize(free);
 }
 
 void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree& octree) {
@@ -261,6 +286,10 @@ void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree&
           for (std::uint32_t k = res.start[i]; k < res.start[i + 1]; ++k)
             s += res.weight[k] * nodeRhs_[res.index[k]];
           b_[i] = s;
+          double mass = 0.0;
+          for (std::uint32_t k = res.start[i]; k < res.start[i + 1]; ++k)
+            mass += res.weight[k] * nodeDiagonal_[res.index[k]];
+          massRow_[i] = mass;
           for (std::uint32_t slot = sp.diagonal[i]; slot < sp.rowStart[i + 1]; ++slot) {
             Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
             for (std::uint32_t k = sp.sourceStart[slot]; k < sp.sourceStart[slot + 1]; ++k) {
@@ -346,24 +375,58 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
   // The rigid-mode correction (RigidModes.h) of the start, and again of the result: A times
   // the modes is made once for both.
   const bool correctRigid = params_.rigidCorrection;
+  // The products of A with a translation c of a free piece (no anchored row) are taken as
+  // what they are exactly, massRow c: the stiffness blocks' round-off times a large common
+  // velocity change (a long step, a fast fall) would otherwise act as a force and turn the
+  // piece. The warm start is split the same way, into its free pieces' mass-weighted means
+  // (shift_) and what is left.
+  std::fill(shift_.begin(), shift_.end(), Vec3d::Zero());
   if (correctRigid) {
     rigid_.setup(sp, model.sparsityRevision(), freePositions_, freeMasses_);
+    if (anchoredRevision_ != model.sparsityRevision() || anchoredRow_.size() != rows) {
+      anchoredRow_ = anchoredRows(model);
+      anchoredRevision_ = model.sparsityRevision();
+    }
+    const std::vector<std::uint32_t>& piece = rigid_.piece();
+    freePiece_.assign(rigid_.pieceCount(), 1);
+    for (std::size_t i = 0; i < rows; ++i)
+      if (anchoredRow_[i]) freePiece_[piece[i]] = 0;
+    std::vector<Vec3d> mean(rigid_.pieceCount(), Vec3d::Zero());
+    std::vector<double> weight(rigid_.pieceCount(), 0.0);
+    for (std::size_t i = 0; i < rows; ++i) {
+      mean[piece[i]] += massRow_[i] * x_[i];
+      weight[piece[i]] += massRow_[i];
+    }
+    for (std::size_t i = 0; i < rows; ++i)
+      if (freePiece_[piece[i]] && weight[piece[i]] > 0.0)
+        shift_[i] = mean[piece[i]] / weight[piece[i]];
     for (auto& v : rigidProducts_) v.resize(rows);
     parallelFor(
         0, rows, 256,
         [&](std::size_t b, std::size_t e) {
-          for (std::size_t i = b; i < e; ++i)
+          for (std::size_t i = b; i < e; ++i) {
+            const bool translationExact = freePiece_[piece[i]] != 0;
             for (int k = 0; k < 6; ++k)
-              rigidProducts_[static_cast<std::size_t>(k)][i] = multiply(rigid_.mode(k), i);
+              rigidProducts_[static_cast<std::size_t>(k)][i] =
+                  translationExact && k < 3 ? Vec3d(massRow_[i] * rigid_.mode(k)[i])
+                                            : multiply(rigid_.mode(k), i);
+          }
         },
         threaded);
     rigid_.setOperator(rigidProducts_);
   }
-  // r = b - A x0 (corrected), z = M^-1 r, p = z.
+  // r = b - A x0 (corrected), z = M^-1 r, p = z; q holds x0 less its shift meanwhile.
   parallelFor(
       0, rows, 256,
       [&](std::size_t b, std::size_t e) {
-        for (std::size_t i = b; i < e; ++i) r_[i] = b_[i] - multiply(x_, i);
+        for (std::size_t i = b; i < e; ++i) q_[i] = x_[i] - shift_[i];
+      },
+      threaded);
+  parallelFor(
+      0, rows, 256,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i)
+          r_[i] = b_[i] - multiply(q_, i) - massRow_[i] * shift_[i];
       },
       threaded);
   if (correctRigid) rigid_.correct(x_, r_);

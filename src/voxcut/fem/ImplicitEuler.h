@@ -219,6 +219,15 @@ class ImplicitEuler {
   int stepsOnStructure_ = 0;        ///< steps before this one on the same sparsity
   std::vector<Vec3d> freePositions_;  ///< current positions of the free nodes
   std::vector<double> freeMasses_;    ///< lumped masses of the free nodes (kg)
+  /// Per free row, the mass part of the reduced matrix summed over the row, sum_k w_k
+  /// (m + dt alpha-mass)_n: A times a translation c of a free piece is massRow_i c exactly.
+  std::vector<double> massRow_;
+  /// Per free row: coupled through an element to a node that is not the full prolongation
+  /// of free nodes (fixed, or hanging on a fixed master); its piece's translations stiffen.
+  std::vector<std::uint8_t> anchoredRow_;
+  std::uint64_t anchoredRevision_ = 0;  ///< sparsity revision anchoredRow_ is for
+  std::vector<std::uint8_t> freePiece_;  ///< per rigid_ piece: no anchored row
+  std::vector<Vec3d> shift_;             ///< per free row, its free piece's common warm start
   RigidModes rigid_;
   std::array<std::vector<Vec3d>, 6> rigidProducts_;  ///< scratch: A times each rigid mode
   std::vector<Vec3d> b_, x_, r_, z_, p_, q_, vr_;
