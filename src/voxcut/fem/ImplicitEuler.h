@@ -225,7 +225,7 @@ class ImplicitEuler {
   /// Per free row: coupled through an element to a node that is not the full prolongation
   /// of free nodes (fixed, or hanging on a fixed master); its piece's translations stiffen.
   std::vector<std::uint8_t> anchoredRow_;
-  std::uint64_t anchoredRevision_ = 0;  ///< sparsity revision anchoredRow_ is for
+  std::uint64_t anchoredRevision_ = 0;   ///< sparsity revision anchoredRow_ is for
   std::vector<std::uint8_t> freePiece_;  ///< per rigid_ piece: no anchored row
   std::vector<Vec3d> shift_;             ///< per free row, its free piece's common warm start
   RigidModes rigid_;
