@@ -119,6 +119,64 @@ TEST(DeformationOctree, UnalignedBoxMergesOnlyFullBlocks) {
   expectOctreeInvariants(g, oc, 3);
 }
 
+TEST(DeformationOctree, SplitsElementsLessThanHalfFull) {
+  // A slab 4 voxels thick fills an eighth of each level-5 block it crosses: from start level 5
+  // the blocks are split to level 4 (the default surface level), where the slab fills a
+  // quarter; they stay there, one level below the start.
+  const VoxelGrid slab = boxGrid({64, 64, 64}, {0, 0, 0}, {64, 4, 64});
+  DeformationOctreeParams p;
+  p.startLevel = 5;
+  p.maxLevel = 6;
+  EXPECT_EQ(defaultSurfaceLevel(5), 4);
+  const DeformationOctree split = buildDeformationOctree(slab, p);
+  EXPECT_EQ(split.elementCountPerLevel(), (std::vector<std::size_t>{0, 0, 0, 0, 16, 0, 0}));
+  expectOctreeInvariants(slab, split, 5);
+  // Down to level 2 when asked: at level 3 the slab fills half of each block, which stays.
+  p.surfaceLevel = 2;
+  EXPECT_EQ(buildDeformationOctree(slab, p).elementCountPerLevel(),
+            (std::vector<std::size_t>{0, 0, 0, 64, 0, 0, 0}));
+  // At the start level: no split.
+  p.surfaceLevel = 5;
+  EXPECT_EQ(buildDeformationOctree(slab, p).elementCountPerLevel(),
+            (std::vector<std::size_t>{0, 0, 0, 0, 0, 4, 0}));
+  // A block at least half full is kept: a slab 16 voxels thick.
+  p.surfaceLevel = -1;
+  const VoxelGrid thick = boxGrid({64, 64, 64}, {0, 0, 0}, {64, 16, 64});
+  EXPECT_EQ(buildDeformationOctree(thick, p).elementCountPerLevel(),
+            (std::vector<std::size_t>{0, 0, 0, 0, 0, 4, 0}));
+  // Start levels up to 3 are never split by default.
+  EXPECT_EQ(defaultSurfaceLevel(3), 3);
+  EXPECT_EQ(defaultSurfaceLevel(0), 0);
+  p.surfaceLevel = 8;
+  EXPECT_THROW((void)buildDeformationOctree(slab, p), InputError);
+}
+
+TEST(DeformationOctree, SplitElementsBalanceWithoutEmptyElements) {
+  // A full 32^3 cube with a thin plate beside it: the plate's blocks split to level 3, two
+  // below the cube's, so 2:1 splits the cube; every element still holds voxels.
+  VoxelGrid g = boxGrid({64, 32, 32}, {0, 0, 0}, {32, 32, 32});
+  for (int z = 0; z < 32; ++z)
+    for (int x = 32; x < 64; ++x) g.setMaterial(g.index(x, 0, z), 1);
+  connectOccupied(g);
+  DeformationOctreeParams p;
+  p.startLevel = 5;
+  p.maxLevel = 5;
+  p.surfaceLevel = 3;
+  const DeformationOctree oc = buildDeformationOctree(g, p);
+  const auto count = oc.elementCountPerLevel();
+  EXPECT_EQ(count[3], 16u);  // the plate: 4 x 4 blocks of 8 voxels, one voxel thick
+  EXPECT_EQ(count[4], 8u);   // the cube, split once for 2:1
+  EXPECT_EQ(count[5], 0u);
+  expectOctreeInvariants(g, oc, 5, 3);
+  for (int s : {1, 2, 3}) {
+    SCOPED_TRACE("blobs from start level 5, surface level " + std::to_string(s));
+    const VoxelGrid b = blobGrid(11, 64);
+    p.surfaceLevel = s;
+    p.maxLevel = 6;
+    expectOctreeInvariants(b, buildDeformationOctree(b, p), 5, s);
+  }
+}
+
 TEST(DeformationOctree, RandomBlobsKeepInvariants) {
   for (unsigned seed : {1u, 2u, 3u}) {
     const VoxelGrid g = blobGrid(seed, 32);

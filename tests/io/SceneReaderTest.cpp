@@ -284,6 +284,9 @@ TEST(SceneReaderErrors, OutOfRangeNamesTheKeyPathAndTheValue) {
               "bodies[0].element_level: must be an integer in 0..6, got 7");
   expectError(withBody(R"("element_level": 2, "finest_level": 3)"),
               "bodies[0].finest_level: must be <= element_level (2), got 3");
+  expectError(withBody(R"("element_level": 4, "surface_level": 5)"),
+              "bodies[0].surface_level: must be <= element_level (4), got 5");
+  expectError(withBody(R"("surface_level": -1)"), "bodies[0].surface_level");
   expectError(withBody(R"("resolution": 2)"), "bodies[0].resolution: must be an integer in 3..");
   expectError(withBody(R"("resolution": 1e12)"), "bodies[0].resolution: must be an integer in");
   expectError(withTop(R"("time_step": 0)"), "time_step: must be > 0, got 0");

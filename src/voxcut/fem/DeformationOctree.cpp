@@ -298,73 +298,69 @@ Index3 child(const Index3& p, int c) {
   return {2 * p.x + (c & 1), 2 * p.y + ((c >> 1) & 1), 2 * p.z + ((c >> 2) & 1)};
 }
 
-/// leaf[L] flags the elements of level L (L in [S, M]; entries below S are unused).
+/// leaf[L] flags the elements of level L (L in [F, M]; entries below F are unused).
 struct Leaves {
-  int S = 0, M = 0;
-  std::vector<LevelGrid> leaf;  ///< elements
-  std::vector<LevelGrid> full;  ///< blocks whose voxels are all occupied (M > S only)
+  int F = 0, M = 0;
+  std::vector<LevelGrid> leaf;
+  std::vector<std::vector<std::uint32_t>> count;  ///< occupied voxels per block, per level
 };
 
-/// Occupied and full blocks at startLevel, full blocks above, and the merged leaves.
-Leaves initialLeaves(const VoxelGrid& grid, int S, int M, bool threaded) {
+/// The leaves before balancing, top down: a block of level L in (S, M] is an element when it
+/// is full (every voxel it covers occupied) and no coarser element covers it; an occupied
+/// block of level L in [F, S] not covered by a coarser element is one when L = F or it is at
+/// least half full, else its occupied children are looked at in turn.
+Leaves initialLeaves(const VoxelGrid& grid, int F, int S, int M, bool threaded) {
   Leaves lv;
-  lv.S = S;
+  lv.F = F;
   lv.M = M;
   lv.leaf.resize(static_cast<std::size_t>(M) + 1);
-  lv.full.resize(static_cast<std::size_t>(M) + 1);
-  for (int L = S; L <= M; ++L) {
-    const Index3 d{ceilShift(grid.dims().x, L), ceilShift(grid.dims().y, L),
-                   ceilShift(grid.dims().z, L)};
-    for (auto* g : {&lv.leaf[static_cast<std::size_t>(L)], &lv.full[static_cast<std::size_t>(L)]}) {
-      g->dims = d;
-      g->flag.assign(static_cast<std::size_t>(d.x) * d.y * d.z, 0);
-    }
+  lv.count.resize(static_cast<std::size_t>(M) + 1);
+  for (int L = F; L <= M; ++L) {
+    LevelGrid& g = lv.leaf[static_cast<std::size_t>(L)];
+    g.dims = {ceilShift(grid.dims().x, L), ceilShift(grid.dims().y, L),
+              ceilShift(grid.dims().z, L)};
+    g.flag.assign(static_cast<std::size_t>(g.dims.x) * g.dims.y * g.dims.z, 0);
+    lv.count[static_cast<std::size_t>(L)].assign(g.flag.size(), 0);
   }
-  // Occupied-voxel counts per startLevel block; one task per block slab in z, so each block is
-  // written by one task only.
-  LevelGrid& base = lv.leaf[static_cast<std::size_t>(S)];
-  std::vector<std::uint32_t> count(base.flag.size(), 0);
+  // Occupied-voxel counts per level-F block; one task per block slab in z, so each block is
+  // written by one task only. A coarser block's count sums its 8 children's.
+  const LevelGrid& base = lv.leaf[static_cast<std::size_t>(F)];
+  std::vector<std::uint32_t>& baseCount = lv.count[static_cast<std::size_t>(F)];
   const Index3 gd = grid.dims();
   parallelFor(
       0, static_cast<std::size_t>(base.dims.z), 1,
       [&](std::size_t zb, std::size_t ze) {
-        for (int z = static_cast<int>(zb) << S; z < std::min(gd.z, static_cast<int>(ze) << S); ++z)
+        for (int z = static_cast<int>(zb) << F; z < std::min(gd.z, static_cast<int>(ze) << F); ++z)
           for (int y = 0; y < gd.y; ++y)
             for (int x = 0; x < gd.x; ++x)
-              if (grid.occupied(grid.index(x, y, z))) ++count[base.index({x >> S, y >> S, z >> S})];
+              if (grid.occupied(grid.index(x, y, z)))
+                ++baseCount[base.index({x >> F, y >> F, z >> F})];
       },
       threaded);
-  const std::uint32_t fullCount = 1u << (3 * S);
-  for (std::size_t b = 0; b < count.size(); ++b) {
-    base.flag[b] = count[b] > 0;
-    lv.full[static_cast<std::size_t>(S)].flag[b] = count[b] == fullCount;
+  for (int L = F + 1; L <= M; ++L) {
+    const LevelGrid& g = lv.leaf[static_cast<std::size_t>(L)];
+    const LevelGrid& fine = lv.leaf[static_cast<std::size_t>(L) - 1];
+    const std::vector<std::uint32_t>& fineCount = lv.count[static_cast<std::size_t>(L) - 1];
+    std::vector<std::uint32_t>& c = lv.count[static_cast<std::size_t>(L)];
+    for (std::size_t b = 0; b < g.flag.size(); ++b)
+      for (int k = 0; k < 8; ++k) {
+        const Index3 ch = child(g.coord(b), k);
+        if (fine.inside(ch)) c[b] += fineCount[fine.index(ch)];
+      }
   }
-  for (int L = S + 1; L <= M; ++L) {
-    LevelGrid& f = lv.full[static_cast<std::size_t>(L)];
-    const LevelGrid& fc = lv.full[static_cast<std::size_t>(L) - 1];
-    for (std::size_t b = 0; b < f.flag.size(); ++b) {
-      bool all = true;
-      for (int c = 0; c < 8 && all; ++c) all = fc.at(child(f.coord(b), c));
-      f.flag[b] = all;
-    }
-  }
-  // Coarsest full block wins: top down, a full block not inside a coarser element is one.
-  for (int L = M; L > S; --L) {
+  for (int L = M; L >= F; --L) {
     LevelGrid& g = lv.leaf[static_cast<std::size_t>(L)];
-    const LevelGrid& f = lv.full[static_cast<std::size_t>(L)];
+    const std::vector<std::uint32_t>& c = lv.count[static_cast<std::size_t>(L)];
+    const std::uint32_t full = 1u << (3 * L);
     for (std::size_t b = 0; b < g.flag.size(); ++b) {
-      if (!f.flag[b]) continue;
+      if (c[b] == 0) continue;
+      const bool accept = L > S ? c[b] == full : (L == F || 2 * c[b] >= full);
+      if (!accept) continue;
       bool covered = false;
       for (int m = L + 1; m <= M && !covered; ++m)
         covered = lv.leaf[static_cast<std::size_t>(m)].at(shiftDown(g.coord(b), m - L));
       g.flag[b] = !covered;
     }
-  }
-  for (std::size_t b = 0; b < base.flag.size(); ++b) {
-    if (!base.flag[b]) continue;
-    for (int m = S + 1; m <= M; ++m)
-      if (lv.leaf[static_cast<std::size_t>(m)].at(shiftDown(base.coord(b), m - S)))
-        base.flag[b] = 0;
   }
   return lv;
 }
@@ -372,12 +368,12 @@ Leaves initialLeaves(const VoxelGrid& grid, int S, int M, bool threaded) {
 /// Refines coarse elements until every two touching elements differ by at most one level.
 /// Checked from the finer side: for each element and each of its 26 neighbouring blocks of
 /// the same size, an element two or more levels coarser containing that block is split into
-/// its 8 children (all full, so all elements). Repeats until nothing changes.
+/// its occupied children. Repeats until nothing changes.
 void balance(Leaves& lv) {
   bool changed = true;
   while (changed) {
     changed = false;
-    for (int L = lv.S; L + 2 <= lv.M; ++L) {
+    for (int L = lv.F; L + 2 <= lv.M; ++L) {
       const LevelGrid& g = lv.leaf[static_cast<std::size_t>(L)];
       for (std::size_t b = 0; b < g.flag.size(); ++b) {
         if (!g.flag[b]) continue;
@@ -392,7 +388,11 @@ void balance(Leaves& lv) {
             if (!coarse.at(p)) continue;
             coarse.flag[coarse.index(p)] = 0;
             LevelGrid& fine = lv.leaf[static_cast<std::size_t>(m) - 1];
-            for (int k = 0; k < 8; ++k) fine.flag[fine.index(child(p, k))] = 1;
+            const std::vector<std::uint32_t>& fineCount = lv.count[static_cast<std::size_t>(m) - 1];
+            for (int k = 0; k < 8; ++k) {
+              const Index3 ch = child(p, k);
+              if (fine.inside(ch) && fineCount[fine.index(ch)] > 0) fine.flag[fine.index(ch)] = 1;
+            }
             changed = true;
           }
         }
@@ -413,12 +413,16 @@ DeformationOctree buildDeformationOctree(const VoxelGrid& grid,
     throw InputError("deformation octree max level must be in [start level, 7], got " +
                      std::to_string(params.maxLevel));
 
-  Leaves lv = initialLeaves(grid, S, M, params.threaded);
+  if (params.surfaceLevel < -1 || params.surfaceLevel > 7)
+    throw InputError("deformation octree surface level must be in [-1, 7], got " +
+                     std::to_string(params.surfaceLevel));
+  const int F = initialFinestLevel(S, params.surfaceLevel);
+  Leaves lv = initialLeaves(grid, F, S, M, params.threaded);
   balance(lv);
 
   // Elements, ordered by their first voxel's index (unique: elements do not overlap).
   std::vector<std::pair<std::size_t, OctreeElement>> keyed;
-  for (int L = S; L <= M; ++L) {
+  for (int L = F; L <= M; ++L) {
     const LevelGrid& g = lv.leaf[static_cast<std::size_t>(L)];
     for (std::size_t b = 0; b < g.flag.size(); ++b) {
       if (!g.flag[b]) continue;

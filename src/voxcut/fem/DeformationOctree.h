@@ -120,11 +120,31 @@ struct VoxelEmbedding {
   std::array<std::uint8_t, 3> offset{};
 };
 
+/// The surface level a build uses unless told otherwise: one level below a start level
+/// coarser than 3 (elements of more than 8 voxels), so that the thin parts they embed can
+/// bend; the start level itself (no split) otherwise.
+[[nodiscard]] constexpr int defaultSurfaceLevel(int startLevel) {
+  return startLevel > 3 ? startLevel - 1 : startLevel;
+}
+
+/// The level of the finest elements a build starts with: `surfaceLevel` (-1: the default)
+/// capped at `startLevel`.
+[[nodiscard]] constexpr int initialFinestLevel(int startLevel, int surfaceLevel) {
+  const int s = surfaceLevel < 0 ? defaultSurfaceLevel(startLevel) : surfaceLevel;
+  return s < startLevel ? s : startLevel;
+}
+
 /// Build settings.
 struct DeformationOctreeParams {
   int startLevel = 3;  ///< level of the elements that first cover the occupied voxels
   int maxLevel = 4;    ///< coarsest level merging may reach (>= startLevel)
-  bool merge = true;   ///< merge 8 full siblings into their parent, up to maxLevel
+  /// Elements of a level above this one that are less than half full (at the surface, in
+  /// thin parts) are split into their occupied children, down to this level at most; no
+  /// effect when >= startLevel; -1: defaultSurfaceLevel(startLevel). Coarse trilinear
+  /// elements cannot bend the thin parts they embed (docs/algorithms.md, "Composite
+  /// elements").
+  int surfaceLevel = -1;
+  bool merge = true;  ///< merge 8 full siblings into their parent, up to maxLevel
   /// Duplicate elements per connected voxel part and nodes per connected group (the rule of
   /// CutTopology.h), so lobes that pass through one element are not glued together. Off: one
   /// element per leaf cube, one node per node-grid point.
@@ -296,14 +316,15 @@ class DeformationOctree {
 
 /// Builds the deformation octree over the occupied voxels of `grid`: elements of level
 /// startLevel over every occupied voxel; 8 full siblings (every voxel they cover occupied)
-/// merged into their parent, repeatedly up to maxLevel when `merge`; then coarse elements
-/// refined until the 2:1 rule holds (vertex adjacency). Elements are ordered by their first
-/// voxel's index, nodes by their node-grid index. With params.splitParts, elements are then
+/// merged into their parent, repeatedly up to maxLevel when `merge`; elements less than half
+/// full split into their occupied children, repeatedly down to surfaceLevel; then coarse
+/// elements refined until the 2:1 rule holds (vertex adjacency). Elements are ordered by their
+/// first voxel's index, nodes by their node-grid index. With params.splitParts, elements are then
 /// duplicated per connected voxel part and nodes per connected group (duplicateByParts in
 /// CutTopology.h; a few cubes may be refined where a hanging node would otherwise be
 /// ambiguous); copies take the slots after the existing ones. The result is deterministic
 /// for any thread count. Throws InputError for startLevel outside [0, 7] or maxLevel outside
-/// [startLevel, 7]. Thread-safe (reads `grid` only).
+/// [startLevel, 7] or surfaceLevel outside [-1, 7]. Thread-safe (reads `grid` only).
 [[nodiscard]] DeformationOctree buildDeformationOctree(const VoxelGrid& grid,
                                                        const DeformationOctreeParams& params = {});
 

@@ -283,9 +283,9 @@ std::string readModel(const Reader& r, const Json& v, const std::string& path) {
 
 SceneBody readBody(const Reader& r, const Json& v, const std::string& path) {
   expectObject(r, v, path);
-  checkKeys(
-      r, v, path,
-      {"model", "resolution", "element_level", "finest_level", "materials", "fixed", "offset"});
+  checkKeys(r, v, path,
+            {"model", "resolution", "element_level", "finest_level", "surface_level", "materials",
+             "fixed", "offset"});
   SceneBody b;
   b.model = readModel(r, required(r, v, path, "model"), child(path, "model"));
   if (v.contains("resolution"))
@@ -299,6 +299,13 @@ SceneBody readBody(const Reader& r, const Json& v, const std::string& path) {
     if (b.finestLevel > b.elementLevel)
       r.fail(p, "must be <= element_level (" + std::to_string(b.elementLevel) + "), got " +
                     std::to_string(b.finestLevel));
+  }
+  if (v.contains("surface_level")) {
+    const std::string p = child(path, "surface_level");
+    b.surfaceLevel = integer(r, v["surface_level"], p, 0, kMaxElementLevel);
+    if (b.surfaceLevel > b.elementLevel)
+      r.fail(p, "must be <= element_level (" + std::to_string(b.elementLevel) + "), got " +
+                    std::to_string(b.surfaceLevel));
   }
   if (v.contains("materials")) {
     const std::string p = child(path, "materials");

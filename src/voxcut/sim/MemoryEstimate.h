@@ -66,8 +66,10 @@ struct MemoryEstimateParams {
   bool allActive = false;   ///< the baseline: every occupied voxel active
   bool simulation = false;  ///< element matrices, solver, contoured surface (sim/Simulation)
   bool factor = false;      ///< with simulation: a sparse Cholesky factor
-  int elementLevel = 3;     ///< start level of the deformation octree, 0..7
-  int copies = 1;           ///< models held at once (a benchmark's octree and baseline bodies)
+  /// Level of the finest elements the deformation octree starts with (initialFinestLevel in
+  /// fem/DeformationOctree.h), 0..7: the elements are counted at this level.
+  int elementLevel = 3;
+  int copies = 1;  ///< models held at once (a benchmark's octree and baseline bodies)
 };
 
 /// The estimate and the figures it came from.

@@ -56,6 +56,9 @@ struct SceneBody {
   std::optional<int> resolution;  ///< voxels along the longest side; empty: the model's own
   int elementLevel = 3;           ///< starting level of the deformation octree, 0..6
   int finestLevel = 0;            ///< finest level refinement after cuts reaches, <= elementLevel
+  /// Level down to which elements less than half full are split at the start, <= elementLevel;
+  /// -1: defaultSurfaceLevel(elementLevel) (fem/DeformationOctree.h).
+  int surfaceLevel = -1;
   /// The materials the scene sets, in the order the file lists them (unique names); the
   /// model's other materials take SceneMaterial's defaults (see sceneMaterial).
   std::vector<SceneMaterial> materials;

@@ -89,6 +89,7 @@ Simulation::Simulation(Scene scene, std::vector<VoxelGrid> grids, const Simulati
     cp.octree = voxelOctreeParams(sb, grids[i]);
     cp.deformation.startLevel = sb.elementLevel;
     cp.deformation.maxLevel = std::min(sb.elementLevel + 1, 7);
+    cp.deformation.surfaceLevel = sb.surfaceLevel;
     const std::vector<ElasticMaterial> materials = elasticMaterials(sb, grids[i]);
     b.cut = makeCutBody(std::move(grids[i]), cp, params_.threaded);
     b.model = ElasticModel(b.cut.deformation, b.cut.grid, materials, params_.threaded);
