@@ -66,6 +66,28 @@ std::optional<Hermite> testCubeLink(const CutBody& b, const std::vector<BladeSwe
   return testLink(b, sweeps, v, a, position(v), position(v + b.grid.stride(a)));
 }
 
+// The parameter range [t0, t1] of segment p + t (q - p), t in [0, 1], inside `box` (slabs per
+// axis); false when it misses the box.
+bool clipToBox(const Vec3d& p, const Vec3d& q, const Eigen::AlignedBox3d& box, double& t0,
+               double& t1) {
+  if (box.isEmpty()) return false;
+  t0 = 0.0;
+  t1 = 1.0;
+  for (int a = 0; a < 3; ++a) {
+    const double d = q[a] - p[a];
+    if (d == 0.0) {
+      if (p[a] < box.min()[a] || p[a] > box.max()[a]) return false;
+      continue;
+    }
+    double lo = (box.min()[a] - p[a]) / d, hi = (box.max()[a] - p[a]) / d;
+    if (lo > hi) std::swap(lo, hi);
+    t0 = std::max(t0, lo);
+    t1 = std::min(t1, hi);
+    if (!(t0 <= t1)) return false;
+  }
+  return true;
+}
+
 // The boundary of the sweeps as the subdivision needs it (SweepBoundary): every sweep edge
 // that no other sweep shares (by its corners' ids), sampled every half voxel; each sample
 // inside an element is taken back to the rest grid through that element's map (every copy
@@ -158,12 +180,17 @@ SweepBoundary sweepBoundary(const CutBody& b, const std::vector<BladeSweep>& swe
   for (std::size_t i = 0; i < edges.size();) {
     std::size_t j = i + 1;
     while (j < edges.size() && edges[j].lo == edges[i].lo && edges[j].hi == edges[i].hi) ++j;
-    if (j == i + 1) {
+    // Only the part of the edge inside the elements' box can hold a sample that counts, so a
+    // blade far longer than the body costs no more than one that spans it.
+    double t0 = 0.0, t1 = 1.0;
+    if (j == i + 1 && clipToBox(edges[i].p, edges[i].q, all, t0, t1)) {
       const Edge& e = edges[i];
-      const double len = (e.q - e.p).norm();
+      const Vec3d p = t0 > 0.0 ? Vec3d(e.p + t0 * (e.q - e.p)) : e.p;
+      const Vec3d q = t1 < 1.0 ? Vec3d(e.p + t1 * (e.q - e.p)) : e.q;
+      const double len = (q - p).norm();
       const int n = std::isfinite(len) ? static_cast<int>(std::ceil(len / (0.5 * h))) : 0;
       for (int k = 0; k <= std::min(n, 1 << 22); ++k)
-        sample(n > 0 ? Vec3d(e.p + (static_cast<double>(k) / n) * (e.q - e.p)) : e.p);
+        sample(n > 0 ? Vec3d(p + (static_cast<double>(k) / n) * (q - p)) : p);
     }
     i = j;
   }
