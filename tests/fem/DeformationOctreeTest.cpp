@@ -121,17 +121,22 @@ TEST(DeformationOctree, UnalignedBoxMergesOnlyFullBlocks) {
 
 TEST(DeformationOctree, SplitsElementsLessThanHalfFull) {
   // A slab 4 voxels thick fills an eighth of each level-5 block it crosses: from start level 5
-  // the blocks are split to level 4 (the default surface level), where the slab fills a
-  // quarter; they stay there, one level below the start.
+  // the blocks are split to level 4, where the slab fills a quarter; they stay there.
   const VoxelGrid slab = boxGrid({64, 64, 64}, {0, 0, 0}, {64, 4, 64});
   DeformationOctreeParams p;
   p.startLevel = 5;
   p.maxLevel = 6;
-  EXPECT_EQ(defaultSurfaceLevel(5), 4);
+  p.surfaceLevel = 4;
   const DeformationOctree split = buildDeformationOctree(slab, p);
   EXPECT_EQ(split.elementCountPerLevel(), (std::vector<std::size_t>{0, 0, 0, 0, 16, 0, 0}));
-  expectOctreeInvariants(slab, split, 5);
-  // Down to level 2 when asked: at level 3 the slab fills half of each block, which stays.
+  expectOctreeInvariants(slab, split, 5, 4);
+  // The default for a grid 64 voxels long: level 3, an eighth of it, where the slab fills
+  // half of each block, which stays.
+  p.surfaceLevel = -1;
+  EXPECT_EQ(defaultSurfaceLevel(5, 64), 3);
+  EXPECT_EQ(buildDeformationOctree(slab, p).elementCountPerLevel(),
+            (std::vector<std::size_t>{0, 0, 0, 64, 0, 0, 0}));
+  // Down to level 2 when asked: the same.
   p.surfaceLevel = 2;
   EXPECT_EQ(buildDeformationOctree(slab, p).elementCountPerLevel(),
             (std::vector<std::size_t>{0, 0, 0, 64, 0, 0, 0}));
@@ -144,9 +149,15 @@ TEST(DeformationOctree, SplitsElementsLessThanHalfFull) {
   const VoxelGrid thick = boxGrid({64, 64, 64}, {0, 0, 0}, {64, 16, 64});
   EXPECT_EQ(buildDeformationOctree(thick, p).elementCountPerLevel(),
             (std::vector<std::size_t>{0, 0, 0, 0, 0, 4, 0}));
-  // Start levels up to 3 are never split by default.
-  EXPECT_EQ(defaultSurfaceLevel(3), 3);
-  EXPECT_EQ(defaultSurfaceLevel(0), 0);
+  // The default keeps surface elements within an eighth of the longest side, never finer
+  // than level 3 nor coarser than the start level.
+  EXPECT_EQ(defaultSurfaceLevel(5, 101), 3);
+  EXPECT_EQ(defaultSurfaceLevel(5, 161), 4);
+  EXPECT_EQ(defaultSurfaceLevel(5, 255), 4);
+  EXPECT_EQ(defaultSurfaceLevel(5, 256), 5);
+  EXPECT_EQ(defaultSurfaceLevel(6, 1024), 6);
+  EXPECT_EQ(defaultSurfaceLevel(3, 20), 3);
+  EXPECT_EQ(defaultSurfaceLevel(1, 1000), 1);
   p.surfaceLevel = 8;
   EXPECT_THROW((void)buildDeformationOctree(slab, p), InputError);
 }

@@ -43,7 +43,9 @@ inline int boundaryKind(const OctreeElement& e, const Index3& p) {
 /// to each other inside it; cubes of different leaves do not overlap.
 inline void expectOctreeInvariants(const VoxelGrid& grid, const DeformationOctree& oc,
                                    int startLevel, int minLevel = -1, bool atRest = true) {
-  if (minLevel < 0) minLevel = initialFinestLevel(startLevel, -1);
+  if (minLevel < 0)
+    minLevel =
+        initialFinestLevel(startLevel, -1, std::max({grid.dims().x, grid.dims().y, grid.dims().z}));
   const auto& els = oc.elements();
   const double scale = std::max(1.0, oc.restVoxelBounds().diagonal().norm() + oc.origin().norm());
   // Cubes and their copies.

@@ -70,10 +70,11 @@ TEST_P(RestingBunny, SagsAsTheCoarsestModelDoes) {
   EXPECT_LT(s.peak, 2.0 * ref.peak) << "peak sag " << s.peak << " m, reference " << ref.peak;
 }
 
-// Every resolution with levels 3 to 5. Elements of levels above 3 that are less than half full
-// are split one level at the start (DeformationOctreeParams::surfaceLevel): without that,
-// level 5 at resolutions 101 and 161 (elements a fifth of the bunny or more) cannot bend the
-// ears and sags 2.8-3.3x less than the reference (docs/algorithms.md, "Composite elements").
+// Every resolution with levels 3 to 5. Elements of start levels above 3 that are less than
+// half full are split where coarser than an eighth of the body (DeformationOctreeParams::
+// surfaceLevel): without that, level 5 at resolutions 101 and 161 (elements a fifth of the
+// bunny or more) cannot bend the ears and sags 2.8-3.3x less than the reference
+// (docs/algorithms.md, "Composite elements").
 INSTANTIATE_TEST_SUITE_P(ResolutionsAndLevels, RestingBunny,
                          ::testing::Values(std::tuple{101, 3}, std::tuple{101, 4},
                                            std::tuple{101, 5}, std::tuple{161, 3},

@@ -416,7 +416,8 @@ DeformationOctree buildDeformationOctree(const VoxelGrid& grid,
   if (params.surfaceLevel < -1 || params.surfaceLevel > 7)
     throw InputError("deformation octree surface level must be in [-1, 7], got " +
                      std::to_string(params.surfaceLevel));
-  const int F = initialFinestLevel(S, params.surfaceLevel);
+  const int F = initialFinestLevel(S, params.surfaceLevel,
+                                   std::max({grid.dims().x, grid.dims().y, grid.dims().z}));
   Leaves lv = initialLeaves(grid, F, S, M, params.threaded);
   balance(lv);
 

@@ -120,17 +120,21 @@ struct VoxelEmbedding {
   std::array<std::uint8_t, 3> offset{};
 };
 
-/// The surface level a build uses unless told otherwise: one level below a start level
-/// coarser than 3 (elements of more than 8 voxels), so that the thin parts they embed can
-/// bend; the start level itself (no split) otherwise.
-[[nodiscard]] constexpr int defaultSurfaceLevel(int startLevel) {
-  return startLevel > 3 ? startLevel - 1 : startLevel;
+/// The surface level a build uses unless told otherwise, for a grid whose longest side is
+/// `longestSide` voxels: the coarsest level whose elements span at most an eighth of that
+/// side, but not finer than level 3 (8 voxels) nor coarser than `startLevel`. So elements of
+/// start levels above 3 that are less than half full are split where they would be coarser
+/// than an eighth of the body (docs/algorithms.md, "Composite elements").
+[[nodiscard]] constexpr int defaultSurfaceLevel(int startLevel, int longestSide) {
+  int level = 3;
+  while (level < startLevel && (8 << (level + 1)) <= longestSide) ++level;
+  return level < startLevel ? level : startLevel;
 }
 
-/// The level of the finest elements a build starts with: `surfaceLevel` (-1: the default)
-/// capped at `startLevel`.
-[[nodiscard]] constexpr int initialFinestLevel(int startLevel, int surfaceLevel) {
-  const int s = surfaceLevel < 0 ? defaultSurfaceLevel(startLevel) : surfaceLevel;
+/// The level of the finest elements a build on a grid with longest side `longestSide` starts
+/// with: `surfaceLevel` (-1: the default) capped at `startLevel`.
+[[nodiscard]] constexpr int initialFinestLevel(int startLevel, int surfaceLevel, int longestSide) {
+  const int s = surfaceLevel < 0 ? defaultSurfaceLevel(startLevel, longestSide) : surfaceLevel;
   return s < startLevel ? s : startLevel;
 }
 
@@ -140,7 +144,7 @@ struct DeformationOctreeParams {
   int maxLevel = 4;    ///< coarsest level merging may reach (>= startLevel)
   /// Elements of a level above this one that are less than half full (at the surface, in
   /// thin parts) are split into their occupied children, down to this level at most; no
-  /// effect when >= startLevel; -1: defaultSurfaceLevel(startLevel). Coarse trilinear
+  /// effect when >= startLevel; -1: defaultSurfaceLevel for the grid. Coarse trilinear
   /// elements cannot bend the thin parts they embed (docs/algorithms.md, "Composite
   /// elements").
   int surfaceLevel = -1;

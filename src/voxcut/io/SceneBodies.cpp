@@ -3,7 +3,6 @@
 #include <string>
 
 #include "voxcut/core/Error.h"
-#include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/io/ModelSource.h"
 #include "voxcut/io/SceneReader.h"
 #include "voxcut/io/StrictJson.h"
@@ -34,8 +33,8 @@ void checkSceneMemory(const Scene& scene, const std::vector<Model>& models,
     mp.simulation = true;
     mp.allActive = !params.useOctree;
     mp.factor = scene.solver.preconditioner == Preconditioner::Cholesky;
-    mp.elementLevel =
-        initialFinestLevel(scene.bodies[i].elementLevel, scene.bodies[i].surfaceLevel);
+    mp.elementLevel = scene.bodies[i].elementLevel;
+    mp.surfaceLevel = scene.bodies[i].surfaceLevel;
     MemoryEstimate e;
     try {
       e = estimateModelMemory(models[i].materials, mp);

@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "voxcut/core/Error.h"
+#include "voxcut/fem/DeformationOctree.h"
 
 namespace voxcut {
 namespace {
@@ -103,7 +104,9 @@ MemoryEstimate estimateModelMemory(const std::vector<MaterialMesh>& materials,
   const double interior =
       static_cast<double>(std::max(d.x - 2, 0)) * std::max(d.y - 2, 0) * std::max(d.z - 2, 0);
   const double v = std::min(interior, volume / (h * h * h) + s);
-  const double cube = std::ldexp(1.0, std::clamp(params.elementLevel, 0, 30));
+  const int finest = initialFinestLevel(std::clamp(params.elementLevel, 0, 7),
+                                        std::clamp(params.surfaceLevel, -1, 7), e.resolution);
+  const double cube = std::ldexp(1.0, finest);
   double elements = 1.0, nodes = 1.0;
   for (int a = 0; a < 3; ++a) {
     const double cubes = std::ceil(std::max(d[a] - 2, 1) / cube);

@@ -66,9 +66,10 @@ struct MemoryEstimateParams {
   bool allActive = false;   ///< the baseline: every occupied voxel active
   bool simulation = false;  ///< element matrices, solver, contoured surface (sim/Simulation)
   bool factor = false;      ///< with simulation: a sparse Cholesky factor
-  /// Level of the finest elements the deformation octree starts with (initialFinestLevel in
-  /// fem/DeformationOctree.h), 0..7: the elements are counted at this level.
-  int elementLevel = 3;
+  int elementLevel = 3;     ///< start level of the deformation octree, 0..7
+  /// Its surface level (DeformationOctreeParams::surfaceLevel; -1: the default for the grid):
+  /// elements are counted at the level of the finest the build starts with.
+  int surfaceLevel = -1;
   int copies = 1;  ///< models held at once (a benchmark's octree and baseline bodies)
 };
 

@@ -66,8 +66,8 @@ ModelBuild buildModel(const std::vector<MaterialMesh>& materials, const ModelBui
   mp.resolution = params.voxelize.resolution;
   mp.maxVoxels = params.voxelize.maxVoxels;
   mp.octrees = params.octrees;
-  mp.elementLevel =
-      initialFinestLevel(params.deformation.startLevel, params.deformation.surfaceLevel);
+  mp.elementLevel = params.deformation.startLevel;
+  mp.surfaceLevel = params.deformation.surfaceLevel;
   out.memory = estimateModelMemory(materials, mp);
   checkMemory(out.memory, params.maxMemory, "model");
   Timer timer;

@@ -57,7 +57,7 @@ struct SceneBody {
   int elementLevel = 3;           ///< starting level of the deformation octree, 0..6
   int finestLevel = 0;            ///< finest level refinement after cuts reaches, <= elementLevel
   /// Level down to which elements less than half full are split at the start, <= elementLevel;
-  /// -1: defaultSurfaceLevel(elementLevel) (fem/DeformationOctree.h).
+  /// -1: defaultSurfaceLevel (fem/DeformationOctree.h).
   int surfaceLevel = -1;
   /// The materials the scene sets, in the order the file lists them (unique names); the
   /// model's other materials take SceneMaterial's defaults (see sceneMaterial).
