@@ -33,6 +33,8 @@ struct Summary {
   long long iterations = 0;
   long long factorisations = 0;
   bool converged = true;
+  std::size_t contacts = 0;     ///< point contacts, summed over the frames
+  double maxPenetration = 0.0;  ///< over the frames (m)
 
   void add(const FrameReport& r) {
     stageSum.resize(r.stageMs.size(), 0.0);
@@ -46,6 +48,8 @@ struct Summary {
     iterations += r.solverIterations;
     factorisations += r.solverFactorisations;
     converged = converged && r.converged;
+    contacts += r.contacts;
+    maxPenetration = std::max(maxPenetration, r.maxPenetration);
   }
   [[nodiscard]] int frames() const { return static_cast<int>(frameMs.size()); }
   [[nodiscard]] double stageMean(std::size_t s) const {
@@ -157,6 +161,9 @@ void printJson(const RunFacts& f, const Summary& sum) {
       static_cast<double>(sum.iterations) / static_cast<double>(std::max(sum.frames(), 1));
   j["converged"] = sum.converged;
   j["solver_factorisations"] = sum.factorisations;
+  j["contact"] = {{"max_penetration", sum.maxPenetration},
+                  {"mean_contacts", static_cast<double>(sum.contacts) /
+                                        static_cast<double>(std::max(sum.frames(), 1))}};
   nlohmann::json t = nlohmann::json::object();
   for (std::size_t s = 0; s < stages.size(); ++s)
     t[stages[s]] = {{"mean", sum.stageMean(s)}, {"max", sum.stageMaximum(s)}};
@@ -191,6 +198,10 @@ void printText(const RunFacts& f, const Summary& sum) {
               static_cast<double>(sum.iterations) / static_cast<double>(std::max(sum.frames(), 1)),
               sum.factorisations,
               sum.converged ? "converged every step" : "did NOT converge in some steps");
+  if (!f.scene.obstacles.empty())
+    std::printf("contact             %.1f points per frame, deepest %.3g m\n",
+                static_cast<double>(sum.contacts) / static_cast<double>(std::max(sum.frames(), 1)),
+                sum.maxPenetration);
   std::printf("frame (ms)          mean %.2f, p95 %.2f, max %.2f\n", mean(sum.frameMs),
               percentile(sum.frameMs, 0.95), percentile(sum.frameMs, 1.0));
   std::printf("stages (ms)         mean / max\n");

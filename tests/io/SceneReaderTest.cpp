@@ -262,6 +262,43 @@ TEST(SceneReader, BladePoseInterpolatesAndClamps) {
   EXPECT_EQ(bladePoseAt(still, 7.0).b, Vec3d(4, 5, 6));
 }
 
+TEST(SceneReader, ObstaclesAndContact) {
+  const Scene scene = parse(R"({"bodies": [{"model": "liver"}],
+    "obstacles": [{"type": "plane", "point": [0, -0.1, 0], "normal": [0, 2, 0]},
+                  {"type": "box", "lo": [-1, -2, -1], "hi": [1, -0.1, 1]}],
+    "contact": {"stiffness": 500}})");
+  ASSERT_EQ(scene.obstacles.size(), 2u);
+  EXPECT_EQ(scene.obstacles[0].type, ObstacleType::Plane);
+  EXPECT_EQ(scene.obstacles[0].normal, Vec3d(0, 1, 0));  // normalised
+  EXPECT_EQ(scene.obstacles[0].point, Vec3d(0, -0.1, 0));
+  EXPECT_EQ(scene.obstacles[1].type, ObstacleType::Box);
+  EXPECT_EQ(scene.obstacles[1].hi, Vec3d(1, -0.1, 1));
+  EXPECT_EQ(scene.contact.stiffness, 500.0);
+  EXPECT_EQ(parse(R"({"bodies": [{"model": "liver"}]})").contact.stiffness, 0.0);
+}
+
+TEST(SceneReaderErrors, BadObstaclesNameTheKey) {
+  const std::string body = R"({"bodies": [{"model": "liver"}], )";
+  EXPECT_EQ(parseError(body + R"("obstacles": [{"type": "cone"}]})"),
+            "scene.json: obstacles[0].type: unknown obstacle type \"cone\" (expected one of: "
+            "\"plane\", \"box\")");
+  EXPECT_EQ(parseError(body + R"("obstacles": [{"type": "plane", "point": [0, 0, 0],
+                                                 "normal": [0, 0, 0]}]})"),
+            "scene.json: obstacles[0].normal: must be a non-zero direction, got [0,0,0]");
+  EXPECT_EQ(parseError(body + R"("obstacles": [{"type": "box", "lo": [0, 0, 0],
+                                                 "hi": [1, 0, 1]}]})"),
+            "scene.json: obstacles[0]: must have lo < hi on every axis, got y 0.0 >= 0.0");
+  EXPECT_EQ(parseError(body + R"("obstacles": [{"type": "plane", "point": [0, 0, 0]}]})"),
+            "scene.json: obstacles[0].normal: missing (required)");
+  EXPECT_EQ(parseError(body + R"("obstacles": [{"type": "box", "lo": [0, 0, 0],
+                                                 "hi": [1, 1, 1], "normal": [0, 1, 0]}]})"),
+            "scene.json: obstacles[0].normal: unknown key (expected one of: type, lo, hi)");
+  EXPECT_EQ(parseError(body + R"("contact": {"stiffness": -1}})"),
+            "scene.json: contact.stiffness: must be >= 0, got -1");
+  EXPECT_EQ(parseError(body + R"("contact": {"friction": 0.3}})"),
+            "scene.json: contact.friction: unknown key (expected one of: stiffness)");
+}
+
 // ---- errors: each kind names the file and the key path --------------------------------------
 
 TEST(SceneReaderErrors, OutOfRangeNamesTheKeyPathAndTheValue) {

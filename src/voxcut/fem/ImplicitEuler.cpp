@@ -142,6 +142,10 @@ const char* preconditionerName(Preconditioner p) {
   return "unknown";
 }
 
+void ImplicitEuler::setContacts(std::vector<PointContact> contacts) {
+  contacts_ = std::move(contacts);
+}
+
 void ImplicitEuler::reset() {
   velocity_.clear();
   lastDv_.clear();
@@ -249,6 +253,23 @@ void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree&
               krt.noalias() = em.stiffness.block<3, 3>(3 * a, 3 * c) * rt;
               (out++)->noalias() = cr * krt;
             }
+          // The element's point contacts: force -k (gap + dt n . v_p) n spread by the weights
+          // (times dt below, like the elastic force), stiffness dt^2 k (w_a w_c) n n^T.
+          for (std::uint32_t k = contactStart_[e]; k < contactStart_[e + 1]; ++k) {
+            const PointContact& pc = contacts_[k];
+            Vec3d vp = Vec3d::Zero();
+            for (std::size_t c = 0; c < 8; ++c) vp += pc.weight[c] * velocity_[el.nodes[c]];
+            const double f = -pc.stiffness * (pc.gap + dt * pc.normal.dot(vp));
+            for (std::size_t c = 0; c < 8; ++c)
+              elementForce_[e][c] += (pc.weight[c] * f) * pc.normal;
+            const Eigen::Matrix3d nn = (dt * dt * pc.stiffness) * pc.normal * pc.normal.transpose();
+            for (int a = 0; a < 8; ++a)
+              for (int c = a; c < 8; ++c)
+                elementBlocks_[36 * e + kUpperBlock[a][c]] +=
+                    (pc.weight[static_cast<std::size_t>(a)] *
+                     pc.weight[static_cast<std::size_t>(c)]) *
+                    nn;
+          }
         }
       },
       threaded);
@@ -391,6 +412,12 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
     freePiece_.assign(rigid_.pieceCount(), 1);
     for (std::size_t i = 0; i < rows; ++i)
       if (anchoredRow_[i]) freePiece_[piece[i]] = 0;
+    // A contact's spring resists its piece's translations too.
+    const WeightedRows& pr = model.prolongation();
+    for (const PointContact& pc : contacts_)
+      for (std::uint32_t n : model.elementNodes()[pc.element])
+        for (std::uint32_t k = pr.start[n]; k < pr.start[n + 1]; ++k)
+          freePiece_[piece[pr.index[k]]] = 0;
     std::vector<Vec3d> mean(rigid_.pieceCount(), Vec3d::Zero());
     std::vector<double> weight(rigid_.pieceCount(), 0.0);
     for (std::size_t i = 0; i < rows; ++i) {
@@ -569,6 +596,24 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
     if (bridge_.prepare(model, octree, cholesky_.rows()))
       bridgeRevision_ = model.sparsityRevision();
   }
+  {  // the contacts by element (counting sort, stable)
+    const std::size_t elements = model.elementCount();
+    contactStart_.assign(elements + 1, 0);
+    for (const PointContact& pc : contacts_) {
+      VOXCUT_ASSERT(pc.element < elements, "a contact's element is not in the model");
+      ++contactStart_[pc.element + 1];
+    }
+    for (std::size_t e = 0; e < elements; ++e) contactStart_[e + 1] += contactStart_[e];
+    std::vector<std::uint32_t> next(contactStart_.begin(), contactStart_.end() - 1);
+    std::vector<PointContact> sorted(contacts_.size());
+    contactOrder_.resize(contacts_.size());
+    for (std::size_t k = 0; k < contacts_.size(); ++k) {
+      const std::uint32_t slot = next[contacts_[k].element]++;
+      sorted[slot] = contacts_[k];
+      contactOrder_[slot] = k;
+    }
+    contacts_.swap(sorted);
+  }
   Timer timer;
   assemble(model, octree);
   const double assemblyMs = timer.ms();
@@ -578,8 +623,10 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
   status.solveMs = timer.ms();
   lastIterations_ = status.iterations;
   lastBridged_ = status.bridged;
+  contactForce_.assign(contacts_.size(), 0.0);
   if (!status.finite) {
     std::fill(lastDv_.begin(), lastDv_.end(), Vec3d::Zero());
+    contacts_.clear();
     return status;
   }
   for (std::size_t i = 0; i < freeNodes.size(); ++i) {
@@ -588,6 +635,14 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
   }
   prolong(model.prolongation(), vr_, velocity_, threaded);
   const double dt = params_.timeStep;
+  for (std::size_t k = 0; k < contacts_.size(); ++k) {
+    const PointContact& pc = contacts_[k];
+    const OctreeElement& el = octree.element(pc.element);
+    Vec3d vp = Vec3d::Zero();
+    for (std::size_t c = 0; c < 8; ++c) vp += pc.weight[c] * velocity_[el.nodes[c]];
+    contactForce_[contactOrder_[k]] = -pc.stiffness * (pc.gap + dt * pc.normal.dot(vp));
+  }
+  contacts_.clear();
   std::vector<Vec3d>& pos = octree.positions();
   parallelFor(
       0, pos.size(), 512,

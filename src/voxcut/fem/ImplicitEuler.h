@@ -27,6 +27,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -146,6 +147,19 @@ struct StepStatus {
   Preconditioner preconditioner = Preconditioner::Cholesky;
 };
 
+/// A point of the body pressed against something by a penalty spring along a fixed normal
+/// for one step (docs/algorithms.md, "Contact"): the force on the point is
+/// f = -stiffness (gap + n . (u - u0)) n, u - u0 its displacement during the step, taken into
+/// the implicit step with its stiffness (so contact is as stable as the elastic forces), and
+/// spread to the element's corners with the point's trilinear weights.
+struct PointContact {
+  std::uint32_t element = 0;       ///< element (copy) holding the point
+  std::array<double, 8> weight{};  ///< the point's trilinear weights in it, summing to 1
+  Vec3d normal = Vec3d::UnitY();   ///< unit, pointing out of what is pressed on
+  double gap = 0.0;                ///< signed distance along normal at the step's start (m)
+  double stiffness = 0.0;          ///< penalty stiffness (N/m), >= 0
+};
+
 /// Backward Euler integrator: the node velocities and the solver's state between steps.
 class ImplicitEuler {
  public:
@@ -163,6 +177,13 @@ class ImplicitEuler {
   /// last iterate) and says so in the status; a non-finite right-hand side or solution moves
   /// nothing, resets the warm start and returns finite == false. Never throws for either.
   StepStatus step(const ElasticModel& model, DeformationOctree& octree);
+
+  /// The point contacts of the next step (elements of the model that step gets); they are
+  /// used for that one step and then cleared. Not sorted in any particular way.
+  void setContacts(std::vector<PointContact> contacts);
+  /// Per contact of the last step, in the order given: the normal force at the step's end,
+  /// -stiffness (gap + n . dt v_point) (N; negative when the step pulled the point).
+  [[nodiscard]] const std::vector<double>& contactForces() const { return contactForce_; }
 
   /// Node velocities (m/s), one per node of the model last stepped (or set); empty before.
   [[nodiscard]] const std::vector<Vec3d>& velocities() const { return velocity_; }
@@ -217,8 +238,12 @@ class ImplicitEuler {
   bool lastBridged_ = false;        ///< the previous step ran on the bridge
   std::uint64_t stepRevision_ = 0;  ///< sparsity revision of the last step
   int stepsOnStructure_ = 0;        ///< steps before this one on the same sparsity
-  std::vector<Vec3d> freePositions_;  ///< current positions of the free nodes
-  std::vector<double> freeMasses_;    ///< lumped masses of the free nodes (kg)
+  std::vector<PointContact> contacts_;       ///< of the next step, sorted by element (stable)
+  std::vector<std::uint32_t> contactStart_;  ///< per element + 1: its contacts' range
+  std::vector<std::size_t> contactOrder_;    ///< contacts_[k] was given at contactOrder_[k]
+  std::vector<double> contactForce_;         ///< of the last step, in the order given
+  std::vector<Vec3d> freePositions_;         ///< current positions of the free nodes
+  std::vector<double> freeMasses_;           ///< lumped masses of the free nodes (kg)
   /// Per free row, the mass part of the reduced matrix summed over the row, sum_k w_k
   /// (m + dt alpha-mass)_n: A times a translation c of a free piece is massRow_i c exactly.
   std::vector<double> massRow_;

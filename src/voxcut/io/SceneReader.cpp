@@ -361,10 +361,42 @@ SceneTool readTool(const Reader& r, const Json& v, const std::string& path) {
   return tool;
 }
 
+Obstacle readObstacle(const Reader& r, const Json& v, const std::string& path) {
+  expectObject(r, v, path);
+  const Json& type = required(r, v, path, "type");
+  Obstacle o;
+  if (type.is_string() && type.get<std::string>() == "plane") {
+    checkKeys(r, v, path, {"type", "point", "normal"});
+    o.type = ObstacleType::Plane;
+    o.point = point(r, required(r, v, path, "point"), child(path, "point"));
+    const std::string p = child(path, "normal");
+    const Vec3d n = vec3(r, required(r, v, path, "normal"), p);
+    const double length = n.norm();
+    if (!(length > 1e-12) || !std::isfinite(length))
+      r.fail(p, "must be a non-zero direction, got " + shown(v["normal"]));
+    o.normal = n / length;
+  } else if (type.is_string() && type.get<std::string>() == "box") {
+    checkKeys(r, v, path, {"type", "lo", "hi"});
+    o.type = ObstacleType::Box;
+    o.lo = point(r, required(r, v, path, "lo"), child(path, "lo"));
+    o.hi = point(r, required(r, v, path, "hi"), child(path, "hi"));
+    static constexpr const char* kAxes[3] = {"x", "y", "z"};
+    for (int a = 0; a < 3; ++a)
+      if (!(o.lo[a] < o.hi[a]))
+        r.fail(path, std::string("must have lo < hi on every axis, got ") + kAxes[a] + " " +
+                         shown(o.lo[a]) + " >= " + shown(o.hi[a]));
+  } else {
+    r.fail(child(path, "type"),
+           "unknown obstacle type " + shown(type) + " (expected one of: \"plane\", \"box\")");
+  }
+  return o;
+}
+
 Scene readTop(const Reader& r, const Json& v) {
   expectObject(r, v, "");
   checkKeys(r, v, "",
-            {"description", "time_step", "gravity", "solver", "frames", "bodies", "tools"});
+            {"description", "time_step", "gravity", "solver", "frames", "bodies", "tools",
+             "obstacles", "contact"});
   Scene scene;
   scene.source = r.source;
   if (v.contains("description") && !v["description"].is_string())
@@ -389,6 +421,19 @@ Scene readTop(const Reader& r, const Json& v) {
     const Json& tools = list(r, v["tools"], "tools");
     for (std::size_t i = 0; i < tools.size(); ++i)
       scene.tools.push_back(readTool(r, tools[i], element("tools", i)));
+  }
+  if (v.contains("obstacles")) {
+    const Json& obstacles = list(r, v["obstacles"], "obstacles");
+    for (std::size_t i = 0; i < obstacles.size(); ++i)
+      scene.obstacles.push_back(readObstacle(r, obstacles[i], element("obstacles", i)));
+  }
+  if (v.contains("contact")) {
+    const Json& c = v["contact"];
+    expectObject(r, c, "contact");
+    checkKeys(r, c, "contact", {"stiffness"});
+    if (c.contains("stiffness"))
+      scene.contact.stiffness =
+          nonNegative(r, c["stiffness"], child("contact", "stiffness"), 1e12, "1e12 N/m");
   }
   return scene;
 }

@@ -1,9 +1,9 @@
 #pragma once
 /// @file Scene.h
 /// A simulation scene as plain data: time step, gravity, solver settings, bodies (model,
-/// resolution, deformation octree levels, materials, fixed boxes, offset) and tools (key-framed
-/// blades). io/SceneReader.h reads and validates it from JSON (format: docs/scenes.md); this
-/// header does no I/O. Units: SI (m, kg, s, Pa), world frame.
+/// resolution, deformation octree levels, materials, fixed boxes, offset), tools (key-framed
+/// blades), static obstacles and contact settings. io/SceneReader.h reads and validates it from
+/// JSON (format: docs/scenes.md); this header does no I/O. Units: SI (m, kg, s, Pa), world frame.
 ///
 /// Thread-safety: plain values; the free functions are pure and may be called concurrently.
 
@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "voxcut/collision/Obstacle.h"
 #include "voxcut/core/Types.h"
 #include "voxcut/cutting/Blade.h"
 #include "voxcut/fem/ImplicitEuler.h"
@@ -81,6 +82,14 @@ struct SceneTool {
   std::vector<ToolKey> keys;
 };
 
+/// Contact between bodies and obstacles (docs/algorithms.md, "Contact").
+struct ContactSettings {
+  /// Penalty stiffness per surface vertex (N/m), >= 0; 0: 100 times each body's largest
+  /// Young's modulus times its voxel size (a hundred times the stiffness of one voxel of it,
+  /// so a body dropped 0.3 m sinks less than half a voxel at dt 4 ms).
+  double stiffness = 0.0;
+};
+
 /// A whole scene.
 struct Scene {
   std::string source;              ///< the file it was read from, as given (prefix of messages)
@@ -90,6 +99,8 @@ struct Scene {
   std::optional<int> frames;      ///< default frame count of `voxcut run`; empty: not given
   std::vector<SceneBody> bodies;  ///< at least one
   std::vector<SceneTool> tools;
+  std::vector<Obstacle> obstacles;  ///< static, world frame
+  ContactSettings contact;
 };
 
 /// The pose of `tool` at time `t` (s): the linear interpolation of the two keys around t,

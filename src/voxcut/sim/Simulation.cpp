@@ -21,6 +21,7 @@ enum Stage : std::size_t {
   kDeferredUpdates,
   kCutTopology,
   kSurfaceUpdate,
+  kObjectCollision,
   kDeformation,
   kSurfaceVertices,
   kStageCount
@@ -64,8 +65,9 @@ bool inside(const FixedBox& box, const Vec3d& p) {
 
 const std::vector<std::string>& frameStageNames() {
   static const std::vector<std::string> names{
-      "voxel_position_update", "intersection_test", "octree_subdivision", "deferred_updates",
-      "cut_topology",          "surface_update",    "deformation",        "surface_vertices"};
+      "voxel_position_update", "intersection_test", "octree_subdivision",
+      "deferred_updates",      "cut_topology",      "surface_update",
+      "object_collision",      "deformation",       "surface_vertices"};
   return names;
 }
 
@@ -95,6 +97,10 @@ Simulation::Simulation(Scene scene, std::vector<VoxelGrid> grids, const Simulati
     b.model = ElasticModel(b.cut.deformation, b.cut.grid, materials, params_.threaded);
     b.solver = ImplicitEuler(solver);
     b.fixedBoxes = sb.fixed;
+    double stiffest = 0.0;
+    for (const ElasticMaterial& m : materials) stiffest = std::max(stiffest, m.youngModulus);
+    b.contactStiffness = scene_.contact.stiffness > 0.0 ? scene_.contact.stiffness
+                                                        : 100.0 * stiffest * b.cut.grid.voxelSize();
     b.finestLevel = sb.finestLevel;
     b.fronts.resize(scene_.tools.size());
     applyFixed(b);
@@ -175,13 +181,79 @@ void Simulation::stepBody(SimBody& b, std::vector<double>& ms, FrameReport& repo
   ms[kSurfaceUpdate] += timer.ms();
 
   timer.restart();
+  std::vector<ObstacleHit> hits = findObstacleContacts(b);
+  ms[kObjectCollision] += timer.ms();
+
+  timer.restart();
   const StepStatus status = b.solver.step(b.model, b.cut.deformation);
   ms[kDeformation] += timer.ms();
   recordSolve(status, report);
+  const std::vector<double>& force = b.solver.contactForces();
+  for (std::size_t k = 0; k < hits.size(); ++k)
+    report.obstacleForces[hits[k].obstacle] -= force[k] * hits[k].normal;
+  report.contacts += hits.size();
 
   timer.restart();
   updateVertexPositions(b);
   ms[kSurfaceVertices] += timer.ms();
+
+  timer.restart();
+  report.maxPenetration = std::max(report.maxPenetration, deepestPenetration(b));
+  ms[kObjectCollision] += timer.ms();
+}
+
+// Contact with the obstacles: each surface vertex inside an obstacle, or headed inside it
+// within this step at its current velocity, becomes a point contact of the implicit step
+// (docs/algorithms.md, "Contact"). Vertices in id order, obstacles in scene order.
+std::vector<Simulation::ObstacleHit> Simulation::findObstacleContacts(SimBody& b) const {
+  std::vector<ObstacleHit> hits;
+  if (scene_.obstacles.empty()) return hits;
+  const DeformationOctree& d = b.cut.deformation;
+  const std::vector<Vec3d>& velocity = b.solver.velocities();
+  const double dt = scene_.timeStep;
+  std::vector<PointContact> contacts;
+  for (std::size_t v = 0; v < b.embedding.size(); ++v) {
+    const VertexEmbedding& em = b.embedding[v];
+    if (em.element == kNoElement) continue;
+    const Vec3d& x = b.vertexPositions[v];
+    std::array<double, 8> w{};
+    for (std::size_t c = 0; c < 8; ++c) {
+      double wc = 1.0;
+      for (int a = 0; a < 3; ++a) wc *= ((c >> a) & 1u) != 0 ? em.local[a] : 1.0 - em.local[a];
+      w[c] = wc;
+    }
+    Vec3d vp = Vec3d::Zero();
+    if (!velocity.empty())
+      for (std::size_t c = 0; c < 8; ++c) vp += w[c] * velocity[d.element(em.element).nodes[c]];
+    for (std::size_t o = 0; o < scene_.obstacles.size(); ++o) {
+      Vec3d n;
+      const double gap = signedDistance(scene_.obstacles[o], x, n);
+      if (!(gap < 0.0 || gap + dt * n.dot(vp) < 0.0)) continue;
+      PointContact pc;
+      pc.element = em.element;
+      pc.weight = w;
+      pc.normal = n;
+      pc.gap = gap;
+      pc.stiffness = b.contactStiffness;
+      contacts.push_back(pc);
+      hits.push_back({o, n});
+    }
+  }
+  b.solver.setContacts(std::move(contacts));
+  return hits;
+}
+
+// The deepest any surface vertex of the body lies inside an obstacle (m; 0 when none).
+double Simulation::deepestPenetration(const SimBody& b) const {
+  double deepest = 0.0;
+  for (std::size_t v = 0; v < b.embedding.size(); ++v) {
+    if (b.embedding[v].element == kNoElement) continue;
+    for (const Obstacle& o : scene_.obstacles) {
+      Vec3d n;
+      deepest = std::max(deepest, -signedDistance(o, b.vertexPositions[v], n));
+    }
+  }
+  return deepest;
 }
 
 // Cutting tool collision: per moving blade, the strip of sweeps from its cut front (carried
@@ -339,6 +411,7 @@ FrameReport Simulation::step() {
   FrameReport report;
   report.frame = frame_;
   report.stageMs.assign(kStageCount, 0.0);
+  report.obstacleForces.assign(scene_.obstacles.size(), Vec3d::Zero());
   for (SimBody& b : bodies_) stepBody(b, report.stageMs, report);
   ++frame_;
   report.time = frame_ * scene_.timeStep;

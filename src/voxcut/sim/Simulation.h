@@ -1,10 +1,12 @@
 #pragma once
 /// @file Simulation.h
 /// A running scene (docs/architecture.md, "One frame"): deformable bodies cut by key-framed
-/// blades. Each frame, per body: cutting tool collision (voxel positions, blade x active links,
-/// octree subdivision, deferred updates), cut topology (refinement, duplication per voxel part)
-/// and the solver's structures for what changed, the local surface update, one implicit Euler
-/// step, and the surface vertices by trilinear interpolation in their element copies.
+/// blades and resting on static obstacles. Each frame, per body: cutting tool collision (voxel
+/// positions, blade x active links, octree subdivision, deferred updates), cut topology
+/// (refinement, duplication per voxel part) and the solver's structures for what changed, the
+/// local surface update, object collision (surface vertices against the obstacles, as point
+/// contacts of the step), one implicit Euler step, and the surface vertices by trilinear
+/// interpolation in their element copies.
 ///
 /// Units: SI, world frame. Results (cuts, node positions, surfaces) do not depend on the thread
 /// count. Thread-safety: one call at a time; the steps run their loops in parallel.
@@ -55,6 +57,7 @@ struct SimBody {
   std::vector<FixedBox> fixedBoxes;
   std::vector<BladeFront> fronts;  ///< per scene tool: its cut front in this body
   int finestLevel = 0;
+  double contactStiffness = 0.0;     ///< penalty stiffness per surface vertex (N/m)
   std::size_t cutLinks = 0;          ///< links cut so far
   SubdivisionWorkspace subdivision;  ///< the cutting step's buffers, kept between frames
 };
@@ -72,6 +75,11 @@ struct FrameReport {
   int solverIterations = 0;      ///< summed over bodies
   int solverFactorisations = 0;  ///< bodies whose step computed a new Cholesky factor
   bool converged = true;         ///< every body's solve converged
+  std::size_t contacts = 0;      ///< point contacts of surface vertices with obstacles
+  /// The deepest any surface vertex lies inside an obstacle at the frame's end (m).
+  double maxPenetration = 0.0;
+  /// Per scene obstacle, the force the bodies press on it with at the frame's end (N).
+  std::vector<Vec3d> obstacleForces;
 };
 
 /// A scene in motion. Movable, not copyable.
@@ -117,6 +125,15 @@ class Simulation {
   bool updateTopology(SimBody& body, const std::vector<std::uint64_t>& cut, const BladeEnds& ends);
   void updateSurface(SimBody& body, const std::vector<std::uint64_t>& cut, bool topologyChanged);
   void recordSolve(const StepStatus& status, FrameReport& report) const;
+  /// A point contact handed to the solver: which obstacle, along which normal.
+  struct ObstacleHit {
+    std::size_t obstacle = 0;
+    Vec3d normal = Vec3d::Zero();
+  };
+  /// Finds the body's surface vertices in or entering an obstacle and hands them to its
+  /// solver as point contacts for the next step; one hit per contact, in the same order.
+  std::vector<ObstacleHit> findObstacleContacts(SimBody& body) const;
+  [[nodiscard]] double deepestPenetration(const SimBody& body) const;
   void embedVertices(SimBody& body, const std::vector<std::int32_t>* only);
   void updateVertexPositions(SimBody& body) const;
   void applyFixed(SimBody& body);

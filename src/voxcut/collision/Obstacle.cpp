@@ -1,0 +1,33 @@
+#include "voxcut/collision/Obstacle.h"
+
+#include <cmath>
+
+namespace voxcut {
+
+double signedDistance(const Obstacle& o, const Vec3d& x, Vec3d& normal) {
+  if (o.type == ObstacleType::Plane) {
+    normal = o.normal;
+    return o.normal.dot(x - o.point);
+  }
+  // Box: per axis, the distance outside the slab (positive) or the depth inside it.
+  const Vec3d centre = 0.5 * (o.lo + o.hi), half = 0.5 * (o.hi - o.lo);
+  const Vec3d rel = x - centre;
+  Vec3d q;
+  for (int a = 0; a < 3; ++a) q[a] = std::abs(rel[a]) - half[a];
+  if (q.maxCoeff() > 0.0) {
+    Vec3d out = Vec3d::Zero();
+    for (int a = 0; a < 3; ++a)
+      if (q[a] > 0.0) out[a] = rel[a] < 0.0 ? -q[a] : q[a];
+    const double d = out.norm();
+    normal = out / d;
+    return d;
+  }
+  int axis = 0;
+  for (int a = 1; a < 3; ++a)
+    if (q[a] > q[axis]) axis = a;
+  normal = Vec3d::Zero();
+  normal[axis] = rel[axis] < 0.0 ? -1.0 : 1.0;
+  return q[axis];
+}
+
+}  // namespace voxcut

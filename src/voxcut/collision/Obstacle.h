@@ -1,0 +1,30 @@
+#pragma once
+/// @file Obstacle.h
+/// Static obstacles of a world (docs/algorithms.md, "Contact"): an infinite plane or an
+/// axis-aligned box, as a signed distance with its outward normal. Units: metres, world frame.
+///
+/// Thread-safety: plain values; the functions are pure.
+
+#include "voxcut/core/Types.h"
+
+namespace voxcut {
+
+enum class ObstacleType { Plane, Box };
+
+/// A static obstacle. Plane: the points x with normal . (x - point) <= 0 are inside (normal
+/// unit). Box: lo <= x <= hi on every axis (lo < hi).
+struct Obstacle {
+  ObstacleType type = ObstacleType::Plane;
+  Vec3d point = Vec3d::Zero();
+  Vec3d normal = Vec3d::UnitY();
+  Vec3d lo = Vec3d::Zero();
+  Vec3d hi = Vec3d::Zero();
+};
+
+/// The signed distance of `x` from the obstacle's surface (m; negative inside) and, in
+/// `normal`, the unit direction in which it grows fastest there (out of the obstacle): for a
+/// box, away from the nearest point of its surface outside, along the nearest face's normal
+/// inside (ties: the lowest axis; on the box's mid-plane, the high face).
+[[nodiscard]] double signedDistance(const Obstacle& obstacle, const Vec3d& x, Vec3d& normal);
+
+}  // namespace voxcut
