@@ -293,20 +293,17 @@ SceneBody readBody(const Reader& r, const Json& v, const std::string& path) {
   if (v.contains("element_level"))
     b.elementLevel =
         integer(r, v["element_level"], child(path, "element_level"), 0, kMaxElementLevel);
-  if (v.contains("finest_level")) {
-    const std::string p = child(path, "finest_level");
-    b.finestLevel = integer(r, v["finest_level"], p, 0, kMaxElementLevel);
-    if (b.finestLevel > b.elementLevel)
+  // A level no coarser than the body's element_level.
+  const auto finerLevel = [&](const char* key, int& out) {
+    if (!v.contains(key)) return;
+    const std::string p = child(path, key);
+    out = integer(r, v[key], p, 0, kMaxElementLevel);
+    if (out > b.elementLevel)
       r.fail(p, "must be <= element_level (" + std::to_string(b.elementLevel) + "), got " +
-                    std::to_string(b.finestLevel));
-  }
-  if (v.contains("surface_level")) {
-    const std::string p = child(path, "surface_level");
-    b.surfaceLevel = integer(r, v["surface_level"], p, 0, kMaxElementLevel);
-    if (b.surfaceLevel > b.elementLevel)
-      r.fail(p, "must be <= element_level (" + std::to_string(b.elementLevel) + "), got " +
-                    std::to_string(b.surfaceLevel));
-  }
+                    std::to_string(out));
+  };
+  finerLevel("finest_level", b.finestLevel);
+  finerLevel("surface_level", b.surfaceLevel);
   if (v.contains("materials")) {
     const std::string p = child(path, "materials");
     const Json& mats = v["materials"];
