@@ -80,6 +80,25 @@ TEST(Contact, BoxDroppedOnATableComesToRestOnTop) {
   EXPECT_NEAR(l.force.y(), -l.weight, 0.01 * l.weight);
 }
 
+// A fixed box cut in two far above an obstacle around the origin: the vertices the cut adds
+// are tested where they are, not where they were before they had a position.
+TEST(Contact, VerticesACutAddsAreTestedWhereTheyAre) {
+  Simulation sim = simulationOf(R"({"time_step": 0.004, "gravity": [0, 0, 0],
+    "bodies": [{"model": "box:0.1,0.06,0.08", "resolution": 24, "offset": [0, 0.5, 0],
+      "fixed": [{"box": [[-0.06, 0.4, -0.06], [-0.04, 0.6, 0.06]]},
+                {"box": [[0.04, 0.4, -0.06], [0.06, 0.6, 0.06]]}]}],
+    "tools": [{"type": "blade", "keys": [{"t": 0, "a": [0, 0.6, -0.1], "b": [0, 0.6, 0.1]},
+                                         {"t": 0.02, "a": [0, 0.4, -0.1], "b": [0, 0.4, 0.1]}]}],
+    "obstacles": [{"type": "box", "lo": [-0.05, -0.05, -0.05], "hi": [0.05, 0.05, 0.05]}]})");
+  std::size_t cut = 0;
+  for (int f = 0; f < 8; ++f) {
+    const FrameReport r = sim.step();
+    cut += r.cutLinks;
+    EXPECT_EQ(r.contacts, 0u) << "frame " << f;
+  }
+  EXPECT_GT(cut, 100u);
+}
+
 // Without an obstacle the same box falls freely: the test above can fail.
 TEST(Contact, WithoutObstaclesNothingHoldsTheBox) {
   Simulation sim = simulationOf(droppedBox(0.0, ""));

@@ -215,7 +215,8 @@ std::vector<Simulation::ObstacleHit> Simulation::findObstacleContacts(SimBody& b
   for (std::size_t v = 0; v < b.embedding.size(); ++v) {
     const VertexEmbedding& em = b.embedding[v];
     if (em.element == kNoElement) continue;
-    const Vec3d& x = b.vertexPositions[v];
+    // From the nodes, not vertexPositions: vertices a cut added this frame have none yet.
+    const Vec3d x = d.pointInElement(em.element, em.local);
     std::array<double, 8> w{};
     for (std::size_t c = 0; c < 8; ++c) {
       double wc = 1.0;
