@@ -15,13 +15,15 @@ Simulation simulationOf(const std::string& json) {
   return Simulation(scene, voxelizeSceneBodies(scene));
 }
 
-// A soft box (0.1 x 0.06 x 0.08 m, 0.48 kg) released with its bottom `height` metres above an
-// obstacle whose top is at y = 0.
+// A soft box (0.1 x 0.06 x 0.08 m, 0.48 kg, level-2 elements: docs/algorithms.md, "Contact",
+// says what level 3 does at impact) released with its bottom `height` metres above an obstacle
+// whose top is at y = 0.
 std::string droppedBox(double height, const std::string& obstacle) {
   const double y = 0.03 + height;  // the box's centre
   return R"({"time_step": 0.004, "gravity": [0, -9.81, 0],
     "solver": {"tolerance": 1e-6, "max_iterations": 1000},
-    "bodies": [{"model": "box:0.1,0.06,0.08", "resolution": 32, "offset": [0, )" +
+    "bodies": [{"model": "box:0.1,0.06,0.08", "resolution": 32, "element_level": 2,
+      "offset": [0, )" +
          std::to_string(y) + R"(, 0],
       "materials": {"default": {"young_modulus": 1e5, "poisson_ratio": 0.3, "density": 1000,
                                 "damping": [2, 0.01]}}}],
@@ -78,6 +80,29 @@ TEST(Contact, BoxDroppedOnATableComesToRestOnTop) {
   EXPECT_LT(l.deepest, 0.5 * l.voxel);
   EXPECT_GT(l.lowest, -0.5 * l.voxel);
   EXPECT_NEAR(l.force.y(), -l.weight, 0.01 * l.weight);
+}
+
+// The bunny set on a floor, with the default contact stiffness and solver settings, comes to
+// rest on it and carries its weight.
+TEST(Contact, BunnyOnAFloorComesToRest) {
+  Simulation sim = simulationOf(R"({"time_step": 0.004, "gravity": [0, -9.81, 0],
+    "bodies": [{"model": "bunny", "offset": [0, 0.002, 0],
+      "materials": {"default": {"young_modulus": 1e5, "poisson_ratio": 0.3, "density": 1000,
+                                "damping": [2, 0.01]}}}],
+    "obstacles": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0]}]})");
+  double deepest = 0.0;
+  FrameReport last;
+  for (int f = 0; f < 150; ++f) {
+    last = sim.step();
+    deepest = std::max(deepest, last.maxPenetration);
+  }
+  const SimBody& b = sim.bodies()[0];
+  const double weight = b.model.totalMass() * 9.81;
+  EXPECT_LT(deepest, 0.5 * b.cut.grid.voxelSize());
+  EXPECT_LT(b.solver.kineticEnergy(b.model), 1e-6 * weight * 0.01);
+  EXPECT_LT(last.contacts, 1000u);
+  EXPECT_NEAR(last.obstacleForces[0].y(), -weight, 0.01 * weight);
+  EXPECT_LT(sim.maxDisplacement(), 0.01);
 }
 
 // A fixed box cut in two far above an obstacle around the origin: the vertices the cut adds

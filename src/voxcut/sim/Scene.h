@@ -84,9 +84,9 @@ struct SceneTool {
 
 /// Contact between bodies and obstacles (docs/algorithms.md, "Contact").
 struct ContactSettings {
-  /// Penalty stiffness per surface vertex (N/m), >= 0; 0: 100 times each body's largest
-  /// Young's modulus times its voxel size (a hundred times the stiffness of one voxel of it,
-  /// so a body dropped 0.3 m sinks less than half a voxel at dt 4 ms).
+  /// Penalty stiffness per surface vertex (N/m), >= 0; 0: 10 times each body's largest
+  /// Young's modulus times its voxel size (ten times the stiffness of one voxel of it;
+  /// docs/algorithms.md, "Contact", says why not more).
   double stiffness = 0.0;
 };
 

@@ -100,7 +100,7 @@ Simulation::Simulation(Scene scene, std::vector<VoxelGrid> grids, const Simulati
     double stiffest = 0.0;
     for (const ElasticMaterial& m : materials) stiffest = std::max(stiffest, m.youngModulus);
     b.contactStiffness = scene_.contact.stiffness > 0.0 ? scene_.contact.stiffness
-                                                        : 100.0 * stiffest * b.cut.grid.voxelSize();
+                                                        : 10.0 * stiffest * b.cut.grid.voxelSize();
     b.finestLevel = sb.finestLevel;
     b.fronts.resize(scene_.tools.size());
     applyFixed(b);
