@@ -207,53 +207,91 @@ void Simulation::stepBody(SimBody& b, std::vector<double>& ms, FrameReport& repo
 // (docs/algorithms.md, "Contact"). Vertices in id order, obstacles in scene order.
 std::vector<Simulation::ObstacleHit> Simulation::findObstacleContacts(SimBody& b) const {
   std::vector<ObstacleHit> hits;
-  if (scene_.obstacles.empty()) return hits;
+  if (scene_.obstacles.empty()) {
+    b.solver.setContacts({});
+    return hits;
+  }
   const DeformationOctree& d = b.cut.deformation;
   const std::vector<Vec3d>& velocity = b.solver.velocities();
   const double dt = scene_.timeStep;
+  // Chunks of vertices in parallel, each into its own lists, joined in chunk order: the
+  // contacts come out in vertex order whatever the thread count.
+  constexpr std::size_t kChunk = 2048;
+  const std::size_t chunks = (b.embedding.size() + kChunk - 1) / kChunk;
+  std::vector<std::vector<PointContact>> chunkContacts(chunks);
+  std::vector<std::vector<ObstacleHit>> chunkHits(chunks);
+  parallelFor(
+      0, chunks, 1,
+      [&](std::size_t c0, std::size_t c1) {
+        for (std::size_t ch = c0; ch < c1; ++ch)
+          for (std::size_t v = ch * kChunk; v < std::min(b.embedding.size(), (ch + 1) * kChunk);
+               ++v) {
+            const VertexEmbedding& em = b.embedding[v];
+            if (em.element == kNoElement) continue;
+            // From the nodes, not vertexPositions: vertices a cut added this frame have none
+            // yet.
+            const Vec3d x = d.pointInElement(em.element, em.local);
+            std::array<double, 8> w{};
+            for (std::size_t c = 0; c < 8; ++c) {
+              double wc = 1.0;
+              for (int a = 0; a < 3; ++a)
+                wc *= ((c >> a) & 1u) != 0 ? em.local[a] : 1.0 - em.local[a];
+              w[c] = wc;
+            }
+            Vec3d vp = Vec3d::Zero();
+            if (!velocity.empty())
+              for (std::size_t c = 0; c < 8; ++c)
+                vp += w[c] * velocity[d.element(em.element).nodes[c]];
+            for (std::size_t o = 0; o < scene_.obstacles.size(); ++o) {
+              Vec3d n;
+              const double gap = signedDistance(scene_.obstacles[o], x, n);
+              if (!(gap < 0.0 || gap + dt * n.dot(vp) < 0.0)) continue;
+              PointContact pc;
+              pc.element = em.element;
+              pc.weight = w;
+              pc.normal = n;
+              pc.gap = gap;
+              pc.stiffness = b.contactStiffness;
+              chunkContacts[ch].push_back(pc);
+              chunkHits[ch].push_back({o, n});
+            }
+          }
+      },
+      params_.threaded);
   std::vector<PointContact> contacts;
-  for (std::size_t v = 0; v < b.embedding.size(); ++v) {
-    const VertexEmbedding& em = b.embedding[v];
-    if (em.element == kNoElement) continue;
-    // From the nodes, not vertexPositions: vertices a cut added this frame have none yet.
-    const Vec3d x = d.pointInElement(em.element, em.local);
-    std::array<double, 8> w{};
-    for (std::size_t c = 0; c < 8; ++c) {
-      double wc = 1.0;
-      for (int a = 0; a < 3; ++a) wc *= ((c >> a) & 1u) != 0 ? em.local[a] : 1.0 - em.local[a];
-      w[c] = wc;
-    }
-    Vec3d vp = Vec3d::Zero();
-    if (!velocity.empty())
-      for (std::size_t c = 0; c < 8; ++c) vp += w[c] * velocity[d.element(em.element).nodes[c]];
-    for (std::size_t o = 0; o < scene_.obstacles.size(); ++o) {
-      Vec3d n;
-      const double gap = signedDistance(scene_.obstacles[o], x, n);
-      if (!(gap < 0.0 || gap + dt * n.dot(vp) < 0.0)) continue;
-      PointContact pc;
-      pc.element = em.element;
-      pc.weight = w;
-      pc.normal = n;
-      pc.gap = gap;
-      pc.stiffness = b.contactStiffness;
-      contacts.push_back(pc);
-      hits.push_back({o, n});
-    }
+  for (std::size_t ch = 0; ch < chunks; ++ch) {
+    contacts.insert(contacts.end(), chunkContacts[ch].begin(), chunkContacts[ch].end());
+    hits.insert(hits.end(), chunkHits[ch].begin(), chunkHits[ch].end());
   }
   b.solver.setContacts(std::move(contacts));
   return hits;
 }
 
-// The deepest any surface vertex of the body lies inside an obstacle (m; 0 when none).
+// The deepest any surface vertex of the body lies inside an obstacle (m; 0 when none). The
+// maximum does not depend on how the vertices are split among threads.
 double Simulation::deepestPenetration(const SimBody& b) const {
+  if (scene_.obstacles.empty()) return 0.0;
+  constexpr std::size_t kChunk = 4096;
+  std::vector<double> partial((b.embedding.size() + kChunk - 1) / kChunk, 0.0);
+  parallelFor(
+      0, partial.size(), 1,
+      [&](std::size_t c0, std::size_t c1) {
+        for (std::size_t ch = c0; ch < c1; ++ch) {
+          double deepest = 0.0;
+          for (std::size_t v = ch * kChunk; v < std::min(b.embedding.size(), (ch + 1) * kChunk);
+               ++v) {
+            if (b.embedding[v].element == kNoElement) continue;
+            for (const Obstacle& o : scene_.obstacles) {
+              Vec3d n;
+              deepest = std::max(deepest, -signedDistance(o, b.vertexPositions[v], n));
+            }
+          }
+          partial[ch] = deepest;
+        }
+      },
+      params_.threaded);
   double deepest = 0.0;
-  for (std::size_t v = 0; v < b.embedding.size(); ++v) {
-    if (b.embedding[v].element == kNoElement) continue;
-    for (const Obstacle& o : scene_.obstacles) {
-      Vec3d n;
-      deepest = std::max(deepest, -signedDistance(o, b.vertexPositions[v], n));
-    }
-  }
+  for (double p : partial) deepest = std::max(deepest, p);
   return deepest;
 }
 
