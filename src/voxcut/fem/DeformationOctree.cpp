@@ -94,12 +94,7 @@ void DeformationOctree::updateHangingNodes() {
 }
 
 std::array<double, 8> DeformationOctree::weights(std::size_t v) const {
-  const Vec3d t = localCoordinates(v);
-  std::array<double, 8> w{};
-  for (int c = 0; c < 8; ++c)
-    w[c] = ((c & 1) ? t.x() : 1 - t.x()) * ((c & 2) ? t.y() : 1 - t.y()) *
-           ((c & 4) ? t.z() : 1 - t.z());
-  return w;
+  return trilinearWeights(localCoordinates(v));
 }
 
 namespace {

@@ -120,6 +120,16 @@ struct VoxelEmbedding {
   std::array<std::uint8_t, 3> offset{};
 };
 
+/// The 8 trilinear weights of the point with trilinear coordinates `t` in an element, for its
+/// corners 0..7 (corner c lies at bit a of c along axis a); they sum to 1.
+[[nodiscard]] inline std::array<double, 8> trilinearWeights(const Vec3d& t) {
+  std::array<double, 8> w{};
+  for (int c = 0; c < 8; ++c)
+    w[static_cast<std::size_t>(c)] = ((c & 1) ? t.x() : 1 - t.x()) * ((c & 2) ? t.y() : 1 - t.y()) *
+                                     ((c & 4) ? t.z() : 1 - t.z());
+  return w;
+}
+
 /// The surface level a build uses unless told otherwise, for a grid whose longest side is
 /// `longestSide` voxels: the coarsest level whose elements span at most an eighth of that
 /// side, but not finer than level 3 (8 voxels) nor coarser than `startLevel`. So elements of

@@ -98,8 +98,6 @@ void prolong(const WeightedRows& p, const std::vector<Vec3d>& reduced, std::vect
       threaded);
 }
 
-}  // namespace
-
 /// Per free row of `model`: 1 when an element holding voxels couples it to a node whose
 /// prolongation row does not sum to one (a fixed node, or a hanging node with a fixed
 /// master). The reduced stiffness annihilates the translations of a piece without such rows
@@ -123,6 +121,8 @@ std::vector<std::uint8_t> anchoredRows(const ElasticModel& model) {
   }
   return anchored;
 }
+
+}  // namespace
 
 const char* preconditionerName(Preconditioner p) {
   switch (p) {
@@ -255,7 +255,9 @@ void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree&
             }
           // The element's point contacts: force -k (gap + dt n . v_p) n spread by the weights
           // (times dt below, like the elastic force), stiffness dt^2 k (w_a w_c) n n^T.
-          for (std::uint32_t k = contactStart_[e]; k < contactStart_[e + 1]; ++k) {
+          const std::uint32_t firstContact = contacts_.empty() ? 0 : contactStart_[e];
+          const std::uint32_t endContact = contacts_.empty() ? 0 : contactStart_[e + 1];
+          for (std::uint32_t k = firstContact; k < endContact; ++k) {
             const PointContact& pc = contacts_[k];
             Vec3d vp = Vec3d::Zero();
             for (std::size_t c = 0; c < 8; ++c) vp += pc.weight[c] * velocity_[el.nodes[c]];
@@ -596,7 +598,7 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
     if (bridge_.prepare(model, octree, cholesky_.rows()))
       bridgeRevision_ = model.sparsityRevision();
   }
-  {  // the contacts by element (counting sort, stable)
+  if (!contacts_.empty()) {  // the contacts by element (counting sort, stable)
     const std::size_t elements = model.elementCount();
     contactStart_.assign(elements + 1, 0);
     for (const PointContact& pc : contacts_) {

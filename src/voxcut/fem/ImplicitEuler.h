@@ -239,7 +239,7 @@ class ImplicitEuler {
   std::uint64_t stepRevision_ = 0;  ///< sparsity revision of the last step
   int stepsOnStructure_ = 0;        ///< steps before this one on the same sparsity
   std::vector<PointContact> contacts_;       ///< of the next step, sorted by element (stable)
-  std::vector<std::uint32_t> contactStart_;  ///< per element + 1: its contacts' range
+  std::vector<std::uint32_t> contactStart_;  ///< per element + 1: its contacts' range (when any)
   std::vector<std::size_t> contactOrder_;    ///< contacts_[k] was given at contactOrder_[k]
   std::vector<double> contactForce_;         ///< of the last step, in the order given
   std::vector<Vec3d> freePositions_;         ///< current positions of the free nodes

@@ -231,13 +231,7 @@ std::vector<Simulation::ObstacleHit> Simulation::findObstacleContacts(SimBody& b
             // From the nodes, not vertexPositions: vertices a cut added this frame have none
             // yet.
             const Vec3d x = d.pointInElement(em.element, em.local);
-            std::array<double, 8> w{};
-            for (std::size_t c = 0; c < 8; ++c) {
-              double wc = 1.0;
-              for (int a = 0; a < 3; ++a)
-                wc *= ((c >> a) & 1u) != 0 ? em.local[a] : 1.0 - em.local[a];
-              w[c] = wc;
-            }
+            const std::array<double, 8> w = trilinearWeights(em.local);
             Vec3d vp = Vec3d::Zero();
             if (!velocity.empty())
               for (std::size_t c = 0; c < 8; ++c)
