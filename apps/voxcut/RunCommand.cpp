@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cinttypes>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -16,10 +17,11 @@
 #include "OutputFiles.h"
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
+#include "voxcut/io/Recording.h"
 #include "voxcut/io/SceneBodies.h"
 #include "voxcut/io/SceneReader.h"
 #include "voxcut/io/SurfaceWriter.h"
-#include "voxcut/sim/Simulation.h"
+#include "voxcut/sim/World.h"
 
 namespace voxcut::app {
 namespace {
@@ -33,8 +35,10 @@ struct Summary {
   long long iterations = 0;
   long long factorisations = 0;
   bool converged = true;
-  std::size_t contacts = 0;     ///< point contacts, summed over the frames
-  double maxPenetration = 0.0;  ///< over the frames (m)
+  std::size_t contacts = 0;           ///< point contacts, summed over the frames
+  double maxPenetration = 0.0;        ///< over the frames (m)
+  std::vector<double> toolForceMax;   ///< per tool, the largest reaction force (N)
+  std::vector<Vec3d> toolForceFinal;  ///< per tool, the reaction force of the last frame (N)
 
   void add(const FrameReport& r) {
     stageSum.resize(r.stageMs.size(), 0.0);
@@ -50,6 +54,12 @@ struct Summary {
     converged = converged && r.converged;
     contacts += r.contacts;
     maxPenetration = std::max(maxPenetration, r.maxPenetration);
+    toolForceMax.resize(r.toolReactions.size(), 0.0);
+    toolForceFinal.resize(r.toolReactions.size(), Vec3d::Zero());
+    for (std::size_t t = 0; t < r.toolReactions.size(); ++t) {
+      toolForceMax[t] = std::max(toolForceMax[t], r.toolReactions[t].force.norm());
+      toolForceFinal[t] = r.toolReactions[t].force;
+    }
   }
   [[nodiscard]] int frames() const { return static_cast<int>(frameMs.size()); }
   [[nodiscard]] double stageMean(std::size_t s) const {
@@ -82,7 +92,7 @@ class Exporter {
   Exporter(const Exporter&) = delete;
   Exporter& operator=(const Exporter&) = delete;
 
-  void write(const Simulation& sim) {
+  void write(const World& sim) {
     if (dir_.empty()) return;
     if (!created_) {
       std::error_code ec;
@@ -90,9 +100,9 @@ class Exporter {
       if (ec) throw InputError("--export: cannot create folder '" + dir_ + "': " + ec.message());
       created_ = true;
     }
-    for (std::size_t b = 0; b < sim.bodies().size(); ++b) {
-      const std::string path = exportPath(dir_, b, sim.bodies().size(), sim.frame());
-      writeSurface(sim.deformedSurface(b), path);
+    for (std::size_t b = 0; b < sim.bodyCount(); ++b) {
+      const std::string path = exportPath(dir_, b, sim.bodyCount(), sim.frame());
+      writeSurface(sim.surfaceMesh(b), path);
       written_.push_back(path);
     }
   }
@@ -107,7 +117,7 @@ class Exporter {
 std::string csvHeader() {
   std::string h = "frame,time_s";
   for (const std::string& s : frameStageNames()) h += "," + s + "_ms";
-  return h + ",frame_ms,cut_links,solver_iterations,converged,solver_factorisations";
+  return h + ",frame_ms,cut_links,solver_iterations,converged,solver_factorisations,contacts";
 }
 
 std::string csvRow(const FrameReport& r) {
@@ -115,7 +125,7 @@ std::string csvRow(const FrameReport& r) {
   row << r.frame << "," << r.time;
   for (double ms : r.stageMs) row << "," << ms;
   row << "," << r.totalMs << "," << r.cutLinks << "," << r.solverIterations << ","
-      << (r.converged ? 1 : 0) << "," << r.solverFactorisations;
+      << (r.converged ? 1 : 0) << "," << r.solverFactorisations << "," << r.contacts;
   return row.str();
 }
 
@@ -136,7 +146,7 @@ double mean(const std::vector<double>& v) {
 struct RunFacts {
   const RunOptions& opt;
   const Scene& scene;
-  const Simulation& sim;
+  const World& sim;
   int framesAsked = 0;
   int piecesStart = 0;
   bool interrupted = false;
@@ -145,7 +155,9 @@ struct RunFacts {
 void printJson(const RunFacts& f, const Summary& sum) {
   const std::vector<std::string>& stages = frameStageNames();
   int pieces = 0;
-  for (std::size_t b = 0; b < f.sim.bodies().size(); ++b) pieces += f.sim.pieces(b);
+  for (std::size_t b = 0; b < f.sim.bodyCount(); ++b) pieces += f.sim.pieces(b);
+  char hash[32];
+  std::snprintf(hash, sizeof hash, "%016" PRIx64, f.sim.cutSetHash());
   nlohmann::json j;
   j["scene"] = f.opt.scene;
   j["frames"] = sum.frames();
@@ -154,6 +166,7 @@ void printJson(const RunFacts& f, const Summary& sum) {
   j["threads"] = ThreadLimit::current();
   j["octree"] = !f.opt.noOctree;
   j["cut_links"] = sum.cutLinks;
+  j["cut_set_hash"] = hash;
   j["pieces_start"] = f.piecesStart;
   j["pieces"] = pieces;
   j["max_displacement"] = f.sim.maxDisplacement();
@@ -164,6 +177,13 @@ void printJson(const RunFacts& f, const Summary& sum) {
   j["contact"] = {{"max_penetration", sum.maxPenetration},
                   {"mean_contacts", static_cast<double>(sum.contacts) /
                                         static_cast<double>(std::max(sum.frames(), 1))}};
+  nlohmann::json forces = nlohmann::json::array();
+  for (std::size_t t = 0; t < f.sim.toolCount(); ++t) {
+    const double max = t < sum.toolForceMax.size() ? sum.toolForceMax[t] : 0.0;
+    const Vec3d last = t < sum.toolForceFinal.size() ? sum.toolForceFinal[t] : Vec3d::Zero();
+    forces.push_back({{"max", max}, {"final", {last.x(), last.y(), last.z()}}});
+  }
+  j["tool_forces"] = forces;
   nlohmann::json t = nlohmann::json::object();
   for (std::size_t s = 0; s < stages.size(); ++s)
     t[stages[s]] = {{"mean", sum.stageMean(s)}, {"max", sum.stageMaximum(s)}};
@@ -172,12 +192,14 @@ void printJson(const RunFacts& f, const Summary& sum) {
                    {"p95", percentile(sum.frameMs, 0.95)},
                    {"max", percentile(sum.frameMs, 1.0)}};
   nlohmann::json bodies = nlohmann::json::array();
-  for (const SimBody& b : f.sim.bodies())
-    bodies.push_back({{"elements", b.cut.deformation.elementCount()},
-                      {"nodes", b.cut.deformation.nodeCount()},
-                      {"cut_links", b.cutLinks},
-                      {"surface_vertices", b.surface.vertexCount()},
-                      {"surface_triangles", b.surface.triangleCount()}});
+  for (std::size_t b = 0; b < f.sim.bodyCount(); ++b) {
+    const BodyInfo info = f.sim.bodyInfo(b);
+    bodies.push_back({{"elements", info.elements},
+                      {"nodes", info.nodes},
+                      {"cut_links", info.cutLinks},
+                      {"surface_vertices", info.surfaceVertices},
+                      {"surface_triangles", info.surfaceTriangles}});
+  }
   j["bodies"] = bodies;
   std::cout << j.dump(2) << "\n";
 }
@@ -185,7 +207,7 @@ void printJson(const RunFacts& f, const Summary& sum) {
 void printText(const RunFacts& f, const Summary& sum) {
   const std::vector<std::string>& stages = frameStageNames();
   int pieces = 0;
-  for (std::size_t b = 0; b < f.sim.bodies().size(); ++b) pieces += f.sim.pieces(b);
+  for (std::size_t b = 0; b < f.sim.bodyCount(); ++b) pieces += f.sim.pieces(b);
   std::printf("scene               %s (%d frames of %.4g s, %d thread(s), %s)\n",
               f.opt.scene.c_str(), sum.frames(), f.scene.timeStep, ThreadLimit::current(),
               f.opt.noOctree ? "no octree" : "voxel octree");
@@ -198,10 +220,14 @@ void printText(const RunFacts& f, const Summary& sum) {
               static_cast<double>(sum.iterations) / static_cast<double>(std::max(sum.frames(), 1)),
               sum.factorisations,
               sum.converged ? "converged every step" : "did NOT converge in some steps");
-  if (!f.scene.obstacles.empty())
+  if (!f.scene.obstacles.empty() || sum.contacts > 0)
     std::printf("contact             %.1f points per frame, deepest %.3g m\n",
                 static_cast<double>(sum.contacts) / static_cast<double>(std::max(sum.frames(), 1)),
                 sum.maxPenetration);
+  for (std::size_t t = 0; t < f.sim.toolCount(); ++t)
+    if (f.sim.toolKind(t) == ToolKind::Probe && t < sum.toolForceMax.size())
+      std::printf("probe %-13zu force max %.4g N, final %.4g N\n", t, sum.toolForceMax[t],
+                  sum.toolForceFinal[t].norm());
   std::printf("frame (ms)          mean %.2f, p95 %.2f, max %.2f\n", mean(sum.frameMs),
               percentile(sum.frameMs, 0.95), percentile(sum.frameMs, 1.0));
   std::printf("stages (ms)         mean / max\n");
@@ -216,7 +242,8 @@ void printText(const RunFacts& f, const Summary& sum) {
 void addRunCommand(CLI::App& app, RunOptions& opt, CLI::App*& cmd) {
   cmd = app.add_subcommand(
       "run",
-      "Run a scene: deformable bodies cut by key-framed blades, frame by frame; Ctrl-C or "
+      "Run a scene: deformable bodies cut by key-framed blades and pushed by probes and "
+      "obstacles, frame by frame; Ctrl-C or "
       "SIGTERM stops it at the next frame boundary with a summary of the frames run (exit 130)");
   cmd->add_option("scene", opt.scene, "Scene file (JSON; format in docs/scenes.md)")->required();
   cmd->add_option("--frames", opt.frames,
@@ -234,6 +261,9 @@ void addRunCommand(CLI::App& app, RunOptions& opt, CLI::App*& cmd) {
   cmd->add_option(
       "--csv", opt.csv,
       "Write one row per frame with the time of each stage (ms); the folder must exist");
+  cmd->add_option("--record", opt.record,
+                  "Write every tool's pose, once per frame, to this file (JSON; a scene tool's "
+                  "\"trajectory\" plays it back, docs/scenes.md); the folder must exist");
   cmd->add_flag("--json", opt.json, "Print one JSON summary object on stdout");
   addMaxMemoryOption(*cmd, opt.maxMemory);
 }
@@ -242,6 +272,7 @@ int runRun(const RunOptions& opt) {
   ThreadLimit limit(opt.threads);
   const std::size_t maxMemory = memoryLimit(opt.maxMemory);
   if (!opt.csv.empty()) checkOutputFile(opt.csv, "--csv");
+  if (!opt.record.empty()) checkOutputFile(opt.record, "--record");
   if (!opt.exportDir.empty()) checkOutputFolder(opt.exportDir, "--export");
   const InterruptGuard interruptGuard;
   const Scene scene = readScene(opt.scene);
@@ -253,12 +284,13 @@ int runRun(const RunOptions& opt) {
   // The voxelizer asks between its stages whether to go on; a signal stops it there.
   bp.progress = terminalProgress();
   std::vector<VoxelGrid> grids = voxelizeSceneBodies(scene, bp);
-  SimulationParams sp;
-  sp.useOctree = !opt.noOctree;
-  Simulation sim(scene, std::move(grids), sp);
+  WorldSettings ws;
+  ws.useOctree = !opt.noOctree;
+  World sim = World::fromScene(scene, std::move(grids), ws);
+  if (!opt.record.empty()) sim.setRecording(true);
 
   RunFacts facts{opt, scene, sim, frames};
-  for (std::size_t b = 0; b < sim.bodies().size(); ++b) facts.piecesStart += sim.pieces(b);
+  for (std::size_t b = 0; b < sim.bodyCount(); ++b) facts.piecesStart += sim.pieces(b);
   Exporter exporter(opt.exportDir);
   std::optional<PendingFile> csv;
   if (!opt.csv.empty()) {
@@ -283,6 +315,13 @@ int runRun(const RunOptions& opt) {
   // A signal after the last frame stops nothing: the run is complete.
   facts.interrupted = interruptRequested() && sum.frames() < frames;
   if (csv) csv->commit();
+  if (!opt.record.empty()) {
+    PendingFile record(opt.record, "--record");
+    std::string text = recordingText(sim);
+    if (!text.empty() && text.back() == '\n') text.pop_back();
+    record.writeLine(text);
+    record.commit();
+  }
   exporter.keep();
   if (opt.json)
     printJson(facts, sum);

@@ -1,5 +1,6 @@
 #pragma once
-// `voxcut run SCENE`: runs a scene (bodies, materials, key-framed blades) frame by frame.
+// `voxcut run SCENE`: runs a scene (bodies, materials, key-framed tools, obstacles) frame by
+// frame.
 
 #include <CLI/CLI.hpp>
 #include <string>
@@ -14,6 +15,7 @@ struct RunOptions {
   std::string exportDir;
   int every = 1;
   std::string csv;
+  std::string record;  // --record FILE: the tools' poses, one key per frame
   bool json = false;
   std::string maxMemory;  // --max-memory SIZE; empty: the available memory
 };
@@ -23,9 +25,9 @@ void addRunCommand(CLI::App& app, RunOptions& opt, CLI::App*& cmd);
 /// Runs the scene. Output paths are checked before any work. SIGINT and SIGTERM stop the run
 /// at the next frame boundary (or during voxelization): the CSV keeps a whole row per finished
 /// frame, exported frames are whole files, the summary covers the frames run and says
-/// "interrupted", and the status is 130. A run that fails leaves no CSV and removes the
-/// surfaces it exported (each is written to a temporary and renamed when complete). Returns
-/// the exit status (0 or 130); throws InputError on errors.
+/// "interrupted", and the status is 130; a --record file holds the frames run. A run that fails
+/// leaves no CSV and removes the surfaces it exported (each is written to a temporary and renamed
+/// when complete). Returns the exit status (0 or 130); throws InputError on errors.
 int runRun(const RunOptions& opt);
 
 }  // namespace voxcut::app

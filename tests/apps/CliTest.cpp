@@ -701,6 +701,42 @@ TEST(Cli, RunCutsASphereInTwoAndReportsEveryKey) {
   fs::remove(scene);
 }
 
+TEST(Cli, RunRecordPlaysBackToTheSameCuts) {
+  // A blade crossing a sphere and a probe pressing it: recorded, then played back from the
+  // recording; the cuts (cut_set_hash) and the probe's force come out the same.
+  const std::string scene = writeScene("record.json", R"({
+    "time_step": 0.004, "gravity": [0, 0, 0],
+    "bodies": [{"model": "sphere:0.02", "resolution": 24, "element_level": 2}],
+    "tools": [{"type": "blade", "keys": [
+      {"t": 0.0, "a": [-0.05, 0.003, -0.03], "b": [0.05, 0.003, -0.03]},
+      {"t": 0.05, "a": [-0.05, 0.005, 0.0], "b": [0.05, 0.001, 0.0]},
+      {"t": 0.08, "a": [-0.05, 0.003, 0.03], "b": [0.05, 0.003, 0.03]}]},
+      {"type": "probe", "radius": 0.005, "keys": [{"t": 0, "p": [0, -0.03, 0]},
+                                                  {"t": 0.1, "p": [0, -0.018, 0]}]}]})");
+  const std::string record = scene + ".rec.json";
+  const json j = commandJson("run", {scene, "--frames", "30", "--record", record});
+  ASSERT_TRUE(j.contains("cut_set_hash") && j.contains("tool_forces") && j.contains("contact"));
+  EXPECT_GT(j["cut_links"].get<long>(), 0);
+  ASSERT_EQ(j["tool_forces"].size(), 2u);
+  EXPECT_EQ(j["tool_forces"][0]["max"].get<double>(), 0.0);  // a blade pushes nothing
+  EXPECT_GT(j["tool_forces"][1]["max"].get<double>(), 0.0);
+  EXPECT_EQ(j["tool_forces"][1]["final"].size(), 3u);
+  const std::string playback = writeScene("playback.json", R"({
+    "time_step": 0.004, "gravity": [0, 0, 0],
+    "bodies": [{"model": "sphere:0.02", "resolution": 24, "element_level": 2}],
+    "tools": [{"type": "blade", "trajectory": ")" + fs::path(record).filename().string() +
+                                                               R"("},
+      {"type": "probe", "radius": 0.005, "trajectory": ")" + fs::path(record).filename().string() +
+                                                               R"(", "trajectory_tool": 1}]})");
+  const json p = commandJson("run", {playback, "--frames", "30"});
+  EXPECT_EQ(p["cut_set_hash"], j["cut_set_hash"]);
+  EXPECT_EQ(p["cut_links"], j["cut_links"]);
+  EXPECT_EQ(p["tool_forces"], j["tool_forces"]);
+  fs::remove(record);
+  fs::remove(scene);
+  fs::remove(playback);
+}
+
 TEST(Cli, RunBadScenesFailCleanly) {
   expectCleanFailure({"run", "/nonexistent/scene.json"});
   const std::string bad = writeScene(

@@ -1,7 +1,7 @@
 /// @file fuzz_run.cpp
 /// libFuzzer harness of one `voxcut run` on a fuzzed scene: the input is a scene file's text,
 /// parsed with parseScene, made tiny, then driven as `voxcut run` drives it (apps/voxcut/
-/// RunCommand.cpp): its bodies voxelized, a Simulation built and stepped, the pieces, the
+/// RunCommand.cpp): its bodies voxelized, a World built and stepped, the pieces, the
 /// largest displacement and the deformed surfaces queried. Everything runs on one thread.
 ///
 /// Made tiny: at most kMaxBodies bodies (more: the input is skipped), resolution at most
@@ -34,7 +34,8 @@
 #include "voxcut/core/Parallel.h"
 #include "voxcut/io/SceneBodies.h"
 #include "voxcut/io/SceneReader.h"
-#include "voxcut/sim/Simulation.h"
+#include "voxcut/sim/World.h"
+#include "voxcut/sim/WorldInternals.h"
 
 // libFuzzer's built-in mutator, for the custom one below.
 extern "C" std::size_t LLVMFuzzerMutate(std::uint8_t* data, std::size_t size, std::size_t maxSize);
@@ -135,13 +136,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (!makeTiny(scene)) return 0;
     const int frames = *scene.frames;
     std::vector<voxcut::VoxelGrid> grids = voxcut::voxelizeSceneBodies(scene, false);
-    voxcut::SimulationParams params;
+    voxcut::WorldSettings params;
     params.threaded = false;
-    voxcut::Simulation sim(std::move(scene), std::move(grids), params);
+    voxcut::World sim = voxcut::World::fromScene(scene, std::move(grids), params);
     for (int f = 0; f < frames; ++f) (void)sim.step();
-    for (std::size_t b = 0; b < sim.bodies().size(); ++b) {
+    for (std::size_t b = 0; b < sim.bodyCount(); ++b) {
       (void)sim.pieces(b);
-      (void)sim.deformedSurface(b);
+      (void)sim.surfaceMesh(b);
     }
     (void)sim.maxDisplacement();
   } catch (const voxcut::InputError&) {

@@ -221,7 +221,7 @@ TEST(SceneReader, ReadsEveryKey) {
   EXPECT_EQ(b.offset, Vec3d(0.1, 0.2, 0.3));
   ASSERT_EQ(scene.tools.size(), 1u);
   ASSERT_EQ(scene.tools[0].keys.size(), 2u);
-  EXPECT_EQ(scene.tools[0].type, ToolType::Blade);
+  EXPECT_EQ(scene.tools[0].kind, ToolKind::Blade);
   EXPECT_EQ(scene.tools[0].keys[1].t, 0.5);
   EXPECT_EQ(scene.tools[0].keys[1].pose.a, Vec3d(1, 1, 0));
   EXPECT_EQ(scene.tools[0].keys[1].pose.b, Vec3d(1, -1, 0));
@@ -398,7 +398,8 @@ TEST(SceneReaderErrors, MissingRequiredKeys) {
   expectError(R"({"bodies": [{"resolution": 50}]})", "bodies[0].model: missing (required)");
   expectError(withBody(R"("fixed": [{}])"), "bodies[0].fixed[0].box: missing (required)");
   expectError(withTop(R"("tools": [{"keys": []}])"), "tools[0].type: missing (required)");
-  expectError(withTop(R"("tools": [{"type": "blade"}])"), "tools[0].keys: missing (required)");
+  expectError(withTop(R"("tools": [{"type": "blade"}])"),
+              R"(tools[0]: needs exactly one of "keys" and "trajectory")");
   expectError(withTop(R"("tools": [{"type": "blade", "keys": [{"t": 0, "a": [0,0,0]}]}])"),
               "tools[0].keys[0].b: missing (required)");
 }
@@ -416,8 +417,8 @@ TEST(SceneReaderErrors, BadFixedBox) {
 }
 
 TEST(SceneReaderErrors, BadTools) {
-  expectError(withTop(R"("tools": [{"type": "probe", "keys": []}])"),
-              R"(tools[0].type: unknown tool type "probe" (expected: "blade"))");
+  expectError(withTop(R"("tools": [{"type": "saw", "keys": []}])"),
+              R"(tools[0].type: unknown tool type "saw" (expected one of: "blade", "probe"))");
   expectError(withTop(R"("tools": [{"type": "blade", "keys": []}])"),
               "tools[0].keys: must be a non-empty list");
   expectError(withTop(R"("tools": [{"type": "blade", "keys": [
@@ -429,6 +430,81 @@ TEST(SceneReaderErrors, BadTools) {
       withTop(R"("tools": [{"type": "blade", "keys": [{"t": 0, "a": [1,2,3], "b": [1,2,3]}]}])"),
       "tools[0].keys[0]: the blade's ends a and b must differ");
   expectError(withTop(R"("tools": {"type": "blade"})"), "tools: must be a list, got an object");
+}
+
+TEST(SceneReaderErrors, BadProbes) {
+  expectError(withTop(R"("tools": [{"type": "probe", "keys": [{"t": 0, "p": [0,0,0]}]}])"),
+              "tools[0].radius: missing (required)");
+  expectError(
+      withTop(R"("tools": [{"type": "probe", "radius": 0, "keys": [{"t": 0, "p": [0,0,0]}]}])"),
+      "tools[0].radius: must be");
+  expectError(withTop(R"("tools": [{"type": "probe", "radius": 0.01, "keys": [
+                {"t": 0, "p": [0,0,0]}, {"t": 1, "a": [0,0,0], "b": [1,0,0]}]}])"),
+              "tools[0].keys[1]: a probe's keys all give \"p\"");
+  expectError(withTop(R"("tools": [{"type": "probe", "radius": 0.01, "keys": [
+                {"t": 0, "p": [0,0,0], "a": [1,1,1]}]}])"),
+              "tools[0].keys[0].a: unknown key");
+  expectError(
+      withTop(R"("tools": [{"type": "blade", "radius": 0.01, "keys": [{"t": 0, "p": [0,0,0]}]}])"),
+      "tools[0].radius: unknown key");
+  expectError(withTop(R"("tools": [{"type": "blade", "keys": [{"t": 0, "p": [0,0,0]}]}])"),
+              "tools[0].keys[0].p: unknown key");
+}
+
+TEST(SceneReader, Probes) {
+  const Scene s = parse(withTop(R"("tools": [
+      {"type": "probe", "radius": 0.01, "keys": [{"t": 0, "p": [0, 1, 0]}, {"t": 1, "p": [0, 0, 0]}]},
+      {"type": "probe", "radius": 0.02, "keys": [{"t": 0, "a": [0, 1, 0], "b": [0, 2, 0]}]}])"));
+  ASSERT_EQ(s.tools.size(), 2u);
+  EXPECT_EQ(s.tools[0].kind, ToolKind::Probe);
+  EXPECT_EQ(s.tools[0].radius, 0.01);
+  EXPECT_EQ(s.tools[0].keys[0].pose.a, Vec3d(0, 1, 0));
+  EXPECT_EQ(s.tools[0].keys[0].pose.b, Vec3d(0, 1, 0));
+  EXPECT_EQ(s.tools[1].keys[0].pose.b, Vec3d(0, 2, 0));
+}
+
+TEST(SceneReader, TrajectoriesPlayARecordingsTool) {
+  const TempDir dir;
+  dir.write("rec.json", R"({"time_step": 0.01, "tools": [
+      {"type": "blade", "keys": [{"t": 0, "a": [0, 1, 0], "b": [1, 1, 0]},
+                                 {"t": 0.25, "a": [0, 0.5, 0], "b": [1, 0.5, 0]}]},
+      {"type": "probe", "radius": 0.5, "keys": [{"t": 0, "p": [3, 2, 1]}]}]})");
+  const auto scene = [&](const std::string& tools) {
+    return parseScene(withTop(R"("tools": )" + tools), "scene.json", dir.path());
+  };
+  const Scene s = scene(R"([{"type": "blade", "trajectory": "rec.json"},
+      {"type": "probe", "radius": 0.01, "trajectory": "rec.json", "trajectory_tool": 1}])");
+  ASSERT_EQ(s.tools.size(), 2u);
+  ASSERT_EQ(s.tools[0].keys.size(), 2u);
+  EXPECT_EQ(s.tools[0].keys[1].t, 0.25);
+  EXPECT_EQ(s.tools[0].keys[1].pose.a, Vec3d(0, 0.5, 0));
+  EXPECT_EQ(s.tools[1].radius, 0.01);  // the scene's, not the recording's
+  EXPECT_EQ(s.tools[1].keys[0].pose.a, Vec3d(3, 2, 1));
+  const auto error = [&](const std::string& tools) {
+    try {
+      (void)scene(tools);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(error(R"([{"type": "blade", "trajectory": "rec.json", "trajectory_tool": 2}])"),
+            "scene.json: tools[0].trajectory: the recording has 2 tool(s); no tool 2");
+  EXPECT_EQ(error(R"([{"type": "blade", "trajectory": "rec.json", "trajectory_tool": 1}])"),
+            "scene.json: tools[0].trajectory: tool 1 of the recording is a probe, not a blade");
+  EXPECT_EQ(
+      error(R"([{"type": "blade", "trajectory": "missing.json"}])")
+          .rfind("scene.json: tools[0].trajectory: " + dir.file("missing.json") + ": no such file",
+                 0),
+      0u);
+  EXPECT_EQ(error(R"([{"type": "blade", "trajectory": "rec.json", "keys": []}])"),
+            R"(scene.json: tools[0]: needs exactly one of "keys" and "trajectory")");
+  EXPECT_EQ(error(R"([{"type": "blade", "keys": [{"t": 0, "a": [0,0,0], "b": [1,0,0]}],
+                       "trajectory_tool": 0}])"),
+            R"(scene.json: tools[0].trajectory_tool: only goes with "trajectory")");
+  dir.write("bad.json", R"({"tools": [{"type": "blade", "keys": [{"t": 0, "a": [0,0,0]}]}]})");
+  EXPECT_EQ(error(R"([{"type": "blade", "trajectory": "bad.json"}])"),
+            dir.file("bad.json") + ": tools[0].keys[0].b: missing (required)");
 }
 
 TEST(SceneReaderErrors, BadModels) {

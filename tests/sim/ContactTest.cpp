@@ -6,14 +6,15 @@
 #include "voxcut/core/Parallel.h"
 #include "voxcut/io/SceneBodies.h"
 #include "voxcut/io/SceneReader.h"
-#include "voxcut/sim/Simulation.h"
+#include "voxcut/sim/World.h"
+#include "voxcut/sim/WorldInternals.h"
 
 namespace voxcut {
 namespace {
 
-Simulation simulationOf(const std::string& json) {
+World simulationOf(const std::string& json) {
   const Scene scene = parseScene(json, "test.json", std::filesystem::current_path());
-  return Simulation(scene, voxelizeSceneBodies(scene));
+  return World::fromScene(scene, voxelizeSceneBodies(scene));
 }
 
 // A soft box (0.1 x 0.06 x 0.08 m, 0.48 kg, level-2 elements: docs/algorithms.md, "Contact",
@@ -45,7 +46,7 @@ struct Landing {
 };
 
 Landing land(double height, const std::string& obstacle, int frames) {
-  Simulation sim = simulationOf(droppedBox(height, obstacle));
+  World sim = simulationOf(droppedBox(height, obstacle));
   Landing l;
   for (int f = 0; f < frames; ++f) {
     const FrameReport r = sim.step();
@@ -53,11 +54,11 @@ Landing land(double height, const std::string& obstacle, int frames) {
     l.deepest = std::max(l.deepest, r.maxPenetration);
     l.force = r.obstacleForces.at(0);
   }
-  const SimBody& b = sim.bodies()[0];
+  const SimBody& b = WorldInternals::body(sim, 0);
   l.kinetic = b.solver.kineticEnergy(b.model);
   l.weight = b.model.totalMass() * 9.81;
   l.voxel = b.cut.grid.voxelSize();
-  for (const Vec3d& p : sim.deformedSurface(0).positions) l.lowest = std::min(l.lowest, p.y());
+  for (const Vec3d& p : sim.surfaceMesh(0).positions) l.lowest = std::min(l.lowest, p.y());
   return l;
 }
 
@@ -86,7 +87,7 @@ TEST(Contact, BoxDroppedOnATableComesToRestOnTop) {
 // The bunny set on a floor, with the default contact stiffness and solver settings, comes to
 // rest on it and carries its weight.
 TEST(Contact, BunnyOnAFloorComesToRest) {
-  Simulation sim = simulationOf(R"({"time_step": 0.004, "gravity": [0, -9.81, 0],
+  World sim = simulationOf(R"({"time_step": 0.004, "gravity": [0, -9.81, 0],
     "bodies": [{"model": "bunny", "offset": [0, 0.002, 0],
       "materials": {"default": {"young_modulus": 1e5, "poisson_ratio": 0.3, "density": 1000,
                                 "damping": [2, 0.01]}}}],
@@ -97,7 +98,7 @@ TEST(Contact, BunnyOnAFloorComesToRest) {
     last = sim.step();
     deepest = std::max(deepest, last.maxPenetration);
   }
-  const SimBody& b = sim.bodies()[0];
+  const SimBody& b = WorldInternals::body(sim, 0);
   const double weight = b.model.totalMass() * 9.81;
   EXPECT_LT(deepest, 0.5 * b.cut.grid.voxelSize());
   EXPECT_LT(b.solver.kineticEnergy(b.model), 1e-6 * weight * 0.01);
@@ -111,9 +112,9 @@ TEST(Contact, BunnyOnAFloorComesToRest) {
 TEST(Contact, SameForAnyThreadCount) {
   auto run = [](int threads) {
     ThreadLimit limit(threads);
-    Simulation sim = simulationOf(droppedBox(0.01, kTable));
+    World sim = simulationOf(droppedBox(0.01, kTable));
     for (int f = 0; f < 40; ++f) (void)sim.step();
-    return sim.bodies()[0].cut.deformation.positions();
+    return WorldInternals::body(sim, 0).cut.deformation.positions();
   };
   EXPECT_EQ(run(1), run(2));
 }
@@ -121,7 +122,7 @@ TEST(Contact, SameForAnyThreadCount) {
 // A fixed box cut in two far above an obstacle around the origin: the vertices the cut adds
 // are tested where they are, not where they were before they had a position.
 TEST(Contact, VerticesACutAddsAreTestedWhereTheyAre) {
-  Simulation sim = simulationOf(R"({"time_step": 0.004, "gravity": [0, 0, 0],
+  World sim = simulationOf(R"({"time_step": 0.004, "gravity": [0, 0, 0],
     "bodies": [{"model": "box:0.1,0.06,0.08", "resolution": 24, "offset": [0, 0.5, 0],
       "fixed": [{"box": [[-0.06, 0.4, -0.06], [-0.04, 0.6, 0.06]]},
                 {"box": [[0.04, 0.4, -0.06], [0.06, 0.6, 0.06]]}]}],
@@ -139,10 +140,10 @@ TEST(Contact, VerticesACutAddsAreTestedWhereTheyAre) {
 
 // Without an obstacle the same box falls freely: the test above can fail.
 TEST(Contact, WithoutObstaclesNothingHoldsTheBox) {
-  Simulation sim = simulationOf(droppedBox(0.0, ""));
+  World sim = simulationOf(droppedBox(0.0, ""));
   for (int f = 0; f < 100; ++f) EXPECT_EQ(sim.step().contacts, 0u);
   double lowest = 1e9;
-  for (const Vec3d& p : sim.deformedSurface(0).positions) lowest = std::min(lowest, p.y());
+  for (const Vec3d& p : sim.surfaceMesh(0).positions) lowest = std::min(lowest, p.y());
   EXPECT_LT(lowest, -0.5);
 }
 

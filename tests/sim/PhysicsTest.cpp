@@ -11,15 +11,16 @@
 
 #include "voxcut/io/SceneBodies.h"
 #include "voxcut/io/SceneReader.h"
-#include "voxcut/sim/Simulation.h"
+#include "voxcut/sim/World.h"
+#include "voxcut/sim/WorldInternals.h"
 #include "voxcut/voxel/Pieces.h"
 
 namespace voxcut {
 namespace {
 
-Simulation simulationOf(const std::string& json) {
+World simulationOf(const std::string& json) {
   const Scene scene = parseScene(json, "test.json", std::filesystem::current_path());
-  return Simulation(scene, voxelizeSceneBodies(scene));
+  return World::fromScene(scene, voxelizeSceneBodies(scene));
 }
 
 // The bunny fixed at its base, no tool, soft (E 1e5 Pa), at a resolution and element level.
@@ -39,7 +40,7 @@ struct Sag {
 };
 
 Sag sagOf(int resolution, int level) {
-  Simulation sim = simulationOf(restingBunny(resolution, level));
+  World sim = simulationOf(restingBunny(resolution, level));
   Sag s;
   for (int f = 0; f < 100; ++f) {
     const FrameReport r = sim.step();
@@ -93,8 +94,8 @@ struct RigidFit {
   double angle = 0.0;  // radians
 };
 
-RigidFit rigidFit(const Simulation& sim) {
-  const SimBody& b = sim.bodies()[0];
+RigidFit rigidFit(const World& sim) {
+  const SimBody& b = WorldInternals::body(sim, 0);
   const auto& x = b.cut.deformation.positions();
   const auto& rest = b.cut.deformation.restPositions();
   const auto& m = b.model.nodeMass();
@@ -129,7 +130,7 @@ std::string fallingBox(double dt) {
 }
 
 void expectFreeFall(double dt, int frames, double maxAngle) {
-  Simulation sim = simulationOf(fallingBox(dt));
+  World sim = simulationOf(fallingBox(dt));
   for (int f = 0; f < frames; ++f) ASSERT_TRUE(sim.step().converged) << "frame " << f;
   const RigidFit fit = rigidFit(sim);
   const double n = frames, t = n * dt, g = 9.81;
@@ -173,14 +174,14 @@ class EarCut : public ::testing::TestWithParam<std::tuple<int, int>> {};
 
 TEST_P(EarCut, TakesTheEarOff) {
   const auto [resolution, level] = GetParam();
-  Simulation sim = simulationOf(earCut(resolution, level));
+  World sim = simulationOf(earCut(resolution, level));
   for (int f = 0; f < 250; ++f) sim.step();
-  const VoxelGrid& grid = sim.bodies()[0].cut.grid;
+  const VoxelGrid& grid = WorldInternals::body(sim, 0).cut.grid;
   const PieceLabels pieces = findPieces(grid);
   ASSERT_EQ(pieces.count, 2);
   // The smaller piece is the ear: above the blade's plane at rest, and it has fallen.
   const int ear = pieces.voxels[0] < pieces.voxels[1] ? 0 : 1;
-  const DeformationOctree& octree = sim.bodies()[0].cut.deformation;
+  const DeformationOctree& octree = WorldInternals::body(sim, 0).cut.deformation;
   Vec3d rest = Vec3d::Zero(), now = Vec3d::Zero();
   for (std::size_t v = 0; v < grid.voxelCount(); ++v)
     if (pieces.label[v] == ear) {

@@ -9,7 +9,8 @@
 #include "voxcut/core/Parallel.h"
 #include "voxcut/io/SceneBodies.h"
 #include "voxcut/io/SceneReader.h"
-#include "voxcut/sim/Simulation.h"
+#include "voxcut/sim/World.h"
+#include "voxcut/sim/WorldInternals.h"
 #include "voxcut/voxel/Pieces.h"
 
 namespace voxcut {
@@ -19,11 +20,11 @@ std::string scenePath(const std::string& name) {
   return std::string(VOXCUT_SOURCE_DIR) + "/scenes/" + name;
 }
 
-Simulation loadSimulation(const std::string& name, bool octree = true) {
+World loadSimulation(const std::string& name, bool octree = true) {
   const Scene scene = readScene(scenePath(name));
-  SimulationParams p;
+  WorldSettings p;
   p.useOctree = octree;
-  return Simulation(scene, voxelizeSceneBodies(scene), p);
+  return World::fromScene(scene, voxelizeSceneBodies(scene), p);
 }
 
 // Current position of node-grid point c as seen from element e (trilinear, extrapolating).
@@ -84,23 +85,25 @@ struct CutScene {
 class ShippedCutScene : public ::testing::TestWithParam<CutScene> {};
 
 TEST_P(ShippedCutScene, CutPartSeparatesAndSurfacesStayClosed) {
-  Simulation sim = loadSimulation(GetParam().file);
+  World sim = loadSimulation(GetParam().file);
   const int before = sim.pieces(0);
   int separatedAt = -1;
   double distanceAtSeparation = 0.0;
-  const int frames = GetParam().frames > 0 ? GetParam().frames : sim.scene().frames.value_or(100);
+  const int frames = GetParam().frames > 0
+                         ? GetParam().frames
+                         : readScene(scenePath(GetParam().file)).frames.value_or(100);
   for (int f = 0; f < frames; ++f) {
     const FrameReport r = sim.step();
     if (separatedAt < 0 && r.cutLinks > 0) {
-      const PieceLabels labels = findPieces(sim.bodies()[0].cut.grid);
+      const PieceLabels labels = findPieces(WorldInternals::body(sim, 0).cut.grid);
       if (labels.count > before) {
         separatedAt = f;
-        const auto c = pieceCentroids(sim.bodies()[0], labels);
+        const auto c = pieceCentroids(WorldInternals::body(sim, 0), labels);
         distanceAtSeparation = (c.front() - c.back()).norm();
       }
     }
   }
-  const SimBody& body = sim.bodies()[0];
+  const SimBody& body = WorldInternals::body(sim, 0);
   const PieceLabels labels = findPieces(body.cut.grid);
   ASSERT_GE(separatedAt, 0) << "the blade never cut a part off";
   EXPECT_EQ(labels.count, before + 1);
@@ -109,7 +112,7 @@ TEST_P(ShippedCutScene, CutPartSeparatesAndSurfacesStayClosed) {
   const double distanceNow = (c.front() - c.back()).norm();
   EXPECT_GT(distanceNow, distanceAtSeparation + 2.0 * body.cut.grid.voxelSize())
       << "separated at frame " << separatedAt;
-  const SurfaceTopology topo = surfaceTopology(sim.deformedSurface(0));
+  const SurfaceTopology topo = surfaceTopology(sim.surfaceMesh(0));
   EXPECT_TRUE(topo.closed);
   EXPECT_TRUE(topo.manifold);
   // Each voxel piece has its own surface; a blade crossing material that moved across its plane
@@ -130,12 +133,12 @@ INSTANTIATE_TEST_SUITE_P(Scenes, ShippedCutScene,
 TEST(Simulation, SameResultsAtOneAndTwoThreadsAndWithoutOctree) {
   auto run = [](int threads, bool octree) {
     ThreadLimit limit(threads);
-    Simulation sim = loadSimulation("bunny-ear.json", octree);
+    World sim = loadSimulation("bunny-ear.json", octree);
     std::size_t cut = 0;
     // The blade reaches the bunny at frame 110 and cuts until frame 161 (at frame 153 its
     // edge ends inside a level-1 cube whose mid-planes show no cut on their borders).
     for (int f = 0; f < 165; ++f) cut += sim.step().cutLinks;
-    return std::make_pair(cut, sim.bodies()[0].cut.deformation.positions());
+    return std::make_pair(cut, WorldInternals::body(sim, 0).cut.deformation.positions());
   };
   const auto one = run(1, true), two = run(2, true), baseline = run(2, false);
   EXPECT_GT(one.first, 0u);
@@ -150,7 +153,7 @@ TEST(Simulation, SameResultsAtOneAndTwoThreadsAndWithoutOctree) {
 }
 
 TEST(Simulation, CantileverSagsAndStaysContinuous) {
-  Simulation sim = loadSimulation("cantilever.json");
+  World sim = loadSimulation("cantilever.json");
   double last = 0.0;
   for (int f = 0; f < 50; ++f) {
     const FrameReport r = sim.step();
@@ -159,8 +162,8 @@ TEST(Simulation, CantileverSagsAndStaysContinuous) {
   }
   EXPECT_GT(last, 0.0);
   EXPECT_EQ(sim.pieces(0), 1);
-  expectNoGap(sim.bodies()[0]);
-  EXPECT_TRUE(surfaceTopology(sim.deformedSurface(0)).closed);
+  expectNoGap(WorldInternals::body(sim, 0));
+  EXPECT_TRUE(surfaceTopology(sim.surfaceMesh(0)).closed);
 }
 
 }  // namespace

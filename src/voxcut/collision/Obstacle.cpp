@@ -1,5 +1,6 @@
 #include "voxcut/collision/Obstacle.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace voxcut {
@@ -28,6 +29,26 @@ double signedDistance(const Obstacle& o, const Vec3d& x, Vec3d& normal) {
   normal = Vec3d::Zero();
   normal[axis] = rel[axis] < 0.0 ? -1.0 : 1.0;
   return q[axis];
+}
+
+double signedDistance(const Capsule& capsule, const Vec3d& x, Vec3d& normal) {
+  const Vec3d axis = capsule.b - capsule.a;
+  const double len2 = axis.squaredNorm();
+  double s = 0.0;
+  if (len2 > 0.0) s = std::clamp((x - capsule.a).dot(axis) / len2, 0.0, 1.0);
+  const Vec3d nearest = capsule.a + s * axis;
+  const Vec3d rel = x - nearest;
+  const double dist = rel.norm();
+  if (dist > 0.0) {
+    normal = rel / dist;
+  } else {
+    // On the segment: any direction perpendicular to it is as near; take the one closest to +y.
+    const Vec3d up = Vec3d::UnitY();
+    normal = len2 > 0.0 ? up - up.dot(axis) / len2 * axis : up;
+    if (normal.squaredNorm() < 1e-24) normal = Vec3d::UnitX() - axis.x() / len2 * axis;
+    normal.normalize();
+  }
+  return dist - capsule.radius;
 }
 
 }  // namespace voxcut

@@ -1,7 +1,8 @@
 #pragma once
 /// @file Obstacle.h
 /// Static obstacles of a world (docs/algorithms.md, "Contact"): an infinite plane or an
-/// axis-aligned box, as a signed distance with its outward normal. Units: metres, world frame.
+/// axis-aligned box, and the capsule of a probe, as a signed distance with its outward normal.
+/// Units: metres, world frame.
 ///
 /// Thread-safety: plain values; the functions are pure.
 
@@ -26,5 +27,17 @@ struct Obstacle {
 /// box, away from the nearest point of its surface outside, along the nearest face's normal
 /// inside (ties: the lowest axis; on the box's mid-plane, the high face).
 [[nodiscard]] double signedDistance(const Obstacle& obstacle, const Vec3d& x, Vec3d& normal);
+
+/// A capsule: the points within `radius` of the segment a-b (a sphere when a == b).
+struct Capsule {
+  Vec3d a = Vec3d::Zero();
+  Vec3d b = Vec3d::Zero();
+  double radius = 0.0;
+};
+
+/// The signed distance of `x` from the capsule's surface (m; negative inside) and, in
+/// `normal`, the unit direction away from the nearest point of its segment (on the segment
+/// itself, the direction perpendicular to it closest to +y, or +y for a sphere).
+[[nodiscard]] double signedDistance(const Capsule& capsule, const Vec3d& x, Vec3d& normal);
 
 }  // namespace voxcut

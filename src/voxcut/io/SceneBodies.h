@@ -2,7 +2,7 @@
 /// @file SceneBodies.h
 /// The voxel grids of a scene's bodies: each body's model loaded (loadBodyModel: built-in or
 /// mesh file, offset applied, material names checked) and voxelized at its resolution. What
-/// `voxcut run` and the scene tests hand to Simulation.
+/// `voxcut run` and the scene tests hand to World::fromScene.
 
 #include <cstddef>
 #include <vector>

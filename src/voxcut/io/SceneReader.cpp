@@ -323,39 +323,120 @@ SceneBody readBody(const Reader& r, const Json& v, const std::string& path) {
   return b;
 }
 
-SceneTool readTool(const Reader& r, const Json& v, const std::string& path) {
-  expectObject(r, v, path);
-  checkKeys(r, v, path, {"type", "keys"});
-  const Json& type = required(r, v, path, "type");
-  if (!type.is_string() || type.get<std::string>() != "blade")
-    r.fail(child(path, "type"), "unknown tool type " + shown(type) + " (expected: \"blade\")");
-  SceneTool tool;
-  tool.type = ToolType::Blade;
-  const std::string p = child(path, "keys");
-  const Json& keys = required(r, v, path, "keys");
+/// The keys of a tool of kind `kind` (blade: "a" and "b"; probe: "p", or "a" and "b" for a
+/// capsule, the same in every key).
+std::vector<ToolKey> readKeys(const Reader& r, const Json& keys, const std::string& p,
+                              ToolKind kind) {
+  const bool blade = kind == ToolKind::Blade;
   if (!keys.is_array() || keys.empty())
-    r.fail(p, "must be a non-empty list of {\"t\": s, \"a\": [x,y,z], \"b\": [x,y,z]}, got " +
-                  shown(keys));
+    r.fail(p,
+           std::string("must be a non-empty list of {\"t\": s, ") +
+               (blade ? "\"a\": [x,y,z], \"b\": [x,y,z]}" : "\"p\": [x,y,z]} (or \"a\", \"b\")}") +
+               ", got " + shown(keys));
+  std::vector<ToolKey> out;
+  bool sphere = false;
   for (std::size_t i = 0; i < keys.size(); ++i) {
     const std::string kp = element(p, i);
     const Json& k = keys[i];
     expectObject(r, k, kp);
-    checkKeys(r, k, kp, {"t", "a", "b"});
+    const bool hasP = !blade && k.contains("p");
+    if (i == 0) sphere = hasP;
+    if (!blade && hasP != sphere)
+      r.fail(kp,
+             "a probe's keys all give \"p\" (a sphere) or all give \"a\" and \"b\" (a "
+             "capsule)");
+    if (hasP)
+      checkKeys(r, k, kp, {"t", "p"});
+    else
+      checkKeys(r, k, kp, {"t", "a", "b"});
     ToolKey key;
     const Json& t = required(r, k, kp, "t");
     key.t = number(r, t, child(kp, "t"));
     if (!(std::abs(key.t) <= kMaxKeyTime))
       r.fail(child(kp, "t"), "must be in [-1e9, 1e9] s, got " + shown(t));
-    if (i > 0 && !(key.t > tool.keys.back().t))
-      r.fail(child(kp, "t"), "key times must increase strictly: must be > " +
-                                 shown(tool.keys.back().t) + " (the previous key's), got " +
-                                 shown(key.t));
-    key.pose.a = point(r, required(r, k, kp, "a"), child(kp, "a"));
-    key.pose.b = point(r, required(r, k, kp, "b"), child(kp, "b"));
-    if (key.pose.a == key.pose.b) r.fail(kp, "the blade's ends a and b must differ");
-    tool.keys.push_back(key);
+    if (i > 0 && !(key.t > out.back().t))
+      r.fail(child(kp, "t"), "key times must increase strictly: must be > " + shown(out.back().t) +
+                                 " (the previous key's), got " + shown(key.t));
+    if (hasP) {
+      key.pose.a = key.pose.b = point(r, k["p"], child(kp, "p"));
+    } else {
+      key.pose.a = point(r, required(r, k, kp, "a"), child(kp, "a"));
+      key.pose.b = point(r, required(r, k, kp, "b"), child(kp, "b"));
+      if (blade && key.pose.a == key.pose.b) r.fail(kp, "the blade's ends a and b must differ");
+    }
+    out.push_back(key);
+  }
+  return out;
+}
+
+ToolKind readToolKind(const Reader& r, const Json& v, const std::string& path) {
+  const Json& type = required(r, v, path, "type");
+  if (type.is_string() && type.get<std::string>() == "blade") return ToolKind::Blade;
+  if (type.is_string() && type.get<std::string>() == "probe") return ToolKind::Probe;
+  r.fail(child(path, "type"),
+         "unknown tool type " + shown(type) + " (expected one of: \"blade\", \"probe\")");
+}
+
+/// The keys of tool `index` of the trajectory file `file` (a recording, docs/scenes.md,
+/// "Recordings"), for a tool of kind `kind`; errors name the file and the key path there.
+std::vector<ToolKey> readTrajectory(const Reader& r, const Json& file, const std::string& path,
+                                    std::size_t index, ToolKind kind);
+
+SceneTool readTool(const Reader& r, const Json& v, const std::string& path) {
+  expectObject(r, v, path);
+  SceneTool tool;
+  tool.kind = readToolKind(r, v, path);
+  if (tool.kind == ToolKind::Blade)
+    checkKeys(r, v, path, {"type", "keys", "trajectory", "trajectory_tool"});
+  else
+    checkKeys(r, v, path, {"type", "radius", "keys", "trajectory", "trajectory_tool"});
+  if (tool.kind == ToolKind::Probe)
+    tool.radius = positive(r, required(r, v, path, "radius"), child(path, "radius"), 1e3, "1e3 m");
+  const bool keys = v.contains("keys"), trajectory = v.contains("trajectory");
+  if (keys == trajectory) r.fail(path, "needs exactly one of \"keys\" and \"trajectory\"");
+  if (v.contains("trajectory_tool") && !trajectory)
+    r.fail(child(path, "trajectory_tool"), "only goes with \"trajectory\"");
+  if (keys) {
+    tool.keys = readKeys(r, v["keys"], child(path, "keys"), tool.kind);
+  } else {
+    const std::size_t index =
+        v.contains("trajectory_tool")
+            ? static_cast<std::size_t>(
+                  integer(r, v["trajectory_tool"], child(path, "trajectory_tool"), 0, 1 << 20))
+            : 0;
+    tool.keys = readTrajectory(r, v["trajectory"], child(path, "trajectory"), index, tool.kind);
   }
   return tool;
+}
+
+std::vector<ToolKey> readTrajectory(const Reader& r, const Json& file, const std::string& path,
+                                    std::size_t index, ToolKind kind) {
+  if (!file.is_string() || file.get<std::string>().empty())
+    r.fail(path, "must be the path of a recording (a non-empty string), got " + shown(file));
+  const fs::path resolved = fs::absolute(r.baseDir / file.get<std::string>()).lexically_normal();
+  std::string text;
+  try {
+    text = readSceneText(resolved.string());
+  } catch (const InputError& e) {
+    r.fail(path, e.what());
+  }
+  const Reader inner{resolved.string(), resolved.parent_path()};
+  const Json top = detail::parseStrictJson(text, inner.source, kMaxSceneDepth);
+  expectObject(inner, top, "");
+  checkKeys(inner, top, "", {"description", "time_step", "tools"});
+  const Json& tools = list(inner, required(inner, top, "", "tools"), "tools");
+  if (index >= tools.size())
+    r.fail(path, "the recording has " + std::to_string(tools.size()) + " tool(s); no tool " +
+                     std::to_string(index));
+  const std::string tp = element("tools", index);
+  const Json& t = tools[index];
+  expectObject(inner, t, tp);
+  checkKeys(inner, t, tp, {"type", "radius", "keys"});
+  if (readToolKind(inner, t, tp) != kind)
+    r.fail(path, "tool " + std::to_string(index) + " of the recording is a " +
+                     t["type"].get<std::string>() + ", not a " +
+                     (kind == ToolKind::Blade ? "blade" : "probe"));
+  return readKeys(inner, required(inner, t, tp, "keys"), child(tp, "keys"), kind);
 }
 
 Obstacle readObstacle(const Reader& r, const Json& v, const std::string& path) {

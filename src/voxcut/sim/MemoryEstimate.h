@@ -64,7 +64,7 @@ struct MemoryEstimateParams {
   bool octrees = true;      ///< the voxel octree and the deformation octree
   bool cutting = false;     ///< a CutBody: per active voxel positions and embeddings
   bool allActive = false;   ///< the baseline: every occupied voxel active
-  bool simulation = false;  ///< element matrices, solver, contoured surface (sim/Simulation)
+  bool simulation = false;  ///< element matrices, solver, contoured surface (sim/World)
   bool factor = false;      ///< with simulation: a sparse Cholesky factor
   int elementLevel = 3;     ///< start level of the deformation octree, 0..7
   /// Its surface level (DeformationOctreeParams::surfaceLevel; -1: the default for the grid):

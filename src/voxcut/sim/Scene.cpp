@@ -8,9 +8,8 @@
 
 namespace voxcut {
 
-BladePose bladePoseAt(const SceneTool& tool, double t) {
-  VOXCUT_ASSERT(!tool.keys.empty(), "a tool needs at least one key");
-  const std::vector<ToolKey>& keys = tool.keys;
+BladePose bladePoseAt(const std::vector<ToolKey>& keys, double t) {
+  VOXCUT_ASSERT(!keys.empty(), "a tool needs at least one key");
   // Only the keys a pose comes from are checked, so that a call stays O(log keys); the
   // geometric predicates need coordinates within the range (core/CoordinateRange.h).
   const auto checked = [](const ToolKey& key) -> const ToolKey& {
@@ -30,8 +29,8 @@ BladePose bladePoseAt(const SceneTool& tool, double t) {
   return {k0.pose.a + s * (k1.pose.a - k0.pose.a), k0.pose.b + s * (k1.pose.b - k0.pose.b)};
 }
 
-SceneMaterial sceneMaterial(const SceneBody& body, const std::string& name) {
-  for (const SceneMaterial& m : body.materials)
+SceneMaterial sceneMaterial(const std::vector<SceneMaterial>& materials, const std::string& name) {
+  for (const SceneMaterial& m : materials)
     if (m.name == name) return m;
   SceneMaterial m;
   m.name = name;

@@ -67,10 +67,13 @@ struct SceneBody {
   Vec3d offset = Vec3d::Zero();  ///< translation of the model into the world, metres
 };
 
-/// The kinds of tool a scene can drive.
-enum class ToolType { Blade };
+/// What a tool is.
+enum class ToolKind {
+  Blade,  ///< cuts the links its edge (the segment a-b) sweeps; pushes nothing
+  Probe,  ///< a sphere (a == b) or a capsule around the segment a-b; pushes, cuts nothing
+};
 
-/// One key frame of a tool: at time t (s) the blade runs from a to b (world frame, metres).
+/// One key frame of a tool: at time t (s) its segment runs from a to b (world frame, metres).
 struct ToolKey {
   double t = 0.0;
   BladePose pose;
@@ -78,7 +81,8 @@ struct ToolKey {
 
 /// A key-framed tool. Keys have strictly increasing times; there is at least one.
 struct SceneTool {
-  ToolType type = ToolType::Blade;
+  ToolKind kind = ToolKind::Blade;
+  double radius = 0.0;  ///< a probe's radius (m), > 0; 0 for a blade
   std::vector<ToolKey> keys;
 };
 
@@ -106,14 +110,22 @@ struct Scene {
 /// The pose of `tool` at time `t` (s): the linear interpolation of the two keys around t,
 /// i.e. for t_k <= t <= t_{k+1}, a = a_k + s (a_{k+1} - a_k) with s = (t - t_k) /
 /// (t_{k+1} - t_k), b likewise; the first key's pose before the first key and the last key's
-/// after the last key. A key's time gives its pose exactly. Asserts that the tool has keys and
+/// after the last key. A key's time gives its pose exactly. Asserts that there are keys and
 /// that the keys the pose comes from have finite times and ends within the coordinate range
 /// (core/CoordinateRange.h). O(log keys).
-[[nodiscard]] BladePose bladePoseAt(const SceneTool& tool, double t);
+[[nodiscard]] BladePose bladePoseAt(const std::vector<ToolKey>& keys, double t);
+[[nodiscard]] inline BladePose bladePoseAt(const SceneTool& tool, double t) {
+  return bladePoseAt(tool.keys, t);
+}
 
-/// The material `name` of `body`: the one the scene sets, or SceneMaterial's defaults named
-/// `name` when the scene does not list it.
-[[nodiscard]] SceneMaterial sceneMaterial(const SceneBody& body, const std::string& name);
+/// The material `name` of `materials` (a body's list), or SceneMaterial's defaults named
+/// `name` when the list does not hold it.
+[[nodiscard]] SceneMaterial sceneMaterial(const std::vector<SceneMaterial>& materials,
+                                          const std::string& name);
+/// The material `name` of `body`: the one the scene sets, or SceneMaterial's defaults.
+[[nodiscard]] inline SceneMaterial sceneMaterial(const SceneBody& body, const std::string& name) {
+  return sceneMaterial(body.materials, name);
+}
 
 /// Checks that every material `body` (bodies[bodyIndex] of `scene`) sets is one of
 /// `modelMaterials` (the loaded model's material names, in order). Throws InputError naming

@@ -1,0 +1,906 @@
+#include "voxcut/sim/World.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iterator>
+#include <optional>
+#include <string>
+
+#include "voxcut/core/CoordinateRange.h"
+#include "voxcut/core/Error.h"
+#include "voxcut/core/Parallel.h"
+#include "voxcut/core/Timer.h"
+#include "voxcut/cutting/Fragments.h"
+#include "voxcut/fem/CutTopology.h"
+#include "voxcut/sim/WorldInternals.h"
+#include "voxcut/surface/VertexNormals.h"
+#include "voxcut/voxel/Pieces.h"
+
+namespace voxcut {
+namespace {
+
+enum Stage : std::size_t {
+  kPositionUpdate,
+  kIntersectionTest,
+  kOctreeSubdivision,
+  kDeferredUpdates,
+  kCutTopology,
+  kSurfaceUpdate,
+  kObjectCollision,
+  kDeformation,
+  kSurfaceVertices,
+  kStageCount
+};
+
+bool samePose(const BladePose& p, const BladePose& q) {
+  return p.a == q.a && p.b == q.b;
+}
+
+/// Material table of a body indexed by grid material (entry 0, empty space, is unused).
+std::vector<ElasticMaterial> elasticMaterials(const BodySettings& body, const VoxelGrid& grid) {
+  std::vector<ElasticMaterial> out(1);
+  for (const std::string& name : grid.materialNames()) {
+    const SceneMaterial m = sceneMaterial(body.materials, name);
+    ElasticMaterial e;
+    e.youngModulus = m.youngModulus;
+    e.poissonRatio = m.poissonRatio;
+    e.density = m.density;
+    e.dampingMass = m.massDamping;
+    e.dampingStiffness = m.stiffnessDamping;
+    out.push_back(e);
+  }
+  return out;
+}
+
+OctreeParams voxelOctreeParams(const BodySettings& body, const VoxelGrid& grid) {
+  OctreeParams p;
+  for (const std::string& name : grid.materialNames()) {
+    const SceneMaterial m = sceneMaterial(body.materials, name);
+    p.maxInternalLevel.push_back(m.maxInternalLevel);
+    p.maxBoundaryLevel.push_back(m.maxBoundaryLevel);
+  }
+  return p;
+}
+
+bool inside(const FixedBox& box, const Vec3d& p) {
+  return (p.array() >= box.lo.array()).all() && (p.array() <= box.hi.array()).all();
+}
+
+}  // namespace
+
+const std::vector<std::string>& frameStageNames() {
+  static const std::vector<std::string> names{
+      "voxel_position_update", "intersection_test", "octree_subdivision",
+      "deferred_updates",      "cut_topology",      "surface_update",
+      "object_collision",      "deformation",       "surface_vertices"};
+  return names;
+}
+
+namespace {
+
+/// A tool of the world: its shape, where it is, where it goes next frame, and what pushes on it.
+struct WorldTool {
+  ToolKind kind = ToolKind::Blade;
+  double radius = 0.0;
+  BladePose pose;                   ///< now
+  std::optional<BladePose> target;  ///< set by setToolPose for the end of the next frame
+  std::vector<ToolKey> keys;        ///< trajectory (empty: none)
+  double longest = 0.0;             ///< longest its segment has been (m): the fronts' sampling
+  ToolReaction reaction;
+  std::vector<ToolKey> recorded;
+};
+
+/// A point contact handed to a body's solver: what it presses on and where.
+struct ContactHit {
+  std::size_t source = 0;  ///< obstacle index, or obstacles + tool index for a probe
+  Vec3d normal = Vec3d::Zero();
+  Vec3d point = Vec3d::Zero();  ///< on the obstacle's or probe's surface (m)
+};
+
+/// What the bodies are pressed against in a frame: the obstacles, then the probes at their
+/// pose at the frame's end.
+struct ContactShapes {
+  const std::vector<Obstacle>* obstacles = nullptr;
+  std::vector<Capsule> probes;
+  std::vector<std::size_t> probeTool;  ///< per probe, its tool index
+
+  [[nodiscard]] std::size_t size() const { return obstacles->size() + probes.size(); }
+  double distance(std::size_t s, const Vec3d& x, Vec3d& n) const {
+    return s < obstacles->size() ? signedDistance((*obstacles)[s], x, n)
+                                 : signedDistance(probes[s - obstacles->size()], x, n);
+  }
+};
+
+}  // namespace
+
+struct World::Impl {
+  WorldSettings settings;
+  std::string source;  ///< prefix of error messages (the scene file), may be empty
+  std::vector<SimBody> bodies;
+  std::vector<WorldTool> tools;
+  std::vector<Obstacle> obstacles;
+  int frame = 0;
+  bool recording = false;
+
+  /// Per moving blade: its sampled end pose this frame and the samples' ids (empty where the
+  /// tool did not move, is a probe, or the blade is one segment).
+  struct BladeEnds {
+    std::vector<std::vector<Vec3d>> points;
+    std::vector<std::vector<std::uint64_t>> ids;
+  };
+  /// Per tool: its pose at this frame's start and end.
+  struct Motion {
+    std::vector<BladePose> from, to;
+  };
+
+  [[nodiscard]] std::string prefix() const { return source.empty() ? "" : source + ": "; }
+  [[nodiscard]] double time() const { return frame * settings.timeStep; }
+  void stepBody(SimBody& body, const Motion& motion, const ContactShapes& shapes,
+                std::vector<double>& stageMs, FrameReport& report);
+  std::vector<std::uint64_t> cutBody(SimBody& body, const Motion& motion, BladeEnds& ends,
+                                     std::vector<double>& stageMs);
+  [[nodiscard]] std::optional<std::vector<BladeSweep>> toolSweeps(SimBody& body, std::size_t tool,
+                                                                  const Motion& motion,
+                                                                  BladeEnds& ends) const;
+  bool updateTopology(SimBody& body, const std::vector<std::uint64_t>& cut, const BladeEnds& ends);
+  void updateSurface(SimBody& body, const std::vector<std::uint64_t>& cut, bool topologyChanged);
+  void recordSolve(const StepStatus& status, FrameReport& report) const;
+  std::vector<ContactHit> findContacts(SimBody& body, const ContactShapes& shapes) const;
+  [[nodiscard]] double deepestPenetration(const SimBody& body, const ContactShapes& shapes) const;
+  void embedVertices(SimBody& body, const std::vector<std::int32_t>* only) const;
+  void updateVertexPositions(SimBody& body) const;
+  void rebuildModel(SimBody& body) const;
+  [[nodiscard]] static std::vector<std::uint8_t> fixedFlags(const SimBody& body);
+  [[nodiscard]] SimBody& body(std::size_t b) {
+    VOXCUT_ASSERT(b < bodies.size(), "body index out of range");
+    return bodies[b];
+  }
+  [[nodiscard]] WorldTool& tool(std::size_t t) {
+    VOXCUT_ASSERT(t < tools.size(), "tool index out of range");
+    return tools[t];
+  }
+  std::size_t addTool(WorldTool t);
+};
+
+const SimBody& WorldInternals::body(const World& world, std::size_t b) {
+  VOXCUT_ASSERT(b < world.impl_->bodies.size(), "body index out of range");
+  return world.impl_->bodies[b];
+}
+
+World::World(const WorldSettings& settings) : impl_(std::make_unique<Impl>()) {
+  VOXCUT_ASSERT(settings.timeStep > 0.0, "the time step must be positive");
+  impl_->settings = settings;
+}
+World::~World() = default;
+World::World(World&&) noexcept = default;
+World& World::operator=(World&&) noexcept = default;
+
+World World::fromScene(const Scene& scene, std::vector<VoxelGrid> grids,
+                       const WorldSettings& base) {
+  if (grids.size() != scene.bodies.size())
+    throw InputError(scene.source + ": " + std::to_string(scene.bodies.size()) + " bodies but " +
+                     std::to_string(grids.size()) + " voxel grids");
+  WorldSettings s = base;
+  s.timeStep = scene.timeStep;
+  s.gravity = scene.gravity;
+  s.solver = scene.solver;
+  s.contact = scene.contact;
+  World w(s);
+  w.impl_->source = scene.source;
+  // Tools first, so that each body sizes its fronts once.
+  for (const SceneTool& t : scene.tools) {
+    VOXCUT_ASSERT(!t.keys.empty(), "a scene tool has keys");
+    const std::size_t id = t.kind == ToolKind::Blade ? w.addBlade(t.keys.front().pose)
+                                                     : w.addProbe(t.radius, t.keys.front().pose);
+    w.setToolTrajectory(id, t.keys);
+  }
+  for (const Obstacle& o : scene.obstacles) w.addObstacle(o);
+  for (std::size_t i = 0; i < grids.size(); ++i) {
+    const SceneBody& sb = scene.bodies[i];
+    BodySettings bs;
+    bs.elementLevel = sb.elementLevel;
+    bs.finestLevel = sb.finestLevel;
+    bs.surfaceLevel = sb.surfaceLevel;
+    bs.materials = sb.materials;
+    bs.fixed = sb.fixed;
+    w.addBody(std::move(grids[i]), bs);
+  }
+  return w;
+}
+
+const WorldSettings& World::settings() const {
+  return impl_->settings;
+}
+int World::frame() const {
+  return impl_->frame;
+}
+double World::time() const {
+  return impl_->time();
+}
+
+// ---- bodies ----
+
+std::size_t World::addBody(VoxelGrid grid, const BodySettings& settings) {
+  Impl& w = *impl_;
+  const WorldSettings& ws = w.settings;
+  SimBody& b = w.bodies.emplace_back();
+  try {
+    CutBodyParams cp;
+    cp.useOctree = ws.useOctree;
+    cp.octree = voxelOctreeParams(settings, grid);
+    cp.deformation.startLevel = settings.elementLevel;
+    cp.deformation.maxLevel = std::min(settings.elementLevel + 1, 7);
+    cp.deformation.surfaceLevel = settings.surfaceLevel;
+    b.settings = settings;
+    b.elastic = elasticMaterials(settings, grid);
+    b.cut = makeCutBody(std::move(grid), cp, ws.threaded);
+    ImplicitEulerParams solver;
+    solver.timeStep = ws.timeStep;
+    solver.gravity = ws.gravity;
+    solver.tolerance = ws.solver.tolerance;
+    solver.maxIterations = ws.solver.maxIterations;
+    solver.preconditioner = ws.solver.preconditioner;
+    b.solver = ImplicitEuler(solver);
+    w.rebuildModel(b);
+    double stiffest = 0.0;
+    for (const ElasticMaterial& m : b.elastic) stiffest = std::max(stiffest, m.youngModulus);
+    b.contactStiffness = ws.contact.stiffness > 0.0 ? ws.contact.stiffness
+                                                    : 10.0 * stiffest * b.cut.grid.voxelSize();
+    b.fronts.resize(w.tools.size());
+    b.frontSegments.assign(w.tools.size(), 0);
+    DualContourParams dc;
+    dc.threaded = ws.threaded;
+    b.surface = ContouredSurface::build(b.cut.grid, dc);
+    w.embedVertices(b, nullptr);
+    w.updateVertexPositions(b);
+  } catch (...) {
+    w.bodies.pop_back();
+    throw;
+  }
+  return w.bodies.size() - 1;
+}
+
+std::size_t World::bodyCount() const {
+  return impl_->bodies.size();
+}
+
+// The element matrices from the body's materials, with its fixed nodes.
+void World::Impl::rebuildModel(SimBody& b) const {
+  b.model = ElasticModel(b.cut.deformation, b.cut.grid, b.elastic, settings.threaded);
+  if (!b.settings.fixed.empty()) b.model.setFixed(fixedFlags(b));
+}
+
+void World::setFixed(std::size_t body, std::vector<FixedBox> fixed) {
+  SimBody& b = impl_->body(body);
+  const bool had = !b.settings.fixed.empty();
+  b.settings.fixed = std::move(fixed);
+  if (had || !b.settings.fixed.empty())
+    b.model.setFixed(b.settings.fixed.empty() ? std::vector<std::uint8_t>{} : Impl::fixedFlags(b));
+}
+
+void World::setMaterial(std::size_t body, const SceneMaterial& material) {
+  SimBody& b = impl_->body(body);
+  const std::vector<std::string>& names = b.cut.grid.materialNames();
+  const auto it = std::find(names.begin(), names.end(), material.name);
+  if (it == names.end()) {
+    std::string list;
+    for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
+    throw InputError(impl_->prefix() + "body " + std::to_string(body) + " has no material '" +
+                     material.name + "' (it has: " + list + ")");
+  }
+  std::erase_if(b.settings.materials,
+                [&](const SceneMaterial& m) { return m.name == material.name; });
+  b.settings.materials.push_back(material);
+  b.elastic = elasticMaterials(b.settings, b.cut.grid);
+  impl_->rebuildModel(b);
+}
+
+BodyInfo World::bodyInfo(std::size_t body) const {
+  const SimBody& b = impl_->bodies.at(body);
+  BodyInfo info;
+  info.elements = b.cut.deformation.elementCount();
+  info.nodes = b.cut.deformation.nodeCount();
+  info.cutLinks = b.cutLinks;
+  info.surfaceVertices = b.surface.vertexCount();
+  info.surfaceTriangles = b.surface.triangleCount();
+  info.voxelSize = b.cut.grid.voxelSize();
+  return info;
+}
+
+int World::pieces(std::size_t body) const {
+  return findPieces(impl_->bodies.at(body).cut.grid).count;
+}
+
+SurfaceView World::surface(std::size_t body) {
+  SimBody& b = impl_->body(body);
+  if (b.normalsFrame != impl_->frame) {
+    // Area-weighted: each live triangle adds its unnormalised cross product to its corners.
+    b.vertexNormals.assign(b.vertexPositions.size(), Vec3d::Zero());
+    for (const std::array<int, 3>& t : b.surface.triangles()) {
+      if (t[0] < 0) continue;
+      const Vec3d& p0 = b.vertexPositions[static_cast<std::size_t>(t[0])];
+      const Vec3d n = (b.vertexPositions[static_cast<std::size_t>(t[1])] - p0)
+                          .cross(b.vertexPositions[static_cast<std::size_t>(t[2])] - p0);
+      for (int c : t) b.vertexNormals[static_cast<std::size_t>(c)] += n;
+    }
+    for (Vec3d& n : b.vertexNormals) {
+      const double len = n.norm();
+      n = len > 0.0 ? Vec3d(n / len) : Vec3d::Zero();
+    }
+    b.normalsFrame = impl_->frame;
+  }
+  SurfaceView v;
+  v.positions = b.vertexPositions;
+  v.normals = b.vertexNormals;
+  v.triangles = b.surface.triangles();
+  v.revision = b.surfaceRevision;
+  return v;
+}
+
+SurfaceChanges World::surfaceChanges(std::size_t body, std::uint64_t since) const {
+  const SimBody& b = impl_->bodies.at(body);
+  SurfaceChanges c;
+  c.from = since;
+  c.to = b.surfaceRevision;
+  if (since == b.surfaceRevision) return c;
+  if (since > b.surfaceRevision || b.surfaceLog.empty() ||
+      b.surfaceLog.front().revision > since + 1) {
+    c.full = true;
+    return c;
+  }
+  auto merge = [](std::vector<std::int32_t>& into, const std::vector<std::int32_t>& from) {
+    into.insert(into.end(), from.begin(), from.end());
+  };
+  for (const SurfaceLogEntry& e : b.surfaceLog) {
+    if (e.revision <= since) continue;
+    merge(c.addedVertices, e.delta.addedVertices);
+    merge(c.removedVertices, e.delta.removedVertices);
+    merge(c.addedTriangles, e.delta.addedTriangles);
+    merge(c.removedTriangles, e.delta.removedTriangles);
+  }
+  for (auto* list :
+       {&c.addedVertices, &c.removedVertices, &c.addedTriangles, &c.removedTriangles}) {
+    std::sort(list->begin(), list->end());
+    list->erase(std::unique(list->begin(), list->end()), list->end());
+  }
+  return c;
+}
+
+SurfaceMesh World::surfaceMesh(std::size_t body) const {
+  const SimBody& b = impl_->bodies.at(body);
+  SurfaceMesh m;
+  std::vector<int> index(b.surface.vertexSlots(), -1);
+  for (std::size_t v = 0; v < index.size(); ++v) {
+    if (!b.surface.alive(static_cast<std::int32_t>(v))) continue;
+    index[v] = static_cast<int>(m.positions.size());
+    m.positions.push_back(b.vertexPositions[v]);
+    m.vertexVoxel.push_back(b.surface.vertexVoxels()[v]);
+  }
+  for (const auto& t : b.surface.triangles()) {
+    if (t[0] < 0) continue;
+    m.triangles.push_back({index[static_cast<std::size_t>(t[0])],
+                           index[static_cast<std::size_t>(t[1])],
+                           index[static_cast<std::size_t>(t[2])]});
+  }
+  // Normals follow the deformation: area-weighted from the deformed triangles.
+  m.normals = vertexNormals(m.positions, m.triangles, Vec3d::UnitZ());
+  return m;
+}
+
+double World::maxDisplacement() const {
+  // Over the material (every occupied voxel's centre), not the nodes: a corner of a coarse
+  // element that holds a few voxels lies outside the body, and its displacement extrapolates
+  // the element's rotation over the empty part.
+  double best = 0.0;
+  for (const SimBody& b : impl_->bodies) {
+    const VoxelGrid& grid = b.cut.grid;
+    const DeformationOctree& octree = b.cut.deformation;
+    const std::size_t n = grid.voxelCount();
+    constexpr std::size_t kChunk = 4096;
+    std::vector<double> partial((n + kChunk - 1) / kChunk, 0.0);
+    parallelFor(
+        0, partial.size(), 1,
+        [&](std::size_t c0, std::size_t c1) {
+          for (std::size_t c = c0; c < c1; ++c) {
+            double m = 0.0;
+            for (std::size_t v = kChunk * c; v < std::min(n, kChunk * (c + 1)); ++v)
+              if (grid.occupied(v))
+                m = std::max(m, (octree.voxelPosition(v) - grid.position(v)).norm());
+            partial[c] = m;
+          }
+        },
+        impl_->settings.threaded);
+    for (double m : partial) best = std::max(best, m);
+  }
+  return best;
+}
+
+std::uint64_t World::cutSetHash() const {
+  if (impl_->bodies.size() == 1) return voxcut::cutSetHash(impl_->bodies[0].cuts);
+  // Several bodies: each body's hash in body order, mixed (FNV-1a over their bytes).
+  std::uint64_t h = 0xcbf29ce484222325ULL;
+  for (const SimBody& b : impl_->bodies) {
+    const std::uint64_t bh = voxcut::cutSetHash(b.cuts);
+    for (int i = 0; i < 8; ++i) {
+      h ^= (bh >> (8 * i)) & 0xffu;
+      h *= 0x100000001b3ULL;
+    }
+  }
+  return h;
+}
+
+// ---- tools ----
+
+std::size_t World::Impl::addTool(WorldTool t) {
+  VOXCUT_ASSERT(isCoordinate(t.pose.a) && isCoordinate(t.pose.b),
+                "a tool's pose has coordinates in range");
+  t.longest = (t.pose.b - t.pose.a).norm();
+  if (recording) t.recorded.push_back({time(), t.pose});
+  tools.push_back(std::move(t));
+  for (SimBody& b : bodies) {
+    b.fronts.resize(tools.size());
+    b.frontSegments.resize(tools.size(), 0);
+  }
+  return tools.size() - 1;
+}
+
+std::size_t World::addBlade(const BladePose& pose) {
+  WorldTool t;
+  t.kind = ToolKind::Blade;
+  t.pose = pose;
+  return impl_->addTool(std::move(t));
+}
+
+std::size_t World::addProbe(double radius, const BladePose& pose) {
+  VOXCUT_ASSERT(radius > 0.0 && std::isfinite(radius), "a probe's radius is positive");
+  WorldTool t;
+  t.kind = ToolKind::Probe;
+  t.radius = radius;
+  t.pose = pose;
+  return impl_->addTool(std::move(t));
+}
+
+std::size_t World::toolCount() const {
+  return impl_->tools.size();
+}
+ToolKind World::toolKind(std::size_t tool) const {
+  return impl_->tools.at(tool).kind;
+}
+double World::toolRadius(std::size_t tool) const {
+  return impl_->tools.at(tool).radius;
+}
+BladePose World::toolPose(std::size_t tool) const {
+  return impl_->tools.at(tool).pose;
+}
+ToolReaction World::toolReaction(std::size_t tool) const {
+  return impl_->tools.at(tool).reaction;
+}
+
+void World::setToolPose(std::size_t tool, const BladePose& pose) {
+  VOXCUT_ASSERT(isCoordinate(pose.a) && isCoordinate(pose.b),
+                "a tool's pose has coordinates in range");
+  WorldTool& t = impl_->tool(tool);
+  t.keys.clear();
+  t.target = pose;
+  t.longest = std::max(t.longest, (pose.b - pose.a).norm());
+}
+
+void World::setToolTrajectory(std::size_t tool, std::vector<ToolKey> keys) {
+  VOXCUT_ASSERT(!keys.empty(), "a trajectory has at least one key");
+  for (std::size_t k = 1; k < keys.size(); ++k)
+    VOXCUT_ASSERT(keys[k - 1].t < keys[k].t, "a trajectory's times increase strictly");
+  WorldTool& t = impl_->tool(tool);
+  for (const ToolKey& k : keys) t.longest = std::max(t.longest, (k.pose.b - k.pose.a).norm());
+  t.keys = std::move(keys);
+  t.target.reset();
+  t.pose = bladePoseAt(t.keys, impl_->time());
+}
+
+void World::setRecording(bool on) {
+  impl_->recording = on;
+  if (!on) return;
+  for (WorldTool& t : impl_->tools) t.recorded.assign(1, ToolKey{impl_->time(), t.pose});
+}
+
+const std::vector<ToolKey>& World::recording(std::size_t tool) const {
+  return impl_->tools.at(tool).recorded;
+}
+
+// ---- obstacles ----
+
+std::size_t World::addObstacle(const Obstacle& obstacle) {
+  impl_->obstacles.push_back(obstacle);
+  return impl_->obstacles.size() - 1;
+}
+
+std::size_t World::obstacleCount() const {
+  return impl_->obstacles.size();
+}
+
+// ---- the frame ----
+
+std::vector<std::uint8_t> World::Impl::fixedFlags(const SimBody& b) {
+  const std::vector<Vec3d>& rest = b.cut.deformation.restPositions();
+  std::vector<std::uint8_t> fixed(rest.size(), 0);
+  for (std::size_t n = 0; n < rest.size(); ++n)
+    for (const FixedBox& box : b.settings.fixed)
+      if (inside(box, rest[n])) fixed[n] = 1;
+  return fixed;
+}
+
+void World::Impl::embedVertices(SimBody& b, const std::vector<std::int32_t>* only) const {
+  const DeformationOctree& d = b.cut.deformation;
+  const std::vector<Vec3d>& rest = b.surface.positions();
+  const std::vector<std::uint64_t>& voxel = b.surface.vertexVoxels();
+  b.embedding.resize(b.surface.vertexSlots());
+  b.vertexPositions.resize(b.surface.vertexSlots(), Vec3d::Zero());
+  auto embed = [&](std::size_t v) {
+    if (!b.surface.alive(static_cast<std::int32_t>(v))) {
+      b.embedding[v] = VertexEmbedding{};
+      return;
+    }
+    const std::uint32_t e = d.owner(static_cast<std::size_t>(voxel[v]));
+    VOXCUT_ASSERT(e != kNoElement, "a surface vertex's voxel is occupied");
+    const OctreeElement& el = d.element(e);
+    const double size = d.voxelSize() * el.size();
+    b.embedding[v] = VertexEmbedding{e, (rest[v] - d.nodeGridPosition(el.firstVoxel())) / size};
+  };
+  if (only) {
+    for (std::int32_t v : *only) embed(static_cast<std::size_t>(v));
+    return;
+  }
+  parallelFor(
+      0, b.embedding.size(), 4096,
+      [&](std::size_t lo, std::size_t hi) {
+        for (std::size_t v = lo; v < hi; ++v) embed(v);
+      },
+      settings.threaded);
+}
+
+void World::Impl::updateVertexPositions(SimBody& b) const {
+  const DeformationOctree& d = b.cut.deformation;
+  parallelFor(
+      0, b.embedding.size(), 4096,
+      [&](std::size_t lo, std::size_t hi) {
+        for (std::size_t v = lo; v < hi; ++v)
+          if (b.embedding[v].element != kNoElement)
+            b.vertexPositions[v] = d.pointInElement(b.embedding[v].element, b.embedding[v].local);
+      },
+      settings.threaded);
+}
+
+void World::Impl::stepBody(SimBody& b, const Motion& motion, const ContactShapes& shapes,
+                           std::vector<double>& ms, FrameReport& report) {
+  BladeEnds ends;
+  const std::vector<std::uint64_t> cut = cutBody(b, motion, ends, ms);
+  report.cutLinks += cut.size();
+  b.cutLinks += cut.size();
+
+  Timer timer;
+  const bool topologyChanged = updateTopology(b, cut, ends);
+  ms[kCutTopology] += timer.ms();
+
+  timer.restart();
+  if (!cut.empty()) updateSurface(b, cut, topologyChanged);
+  ms[kSurfaceUpdate] += timer.ms();
+
+  timer.restart();
+  const std::vector<ContactHit> hits = findContacts(b, shapes);
+  ms[kObjectCollision] += timer.ms();
+
+  timer.restart();
+  const StepStatus status = b.solver.step(b.model, b.cut.deformation);
+  ms[kDeformation] += timer.ms();
+  recordSolve(status, report);
+  const std::vector<double>& force = b.solver.contactForces();
+  for (std::size_t k = 0; k < hits.size(); ++k) {
+    const ContactHit& h = hits[k];
+    const Vec3d f = -force[k] * h.normal;  // on the obstacle or probe
+    if (h.source < obstacles.size()) {
+      report.obstacleForces[h.source] += f;
+    } else {
+      const std::size_t ti = shapes.probeTool[h.source - obstacles.size()];
+      const BladePose& p = motion.to[ti];
+      report.toolReactions[ti].force += f;
+      report.toolReactions[ti].torque += (h.point - 0.5 * (p.a + p.b)).cross(f);
+    }
+  }
+  report.contacts += hits.size();
+
+  timer.restart();
+  updateVertexPositions(b);
+  ms[kSurfaceVertices] += timer.ms();
+
+  timer.restart();
+  report.maxPenetration = std::max(report.maxPenetration, deepestPenetration(b, shapes));
+  ms[kObjectCollision] += timer.ms();
+}
+
+// Contact: each surface vertex inside an obstacle or probe, or headed inside it within this
+// step at its current velocity, becomes a point contact of the implicit step
+// (docs/algorithms.md, "Contact"). Vertices in slot order, shapes in order (obstacles, then
+// probes).
+std::vector<ContactHit> World::Impl::findContacts(SimBody& b, const ContactShapes& shapes) const {
+  std::vector<ContactHit> hits;
+  if (shapes.size() == 0) {
+    b.solver.setContacts({});
+    return hits;
+  }
+  const DeformationOctree& d = b.cut.deformation;
+  const std::vector<Vec3d>& velocity = b.solver.velocities();
+  const double dt = settings.timeStep;
+  // Chunks of vertices in parallel, each into its own lists, joined in chunk order: the
+  // contacts come out in vertex order whatever the thread count.
+  constexpr std::size_t kChunk = 2048;
+  const std::size_t chunks = (b.embedding.size() + kChunk - 1) / kChunk;
+  std::vector<std::vector<PointContact>> chunkContacts(chunks);
+  std::vector<std::vector<ContactHit>> chunkHits(chunks);
+  parallelFor(
+      0, chunks, 1,
+      [&](std::size_t c0, std::size_t c1) {
+        for (std::size_t ch = c0; ch < c1; ++ch)
+          for (std::size_t v = ch * kChunk; v < std::min(b.embedding.size(), (ch + 1) * kChunk);
+               ++v) {
+            const VertexEmbedding& em = b.embedding[v];
+            if (em.element == kNoElement) continue;
+            // From the nodes, not vertexPositions: vertices a cut added this frame have none
+            // yet.
+            const Vec3d x = d.pointInElement(em.element, em.local);
+            const std::array<double, 8> w = trilinearWeights(em.local);
+            Vec3d vp = Vec3d::Zero();
+            if (!velocity.empty())
+              for (std::size_t c = 0; c < 8; ++c)
+                vp += w[c] * velocity[d.element(em.element).nodes[c]];
+            for (std::size_t s = 0; s < shapes.size(); ++s) {
+              Vec3d n;
+              const double gap = shapes.distance(s, x, n);
+              if (!(gap < 0.0 || gap + dt * n.dot(vp) < 0.0)) continue;
+              PointContact pc;
+              pc.element = em.element;
+              pc.weight = w;
+              pc.normal = n;
+              pc.gap = gap;
+              pc.stiffness = b.contactStiffness;
+              chunkContacts[ch].push_back(pc);
+              chunkHits[ch].push_back({s, n, x - gap * n});
+            }
+          }
+      },
+      settings.threaded);
+  std::vector<PointContact> contacts;
+  for (std::size_t ch = 0; ch < chunks; ++ch) {
+    contacts.insert(contacts.end(), chunkContacts[ch].begin(), chunkContacts[ch].end());
+    hits.insert(hits.end(), chunkHits[ch].begin(), chunkHits[ch].end());
+  }
+  b.solver.setContacts(std::move(contacts));
+  return hits;
+}
+
+// The deepest any surface vertex of the body lies inside an obstacle or probe (m; 0 when
+// none). The maximum does not depend on how the vertices are split among threads.
+double World::Impl::deepestPenetration(const SimBody& b, const ContactShapes& shapes) const {
+  if (shapes.size() == 0) return 0.0;
+  constexpr std::size_t kChunk = 4096;
+  std::vector<double> partial((b.embedding.size() + kChunk - 1) / kChunk, 0.0);
+  parallelFor(
+      0, partial.size(), 1,
+      [&](std::size_t c0, std::size_t c1) {
+        for (std::size_t ch = c0; ch < c1; ++ch) {
+          double deepest = 0.0;
+          for (std::size_t v = ch * kChunk; v < std::min(b.embedding.size(), (ch + 1) * kChunk);
+               ++v) {
+            if (b.embedding[v].element == kNoElement) continue;
+            for (std::size_t s = 0; s < shapes.size(); ++s) {
+              Vec3d n;
+              deepest = std::max(deepest, -shapes.distance(s, b.vertexPositions[v], n));
+            }
+          }
+          partial[ch] = deepest;
+        }
+      },
+      settings.threaded);
+  double deepest = 0.0;
+  for (double p : partial) deepest = std::max(deepest, p);
+  return deepest;
+}
+
+// Cutting tool collision: per moving blade, the strip of sweeps from its cut front (carried
+// with the material since the last frame) to its new pose.
+std::vector<std::uint64_t> World::Impl::cutBody(SimBody& b, const Motion& motion, BladeEnds& ends,
+                                                std::vector<double>& ms) {
+  std::vector<LinkCut> frameCuts;
+  ends.points.assign(tools.size(), {});
+  ends.ids.assign(tools.size(), {});
+  for (std::size_t ti = 0; ti < tools.size(); ++ti) {
+    if (tools[ti].kind != ToolKind::Blade) continue;
+    const std::optional<std::vector<BladeSweep>> moving = toolSweeps(b, ti, motion, ends);
+    if (!moving || moving->empty()) continue;
+    CutStepResult r = cutStep(b.cut, *moving, b.subdivision, settings.threaded);
+    ms[kPositionUpdate] += r.positionUpdateMs;
+    ms[kIntersectionTest] += r.intersectionMs;
+    ms[kOctreeSubdivision] += r.subdivisionMs;
+    ms[kDeferredUpdates] += r.deferredMs;
+    frameCuts.insert(frameCuts.end(), std::make_move_iterator(r.cuts.begin()),
+                     std::make_move_iterator(r.cuts.end()));
+  }
+  // Debris: undo the fewest cuts that keep every tiny fragment attached (cutting/Fragments.h).
+  std::sort(frameCuts.begin(), frameCuts.end(),
+            [](const LinkCut& x, const LinkCut& y) { return x.link < y.link; });
+  (void)healSmallFragments(b.cut.grid, frameCuts, settings.minFragmentVoxels);
+  std::vector<std::uint64_t> cut;
+  cut.reserve(frameCuts.size());
+  for (const LinkCut& c : frameCuts) cut.push_back(c.link);
+  b.cuts.insert(b.cuts.end(), frameCuts.begin(), frameCuts.end());
+  return cut;
+}
+
+namespace {
+
+/// Segments of a blade's carried front in a body: at least `minimum`, and no longer than a
+/// voxel along the longest the blade has been, so that the front follows the material closely:
+/// a chord of the carried front strays from the material line it stands for where the body
+/// bends across it, and a link under that gap crosses neither frame's sweep. Capped at four
+/// times the grid's longest side (a blade much longer than the body gains nothing inside it).
+int frontSegments(double length, const VoxelGrid& grid, int minimum) {
+  if (minimum <= 0) return minimum;
+  const double cap = 4.0 * std::max({grid.dims().x, grid.dims().y, grid.dims().z});
+  const double perVoxel = std::min(std::ceil(length / grid.voxelSize()), cap);
+  return std::max(minimum, static_cast<int>(perVoxel));
+}
+
+}  // namespace
+
+// The sweeps of tool ti this frame (nullopt when it does not move); with blade segments, its
+// end pose's samples and ids go to `ends`.
+std::optional<std::vector<BladeSweep>> World::Impl::toolSweeps(SimBody& b, std::size_t ti,
+                                                               const Motion& motion,
+                                                               BladeEnds& ends) const {
+  const auto frameIndex = static_cast<std::uint64_t>(frame);
+  const BladePose& from = motion.from[ti];
+  const BladePose& to = motion.to[ti];
+  if (samePose(from, to)) return std::nullopt;
+  // The front's sampling is fixed the first time the blade moves in this body: the carried
+  // front and the new pose's samples must pair up.
+  if (b.frontSegments[ti] == 0)
+    b.frontSegments[ti] = frontSegments(tools[ti].longest, b.cut.grid, settings.bladeSegments);
+  const int segs = b.frontSegments[ti];
+  const std::uint64_t n = static_cast<std::uint64_t>(std::max(segs, 1)) + 1;
+  std::vector<BladeSweep> sweeps;
+  if (segs <= 0) {
+    sweeps.push_back(makeSweep(from, to, frameIndex));
+  } else {
+    ends.points[ti] = sampleBlade(to, segs);
+    ends.ids[ti].resize(n);
+    for (std::uint64_t i = 0; i < n; ++i) ends.ids[ti][i] = (2 * frameIndex + 1) * n + i;
+    std::vector<Vec3d> start;
+    std::vector<std::uint64_t> startIds;
+    if (b.fronts[ti].empty()) {
+      start = sampleBlade(from, segs);
+      for (std::uint64_t i = 0; i < n; ++i) startIds.push_back(2 * frameIndex * n + i);
+    } else {
+      frontStart(b.fronts[ti], b.cut.deformation, 2 * frameIndex * n, start, startIds,
+                 &ends.points[ti]);
+    }
+    sweeps = sweepStrip(start, startIds, ends.points[ti], ends.ids[ti], frameIndex);
+  }
+  // Only sweeps that reach the body can cross its links (every voxel lies in the hull of its
+  // element's nodes): a blade much longer than the body keeps the few sweeps near it.
+  Eigen::AlignedBox3d box;
+  for (const Vec3d& x : b.cut.deformation.positions()) box.extend(x);
+  box.extend(box.min() - Vec3d::Constant(b.cut.grid.voxelSize()));
+  box.extend(box.max() + Vec3d::Constant(b.cut.grid.voxelSize()));
+  std::erase_if(sweeps, [&](const BladeSweep& s) {
+    return !s.bounds[0].merged(s.bounds[1]).intersects(box);
+  });
+  return sweeps;
+}
+
+// After the cuts: the cut topology, the model's and solver's, and the blades' fronts embedded
+// again. Returns whether the topology changed.
+bool World::Impl::updateTopology(SimBody& b, const std::vector<std::uint64_t>& cut,
+                                 const BladeEnds& ends) {
+  bool topologyChanged = false;
+  // Fronts of blades that did not move this frame, where they are now (re-embedded after a
+  // topology change, which renumbers elements but moves no material).
+  std::vector<std::vector<Vec3d>> still(tools.size());
+  if (!cut.empty()) {
+    for (std::size_t ti = 0; ti < tools.size(); ++ti)
+      if (ends.points[ti].empty() && !b.fronts[ti].empty()) {
+        std::vector<std::uint64_t> ids;
+        frontStart(b.fronts[ti], b.cut.deformation, 0, still[ti], ids);
+      }
+    const TopologyChange change =
+        updateCutTopology(b.cut.deformation, b.cut.grid, cut,
+                          CutTopologyParams{b.settings.finestLevel, settings.threaded});
+    if (change.changed) {
+      topologyChanged = true;
+      // The fixed boxes, applied to the new nodes in the same rebuild of the constraints.
+      const std::vector<std::uint8_t> fixed =
+          b.settings.fixed.empty() ? std::vector<std::uint8_t>{} : fixedFlags(b);
+      b.model.updateTopology(b.cut.deformation, b.cut.grid, change,
+                             b.settings.fixed.empty() ? nullptr : &fixed);
+      b.solver.updateTopology(change);
+      // The collision's per-entry embeddings, gathered here rather than in next frame's step.
+      refreshActiveEmbeddings(b.cut, settings.threaded);
+    }
+  }
+  for (std::size_t ti = 0; ti < tools.size(); ++ti) {
+    if (!ends.points[ti].empty())
+      b.fronts[ti] = embedFront(ends.points[ti], ends.ids[ti], b.cut.deformation);
+    else if (topologyChanged && !b.fronts[ti].empty())
+      b.fronts[ti] = embedFront(still[ti], b.fronts[ti].ids, b.cut.deformation);
+  }
+  return topologyChanged;
+}
+
+// The surface after the cuts, its new vertices embedded (every vertex when elements were
+// renumbered), and the change logged for readers.
+void World::Impl::updateSurface(SimBody& b, const std::vector<std::uint64_t>& cut,
+                                bool topologyChanged) {
+  SurfaceDelta delta = b.surface.update(b.cut.grid, cut);
+  if (topologyChanged) {
+    embedVertices(b, nullptr);  // element ids moved: every vertex looks its element up again
+  } else {
+    b.embedding.resize(b.surface.vertexSlots());
+    b.vertexPositions.resize(b.surface.vertexSlots(), Vec3d::Zero());
+    for (std::int32_t v : delta.removedVertices) b.embedding[static_cast<std::size_t>(v)] = {};
+    embedVertices(b, &delta.addedVertices);
+  }
+  if (delta.addedVertices.empty() && delta.removedVertices.empty() &&
+      delta.addedTriangles.empty() && delta.removedTriangles.empty())
+    return;
+  // A bounded log: a reader further behind reads everything again (SurfaceChanges::full).
+  constexpr std::size_t kLogLength = 256;
+  b.surfaceLog.push_back({++b.surfaceRevision, std::move(delta)});
+  if (b.surfaceLog.size() > kLogLength) b.surfaceLog.pop_front();
+}
+
+// The solve's counts in the frame's report; a diverged solve is an error.
+void World::Impl::recordSolve(const StepStatus& status, FrameReport& report) const {
+  report.solverIterations += status.iterations;
+  report.solverFactorisations += status.factorised ? 1 : 0;
+  report.converged = report.converged && status.converged;
+  if (!status.finite)
+    throw InputError(prefix() + "frame " + std::to_string(frame) +
+                     ": a node position became non-finite (the solve diverged); try a smaller "
+                     "time_step or stiffer solver settings");
+}
+
+FrameReport World::step() {
+  Impl& w = *impl_;
+  Timer frameTimer;
+  FrameReport report;
+  report.frame = w.frame;
+  report.stageMs.assign(kStageCount, 0.0);
+  report.obstacleForces.assign(w.obstacles.size(), Vec3d::Zero());
+  report.toolReactions.assign(w.tools.size(), ToolReaction{});
+  // Where each tool goes this frame: its trajectory's pose at the frame's end, or the pose
+  // the application set, or where it is.
+  const double t1 = (w.frame + 1) * w.settings.timeStep;
+  Impl::Motion motion;
+  ContactShapes shapes;
+  shapes.obstacles = &w.obstacles;
+  for (std::size_t ti = 0; ti < w.tools.size(); ++ti) {
+    const WorldTool& t = w.tools[ti];
+    motion.from.push_back(t.pose);
+    motion.to.push_back(!t.keys.empty() ? bladePoseAt(t.keys, t1) : t.target.value_or(t.pose));
+    if (t.kind == ToolKind::Probe) {
+      shapes.probes.push_back({motion.to.back().a, motion.to.back().b, t.radius});
+      shapes.probeTool.push_back(ti);
+    }
+  }
+  for (SimBody& b : w.bodies) w.stepBody(b, motion, shapes, report.stageMs, report);
+  ++w.frame;
+  for (std::size_t ti = 0; ti < w.tools.size(); ++ti) {
+    WorldTool& t = w.tools[ti];
+    t.pose = motion.to[ti];
+    t.target.reset();
+    t.reaction = report.toolReactions[ti];
+    if (w.recording) t.recorded.push_back({w.time(), t.pose});
+  }
+  report.time = w.time();
+  report.totalMs = frameTimer.ms();
+  return report;
+}
+
+}  // namespace voxcut

@@ -1,0 +1,60 @@
+#pragma once
+/// @file WorldInternals.h
+/// A world's per-body state, for the library's own tests and benchmarks (which check
+/// invariants on the deformation octree and the grid). Applications use World.h only: nothing
+/// here is a stable interface.
+
+#include <cstdint>
+#include <deque>
+#include <vector>
+
+#include "voxcut/cutting/CutStep.h"
+#include "voxcut/fem/ElasticModel.h"
+#include "voxcut/fem/ImplicitEuler.h"
+#include "voxcut/octree/OctreeSubdivision.h"
+#include "voxcut/sim/BladeFront.h"
+#include "voxcut/sim/World.h"
+#include "voxcut/surface/ContouredSurface.h"
+
+namespace voxcut {
+
+/// Where a surface vertex lives: its element copy and trilinear coordinates there.
+struct VertexEmbedding {
+  std::uint32_t element = kNoElement;
+  Vec3d local = Vec3d::Zero();
+};
+
+/// One update of a body's surface topology, kept for World::surfaceChanges.
+struct SurfaceLogEntry {
+  std::uint64_t revision = 0;  ///< the revision this update made
+  SurfaceDelta delta;
+};
+
+/// One deformable body of a world.
+struct SimBody {
+  CutBody cut;               ///< grid, deformation octree, voxel octree, collision structures
+  ElasticModel model;        ///< element matrices, constraints
+  ImplicitEuler solver;      ///< velocities
+  ContouredSurface surface;  ///< rest frame, updated locally after cuts
+  std::vector<VertexEmbedding> embedding;  ///< per surface vertex slot
+  std::vector<Vec3d> vertexPositions;      ///< per surface vertex slot, current (metres)
+  std::vector<Vec3d> vertexNormals;        ///< per surface vertex slot, of normalsFrame
+  int normalsFrame = -1;                   ///< frame whose positions vertexNormals are of
+  std::uint64_t surfaceRevision = 0;
+  std::deque<SurfaceLogEntry> surfaceLog;  ///< the latest topology updates, oldest first
+  BodySettings settings;                   ///< materials and fixed boxes as set
+  std::vector<ElasticMaterial> elastic;    ///< per grid material (entry 0 unused)
+  std::vector<BladeFront> fronts;          ///< per tool: its cut front in this body
+  std::vector<int> frontSegments;          ///< per tool: its front's segments (0: not yet)
+  double contactStiffness = 0.0;           ///< penalty stiffness per surface vertex (N/m)
+  std::size_t cutLinks = 0;                ///< links cut so far
+  std::vector<LinkCut> cuts;               ///< every cut so far (for the cut set hash)
+  SubdivisionWorkspace subdivision;        ///< the cutting step's buffers, kept between frames
+};
+
+/// Read access to a world's bodies.
+struct WorldInternals {
+  [[nodiscard]] static const SimBody& body(const World& world, std::size_t b);
+};
+
+}  // namespace voxcut
