@@ -2,8 +2,10 @@
 // with their changes, materials and fixed regions changed while it runs, recordings.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <filesystem>
 #include <string>
+#include <thread>
 
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
@@ -189,6 +191,80 @@ TEST(World, ProbeResultsSameForAnyThreadCount) {
   EXPECT_EQ(one.first, two.first);
   EXPECT_EQ(one.second, two.second);
   EXPECT_GT(one.second.norm(), 0.0);  // the tilted capsule presses off its centre
+}
+
+// The haptic call: at the last frame's pose it gives that frame's reaction; between frames it
+// follows the probe's motion continuously, and never pulls; a thread calling it all the time
+// beside the frames sees only whole snapshots (the tsan preset checks the locking).
+TEST(World, HapticForceFollowsTheProbeBetweenFrames) {
+  const std::string probe = R"("tools": [{"type": "probe", "radius": 0.01, "keys": [
+      {"t": 0.0, "p": [0, 0.075, 0]}]}])";
+  World w = worldOf(box(probe, kBaseFixed));
+  std::atomic<bool> done{false};
+  std::atomic<int> calls{0};
+  std::thread device([&] {
+    while (!done.load()) {
+      const ToolReaction r = w.hapticForce(0, {Vec3d(0, 0.066, 0), Vec3d(0, 0.066, 0)});
+      EXPECT_GE(r.force.y(), 0.0);
+      calls.fetch_add(1);
+    }
+  });
+  // Pressed in 0.1 mm per frame, from 1 mm above the top.
+  auto at = [](int f) {
+    const Vec3d c(0, 0.071 - 1e-4 * f, 0);
+    return BladePose{c, c};
+  };
+  int f = 0;
+  for (; f < 40; ++f) {
+    w.setToolPose(0, at(f + 1));
+    (void)w.step();
+  }
+  done = true;
+  device.join();
+  EXPECT_GT(calls.load(), 0);
+  const Vec3d now = w.toolReaction(0).force;
+  ASSERT_GT(now.y(), 0.0);
+  EXPECT_EQ(w.hapticForce(0, at(f)).force, now);
+  // Half way to the next frame's pose, the force lies between the two frames' forces.
+  const Vec3d half =
+      w.hapticForce(0, {0.5 * (at(f).a + at(f + 1).a), 0.5 * (at(f).a + at(f + 1).a)}).force;
+  w.setToolPose(0, at(f + 1));
+  (void)w.step();
+  const Vec3d next = w.toolReaction(0).force;
+  EXPECT_GT(half.y(), now.y());
+  EXPECT_LT(half.y(), next.y());
+  EXPECT_NEAR(half.y(), 0.5 * (now.y() + next.y()), 0.1 * (next.y() - now.y()));
+  // Pulled well away, it does not pull.
+  const Vec3d away(0, 0.2, 0);
+  EXPECT_EQ(w.hapticForce(0, {away, away}).force, Vec3d::Zero());
+}
+
+// bunny-poke.json: the probe presses the bunny's back and lets go; the bunny springs back to
+// where gravity alone holds it.
+TEST(World, BunnyPokeSpringsBack) {
+  const Scene scene = readScene(std::string(VOXCUT_SOURCE_DIR) + "/scenes/bunny-poke.json");
+  Scene still = scene;
+  still.tools.clear();
+  World poked = World::fromScene(scene, voxelizeSceneBodies(scene));
+  World alone = World::fromScene(still, voxelizeSceneBodies(still));
+  double pressed = 0.0, force = 0.0;
+  for (int f = 0; f < *scene.frames; ++f) {
+    const FrameReport r = poked.step();
+    (void)alone.step();
+    ASSERT_TRUE(r.converged);
+    if (f == 199) {  // the end of the hold
+      pressed = poked.maxDisplacement();
+      force = r.toolReactions[0].force.norm();
+    }
+  }
+  EXPECT_GT(pressed, 0.005);  // most of the 1 cm the probe goes down
+  EXPECT_GT(force, 1.0);
+  EXPECT_EQ(poked.toolReaction(0).force, Vec3d::Zero());
+  const auto& a = WorldInternals::body(poked, 0).cut.deformation.positions();
+  const auto& b = WorldInternals::body(alone, 0).cut.deformation.positions();
+  double apart = 0.0;
+  for (std::size_t n = 0; n < a.size(); ++n) apart = std::max(apart, (a[n] - b[n]).norm());
+  EXPECT_LT(apart, 0.05 * pressed);
 }
 
 }  // namespace

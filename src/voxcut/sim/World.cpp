@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iterator>
+#include <mutex>
 #include <optional>
 #include <string>
 
@@ -78,6 +79,22 @@ const std::vector<std::string>& frameStageNames() {
 
 namespace {
 
+/// A probe's force model between frames (World::hapticForce; docs/algorithms.md, "Forces at
+/// haptic rate"): F(c) = reaction.force + jacobian (c - centre), c the probe's segment midpoint.
+struct HapticModel {
+  Vec3d centre = Vec3d::Zero();  ///< the probe's segment midpoint at the last frame's end (m)
+  ToolReaction reaction;         ///< at the last frame's end
+  Eigen::Matrix3d jacobian = Eigen::Matrix3d::Zero();  ///< estimate of dF/dc (N/m)
+  bool contact = false;                                ///< the last frame pushed on the probe
+  double radius = 0.0;                                 ///< the probe's (m)
+};
+
+/// The model a haptic thread reads, published at each frame's end.
+struct HapticSlot {
+  mutable std::mutex mutex;
+  HapticModel model;
+};
+
 /// A tool of the world: its shape, where it is, where it goes next frame, and what pushes on it.
 struct WorldTool {
   ToolKind kind = ToolKind::Blade;
@@ -88,11 +105,14 @@ struct WorldTool {
   double longest = 0.0;             ///< longest its segment has been (m): the fronts' sampling
   ToolReaction reaction;
   std::vector<ToolKey> recorded;
+  HapticModel haptic;                ///< this thread's copy of what `slot` holds
+  std::unique_ptr<HapticSlot> slot;  ///< shared with haptic threads (stable address)
 };
 
 /// A point contact handed to a body's solver: what it presses on and where.
 struct ContactHit {
-  std::size_t source = 0;  ///< obstacle index, or obstacles + tool index for a probe
+  std::uint32_t vertex = 0;  ///< surface vertex slot
+  std::size_t source = 0;    ///< obstacle index, or obstacles + tool index for a probe
   Vec3d normal = Vec3d::Zero();
   Vec3d point = Vec3d::Zero();  ///< on the obstacle's or probe's surface (m)
 };
@@ -145,7 +165,19 @@ struct World::Impl {
   bool updateTopology(SimBody& body, const std::vector<std::uint64_t>& cut, const BladeEnds& ends);
   void updateSurface(SimBody& body, const std::vector<std::uint64_t>& cut, bool topologyChanged);
   void recordSolve(const StepStatus& status, FrameReport& report) const;
-  std::vector<ContactHit> findContacts(SimBody& body, const ContactShapes& shapes) const;
+  /// Changes to the contact set of a step found after solving it (docs/algorithms.md,
+  /// "Contact", the active set): keys vertex * shapes + shape, ascending.
+  struct ActiveSetEdits {
+    std::vector<std::uint64_t> forced;   ///< end inside although not predicted to: added
+    std::vector<std::uint64_t> dropped;  ///< pulled instead of pushing: left out
+    [[nodiscard]] bool empty() const { return forced.empty() && dropped.empty(); }
+  };
+  std::vector<ContactHit> findContacts(SimBody& body, const ContactShapes& shapes,
+                                       const ActiveSetEdits& edits) const;
+  /// After a step with `hits`: the contacts that pulled and the vertices that ended inside a
+  /// shape they had no contact with; false when there are none (the set was right).
+  bool correctActiveSet(const SimBody& body, const ContactShapes& shapes,
+                        const std::vector<ContactHit>& hits, ActiveSetEdits& edits) const;
   [[nodiscard]] double deepestPenetration(const SimBody& body, const ContactShapes& shapes) const;
   void embedVertices(SimBody& body, const std::vector<std::int32_t>* only) const;
   void updateVertexPositions(SimBody& body) const;
@@ -435,6 +467,8 @@ std::size_t World::Impl::addTool(WorldTool t) {
   VOXCUT_ASSERT(isCoordinate(t.pose.a) && isCoordinate(t.pose.b),
                 "a tool's pose has coordinates in range");
   t.longest = (t.pose.b - t.pose.a).norm();
+  t.slot = std::make_unique<HapticSlot>();
+  t.haptic.centre = t.slot->model.centre = 0.5 * (t.pose.a + t.pose.b);
   if (recording) t.recorded.push_back({time(), t.pose});
   tools.push_back(std::move(t));
   for (SimBody& b : bodies) {
@@ -585,13 +619,34 @@ void World::Impl::stepBody(SimBody& b, const Motion& motion, const ContactShapes
   ms[kSurfaceUpdate] += timer.ms();
 
   timer.restart();
-  const std::vector<ContactHit> hits = findContacts(b, shapes);
+  ActiveSetEdits edits;
+  std::vector<ContactHit> hits = findContacts(b, shapes, edits);
   ms[kObjectCollision] += timer.ms();
 
-  timer.restart();
-  const StepStatus status = b.solver.step(b.model, b.cut.deformation);
-  ms[kDeformation] += timer.ms();
-  recordSolve(status, report);
+  // The step, solved again (from the same start) while the contact set it ends with differs
+  // from the one it was given, a few times at most.
+  constexpr int kContactPasses = 3;
+  const bool contacts = shapes.size() > 0;
+  const std::vector<Vec3d> startPositions =
+      contacts ? b.cut.deformation.positions() : std::vector<Vec3d>{};
+  const std::vector<Vec3d> startVelocities =
+      contacts ? b.solver.velocities() : std::vector<Vec3d>{};
+  for (int pass = 1;; ++pass) {
+    timer.restart();
+    const StepStatus status = b.solver.step(b.model, b.cut.deformation);
+    ms[kDeformation] += timer.ms();
+    recordSolve(status, report);
+    if (!contacts || pass == kContactPasses) break;
+    timer.restart();
+    const bool changed = correctActiveSet(b, shapes, hits, edits);
+    if (changed) {
+      b.cut.deformation.positions() = startPositions;
+      b.solver.setVelocities(startVelocities);
+      hits = findContacts(b, shapes, edits);
+    }
+    ms[kObjectCollision] += timer.ms();
+    if (!changed) break;
+  }
   const std::vector<double>& force = b.solver.contactForces();
   for (std::size_t k = 0; k < hits.size(); ++k) {
     const ContactHit& h = hits[k];
@@ -620,7 +675,8 @@ void World::Impl::stepBody(SimBody& b, const Motion& motion, const ContactShapes
 // step at its current velocity, becomes a point contact of the implicit step
 // (docs/algorithms.md, "Contact"). Vertices in slot order, shapes in order (obstacles, then
 // probes).
-std::vector<ContactHit> World::Impl::findContacts(SimBody& b, const ContactShapes& shapes) const {
+std::vector<ContactHit> World::Impl::findContacts(SimBody& b, const ContactShapes& shapes,
+                                                  const ActiveSetEdits& edits) const {
   std::vector<ContactHit> hits;
   if (shapes.size() == 0) {
     b.solver.setContacts({});
@@ -654,7 +710,11 @@ std::vector<ContactHit> World::Impl::findContacts(SimBody& b, const ContactShape
             for (std::size_t s = 0; s < shapes.size(); ++s) {
               Vec3d n;
               const double gap = shapes.distance(s, x, n);
-              if (!(gap < 0.0 || gap + dt * n.dot(vp) < 0.0)) continue;
+              const std::uint64_t key = v * shapes.size() + s;
+              const bool predicted = gap < 0.0 || gap + dt * n.dot(vp) < 0.0;
+              if (predicted ? std::binary_search(edits.dropped.begin(), edits.dropped.end(), key)
+                            : !std::binary_search(edits.forced.begin(), edits.forced.end(), key))
+                continue;
               PointContact pc;
               pc.element = em.element;
               pc.weight = w;
@@ -662,7 +722,7 @@ std::vector<ContactHit> World::Impl::findContacts(SimBody& b, const ContactShape
               pc.gap = gap;
               pc.stiffness = b.contactStiffness;
               chunkContacts[ch].push_back(pc);
-              chunkHits[ch].push_back({s, n, x - gap * n});
+              chunkHits[ch].push_back({static_cast<std::uint32_t>(v), s, n, x - gap * n});
             }
           }
       },
@@ -674,6 +734,62 @@ std::vector<ContactHit> World::Impl::findContacts(SimBody& b, const ContactShape
   }
   b.solver.setContacts(std::move(contacts));
   return hits;
+}
+
+bool World::Impl::correctActiveSet(const SimBody& b, const ContactShapes& shapes,
+                                   const std::vector<ContactHit>& hits,
+                                   ActiveSetEdits& edits) const {
+  const std::size_t shapeCount = shapes.size();
+  const std::vector<double>& force = b.solver.contactForces();
+  bool changed = false;
+  std::vector<std::uint64_t> inSet;
+  inSet.reserve(hits.size());
+  for (std::size_t k = 0; k < hits.size(); ++k) {
+    const std::uint64_t key = std::uint64_t{hits[k].vertex} * shapeCount + hits[k].source;
+    inSet.push_back(key);
+    if (force[k] < 0.0) {
+      edits.dropped.push_back(key);
+      changed = true;
+    }
+  }
+  // Keys come out ascending: hits are in vertex order, shapes in order within a vertex.
+  // Vertices that end more than a fiftieth of a voxel inside a shape they had no contact with.
+  const DeformationOctree& d = b.cut.deformation;
+  const double tolerance = 0.02 * b.cut.grid.voxelSize();
+  constexpr std::size_t kChunk = 2048;
+  const std::size_t chunks = (b.embedding.size() + kChunk - 1) / kChunk;
+  std::vector<std::vector<std::uint64_t>> chunkForced(chunks);
+  parallelFor(
+      0, chunks, 1,
+      [&](std::size_t c0, std::size_t c1) {
+        for (std::size_t ch = c0; ch < c1; ++ch)
+          for (std::size_t v = ch * kChunk; v < std::min(b.embedding.size(), (ch + 1) * kChunk);
+               ++v) {
+            const VertexEmbedding& em = b.embedding[v];
+            if (em.element == kNoElement) continue;
+            const Vec3d x = d.pointInElement(em.element, em.local);
+            for (std::size_t s = 0; s < shapeCount; ++s) {
+              Vec3d n;
+              if (!(shapes.distance(s, x, n) < -tolerance)) continue;
+              const std::uint64_t key = v * shapeCount + s;
+              if (!std::binary_search(inSet.begin(), inSet.end(), key))
+                chunkForced[ch].push_back(key);
+            }
+          }
+      },
+      settings.threaded);
+  for (const std::vector<std::uint64_t>& f : chunkForced) {
+    if (!f.empty()) changed = true;
+    edits.forced.insert(edits.forced.end(), f.begin(), f.end());
+  }
+  std::sort(edits.forced.begin(), edits.forced.end());
+  std::sort(edits.dropped.begin(), edits.dropped.end());
+  // A key both forced and dropped (it went in, then pulled): left out.
+  std::vector<std::uint64_t> forced;
+  std::set_difference(edits.forced.begin(), edits.forced.end(), edits.dropped.begin(),
+                      edits.dropped.end(), std::back_inserter(forced));
+  edits.forced = std::move(forced);
+  return changed;
 }
 
 // The deepest any surface vertex of the body lies inside an obstacle or probe (m; 0 when
@@ -866,6 +982,59 @@ void World::Impl::recordSolve(const StepStatus& status, FrameReport& report) con
                      "time_step or stiffer solver settings");
 }
 
+namespace {
+
+/// The probe's force model after a frame: its reaction there, and the Jacobian estimate
+/// updated by the secant of the last two frames along the probe's motion (Broyden's rank-one
+/// update, which keeps what earlier motions taught in the other directions). A frame without
+/// contact forgets it; the first frame of a contact has no slope yet. Published to the slot.
+void publishHaptic(WorldTool& t) {
+  HapticModel next;
+  next.centre = 0.5 * (t.pose.a + t.pose.b);
+  next.radius = t.radius;
+  next.reaction = t.reaction;
+  next.contact = t.reaction.force != Vec3d::Zero();
+  if (next.contact && t.haptic.contact) {
+    next.jacobian = t.haptic.jacobian;
+    const Vec3d dc = next.centre - t.haptic.centre;
+    // Below a ten-thousandth of the radius, the force's change is the tissue settling, not
+    // the motion: the slope would be noise.
+    if (dc.norm() > 1e-4 * t.radius) {
+      const Vec3d miss = next.reaction.force - t.haptic.reaction.force - next.jacobian * dc;
+      next.jacobian += miss * dc.transpose() / dc.squaredNorm();
+    }
+  }
+  t.haptic = next;
+  const std::lock_guard<std::mutex> lock(t.slot->mutex);
+  t.slot->model = next;
+}
+
+}  // namespace
+
+ToolReaction World::hapticForce(std::size_t tool, const BladePose& pose) const {
+  VOXCUT_ASSERT(tool < impl_->tools.size(), "tool index out of range");
+  HapticModel m;
+  {
+    const HapticSlot& slot = *impl_->tools[tool].slot;
+    const std::lock_guard<std::mutex> lock(slot.mutex);
+    m = slot.model;
+  }
+  ToolReaction r;
+  if (!m.contact) return r;
+  // The linearisation holds near the last frame's pose: farther than half the probe's radius
+  // (a device running ahead of frames that fall behind), it is held at that distance.
+  Vec3d offset = 0.5 * (pose.a + pose.b) - m.centre;
+  const double reach = 0.5 * m.radius;
+  if (offset.norm() > reach) offset *= reach / offset.norm();
+  const Vec3d force = m.reaction.force + m.jacobian * offset;
+  // Contact pushes and never pulls: past the point where the extrapolation turns round, the
+  // probe has left the surface.
+  if (!(force.dot(m.reaction.force) > 0.0)) return r;
+  r.force = force;
+  r.torque = m.reaction.torque;
+  return r;
+}
+
 FrameReport World::step() {
   Impl& w = *impl_;
   Timer frameTimer;
@@ -896,6 +1065,7 @@ FrameReport World::step() {
     t.pose = motion.to[ti];
     t.target.reset();
     t.reaction = report.toolReactions[ti];
+    if (t.kind == ToolKind::Probe) publishHaptic(t);
     if (w.recording) t.recorded.push_back({w.time(), t.pose});
   }
   report.time = w.time();

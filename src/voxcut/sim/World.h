@@ -9,8 +9,8 @@
 ///
 /// Units: SI, world frame. Results (cuts, positions, surfaces, forces) do not depend on the
 /// thread count. Thread-safety: one call at a time per World (the frame runs its loops in
-/// parallel inside); readers of surface() hold references that the next step() or edit
-/// invalidates.
+/// parallel inside), except hapticForce, which any thread may call at any time; readers of
+/// surface() hold references that the next step() or edit invalidates.
 
 #include <cstdint>
 #include <memory>
@@ -177,6 +177,14 @@ class World {
   void setToolTrajectory(std::size_t tool, std::vector<ToolKey> keys);
   /// The bodies' reaction on the tool at the end of the last frame.
   [[nodiscard]] ToolReaction toolReaction(std::size_t tool) const;
+  /// The force and torque a probe at `pose` would feel now, for a haptic loop that runs faster
+  /// than the frames (docs/algorithms.md, "Forces at haptic rate"): the last frame's reaction
+  /// extrapolated by the probe's force Jacobian, estimated from the frames' reactions and the
+  /// probe's motion (a secant update), within half the probe's radius of the last frame's
+  /// pose (held there beyond), never pulling. Thread-safe: it may be called from any
+  /// thread at any time, also while step() runs (it reads a snapshot published at each frame's
+  /// end, under a lock held only to copy it); not concurrently with adding tools. O(1).
+  [[nodiscard]] ToolReaction hapticForce(std::size_t tool, const BladePose& pose) const;
   /// Starts (clearing what was kept) or stops recording every tool's pose once per frame.
   void setRecording(bool on);
   /// The recorded poses of the tool: one key at the time recording started, then one per frame

@@ -1,0 +1,140 @@
+// The haptic call beside running frames (docs/algorithms.md, "Forces at haptic rate"): a
+// device thread calls World::hapticForce at 1 kHz while the simulation thread runs the
+// bunny-poke scene's frames at 250 Hz of wall-clock time, each frame moving the probe to where
+// the device is. The device follows the scene's probe keys, over and over. Prints the call's
+// median and 99.9th percentile time, and how much the force jumps between consecutive calls,
+// beside what a loop that held each frame's force would feel.
+//
+//   build/release/bench/bench_haptic [SCENE] [--seconds S]
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "voxcut/core/Error.h"
+#include "voxcut/io/SceneBodies.h"
+#include "voxcut/io/SceneReader.h"
+#include "voxcut/sim/World.h"
+
+namespace voxcut {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const auto k = static_cast<std::size_t>(q * static_cast<double>(v.size() - 1) + 0.5);
+  return v[std::min(k, v.size() - 1)];
+}
+
+/// Relative jumps |F_k - F_{k-1}| / |F_{k-1}| between consecutive samples that both push,
+/// leaving out the samples within `settle` after a contact begins (the first contact).
+std::vector<double> jumps(const std::vector<Vec3d>& force, std::size_t settle) {
+  std::vector<double> out;
+  std::size_t since = 0;  // samples since the contact began
+  for (std::size_t k = 1; k < force.size(); ++k) {
+    const bool push = force[k] != Vec3d::Zero(), pushed = force[k - 1] != Vec3d::Zero();
+    since = push && pushed ? since + 1 : 0;
+    if (push && pushed && since > settle)
+      out.push_back((force[k] - force[k - 1]).norm() / force[k - 1].norm());
+  }
+  return out;
+}
+
+void report(const char* what, const std::vector<double>& j) {
+  const double over =
+      static_cast<double>(std::count_if(j.begin(), j.end(), [](double x) { return x > 0.1; }));
+  std::printf("%-34s median %.4f, p99 %.4f, max %.4f, above 10%%: %.0f of %zu\n", what,
+              percentile(j, 0.5), percentile(j, 0.99), j.empty() ? 0.0 : percentile(j, 1.0), over,
+              j.size());
+}
+
+int run(const std::string& scenePath, double seconds) {
+  const Scene scene = readScene(scenePath);
+  std::size_t probe = scene.tools.size();
+  for (std::size_t t = 0; t < scene.tools.size(); ++t)
+    if (scene.tools[t].kind == ToolKind::Probe) probe = t;
+  if (probe == scene.tools.size()) throw InputError(scenePath + ": the scene has no probe");
+  const std::vector<ToolKey>& path = scene.tools[probe].keys;
+  const double period = path.back().t + 0.2;  // a pause after each stroke
+  auto device = [&](double t) { return bladePoseAt(path, std::fmod(t, period)); };
+  World world = World::fromScene(scene, voxelizeSceneBodies(scene));
+  const double dt = scene.timeStep;
+
+  std::atomic<bool> done{false};
+  const Clock::time_point start = Clock::now();
+  auto wall = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
+  std::vector<double> callMs;
+  std::vector<Vec3d> hapticForces;
+  std::thread haptic([&] {
+    for (int k = 0; !done.load(); ++k) {
+      std::this_thread::sleep_until(start + std::chrono::microseconds(1000 * k));
+      const BladePose pose = device(wall());
+      const Clock::time_point t0 = Clock::now();
+      const ToolReaction r = world.hapticForce(probe, pose);
+      callMs.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+      hapticForces.push_back(r.force);
+    }
+  });
+  std::vector<Vec3d> frameForces;
+  std::vector<double> frameMs;
+  int late = 0;
+  for (int f = 0; f * dt < seconds; ++f) {
+    // Frame f ends at wall time (f + 1) dt: it starts when its start time has come.
+    const Clock::time_point due =
+        start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(f * dt));
+    if (Clock::now() > due + std::chrono::duration<double>(dt)) ++late;
+    std::this_thread::sleep_until(due);
+    world.setToolPose(probe, device((f + 1) * dt));
+    const FrameReport r = world.step();
+    frameMs.push_back(r.totalMs);
+    frameForces.push_back(world.toolReaction(probe).force);
+  }
+  done = true;
+  haptic.join();
+
+  std::printf(
+      "scene %s, %.1f s: %zu frames at %.0f Hz (frame mean %.2f ms, p95 %.2f ms, %d "
+      "started late), %zu haptic calls at 1 kHz\n",
+      scenePath.c_str(), seconds, frameMs.size(), 1.0 / dt,
+      frameMs.empty() ? 0.0 : percentile(frameMs, 0.5), percentile(frameMs, 0.95), late,
+      callMs.size());
+  std::printf("haptic call (ms)                   median %.5f, p99.9 %.5f, max %.5f\n",
+              percentile(callMs, 0.5), percentile(callMs, 0.999), percentile(callMs, 1.0));
+  double peak = 0.0;
+  for (const Vec3d& f : hapticForces) peak = std::max(peak, f.norm());
+  std::printf("haptic force peak %.3f N\n", peak);
+  // The first contact: the calls of the two frames a contact needs before the model has a
+  // slope (8 calls at 1 kHz beside 250 Hz frames), and the first frame's change when held.
+  const auto perFrame = static_cast<std::size_t>(std::lround(dt * 1000.0));
+  report("force jump, haptic model", jumps(hapticForces, 2 * perFrame));
+  report("force jump, frame force held", jumps(frameForces, 2));
+  return 0;
+}
+
+}  // namespace
+}  // namespace voxcut
+
+int main(int argc, char** argv) {
+  std::string scene = std::string(VOXCUT_SOURCE_DIR) + "/scenes/bunny-poke.json";
+  double seconds = 6.0;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--seconds") == 0 && i + 1 < argc)
+      seconds = std::atof(argv[++i]);
+    else
+      scene = argv[i];
+  }
+  try {
+    return voxcut::run(scene, seconds);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_haptic: error: %s\n", e.what());
+    return 1;
+  }
+}
