@@ -79,6 +79,30 @@ const std::vector<std::string>& frameStageNames() {
 
 namespace {
 
+/// Vertices per task of the per-vertex contact loops.
+constexpr std::size_t kVertexChunk = 2048;
+
+/// Calls fn(chunk, vertex, x) for every embedded surface vertex slot of the body, x its
+/// current position from the nodes (not vertexPositions: vertices a cut added this frame have
+/// none yet), over chunks of kVertexChunk slots in parallel. Per-chunk outputs joined in chunk
+/// order come out in vertex order whatever the thread count.
+template <class Fn>
+void forEachVertexChunked(const SimBody& b, bool threaded, Fn&& fn) {
+  const DeformationOctree& d = b.cut.deformation;
+  const std::size_t chunks = (b.embedding.size() + kVertexChunk - 1) / kVertexChunk;
+  parallelFor(
+      0, chunks, 1,
+      [&](std::size_t c0, std::size_t c1) {
+        for (std::size_t ch = c0; ch < c1; ++ch)
+          for (std::size_t v = ch * kVertexChunk;
+               v < std::min(b.embedding.size(), (ch + 1) * kVertexChunk); ++v) {
+            const VertexEmbedding& em = b.embedding[v];
+            if (em.element != kNoElement) fn(ch, v, d.pointInElement(em.element, em.local));
+          }
+      },
+      threaded);
+}
+
 /// A probe's force model between frames (World::hapticForce; docs/algorithms.md, "Forces at
 /// haptic rate"): F(c) = reaction.force + jacobian (c - centre), c the probe's segment midpoint.
 struct HapticModel {
@@ -685,48 +709,33 @@ std::vector<ContactHit> World::Impl::findContacts(SimBody& b, const ContactShape
   const DeformationOctree& d = b.cut.deformation;
   const std::vector<Vec3d>& velocity = b.solver.velocities();
   const double dt = settings.timeStep;
-  // Chunks of vertices in parallel, each into its own lists, joined in chunk order: the
-  // contacts come out in vertex order whatever the thread count.
-  constexpr std::size_t kChunk = 2048;
-  const std::size_t chunks = (b.embedding.size() + kChunk - 1) / kChunk;
+  const std::size_t chunks = (b.embedding.size() + kVertexChunk - 1) / kVertexChunk;
   std::vector<std::vector<PointContact>> chunkContacts(chunks);
   std::vector<std::vector<ContactHit>> chunkHits(chunks);
-  parallelFor(
-      0, chunks, 1,
-      [&](std::size_t c0, std::size_t c1) {
-        for (std::size_t ch = c0; ch < c1; ++ch)
-          for (std::size_t v = ch * kChunk; v < std::min(b.embedding.size(), (ch + 1) * kChunk);
-               ++v) {
-            const VertexEmbedding& em = b.embedding[v];
-            if (em.element == kNoElement) continue;
-            // From the nodes, not vertexPositions: vertices a cut added this frame have none
-            // yet.
-            const Vec3d x = d.pointInElement(em.element, em.local);
-            const std::array<double, 8> w = trilinearWeights(em.local);
-            Vec3d vp = Vec3d::Zero();
-            if (!velocity.empty())
-              for (std::size_t c = 0; c < 8; ++c)
-                vp += w[c] * velocity[d.element(em.element).nodes[c]];
-            for (std::size_t s = 0; s < shapes.size(); ++s) {
-              Vec3d n;
-              const double gap = shapes.distance(s, x, n);
-              const std::uint64_t key = v * shapes.size() + s;
-              const bool predicted = gap < 0.0 || gap + dt * n.dot(vp) < 0.0;
-              if (predicted ? std::binary_search(edits.dropped.begin(), edits.dropped.end(), key)
-                            : !std::binary_search(edits.forced.begin(), edits.forced.end(), key))
-                continue;
-              PointContact pc;
-              pc.element = em.element;
-              pc.weight = w;
-              pc.normal = n;
-              pc.gap = gap;
-              pc.stiffness = b.contactStiffness;
-              chunkContacts[ch].push_back(pc);
-              chunkHits[ch].push_back({static_cast<std::uint32_t>(v), s, n, x - gap * n});
-            }
-          }
-      },
-      settings.threaded);
+  forEachVertexChunked(b, settings.threaded, [&](std::size_t ch, std::size_t v, const Vec3d& x) {
+    const VertexEmbedding& em = b.embedding[v];
+    const std::array<double, 8> w = trilinearWeights(em.local);
+    Vec3d vp = Vec3d::Zero();
+    if (!velocity.empty())
+      for (std::size_t c = 0; c < 8; ++c) vp += w[c] * velocity[d.element(em.element).nodes[c]];
+    for (std::size_t s = 0; s < shapes.size(); ++s) {
+      Vec3d n;
+      const double gap = shapes.distance(s, x, n);
+      const std::uint64_t key = v * shapes.size() + s;
+      const bool predicted = gap < 0.0 || gap + dt * n.dot(vp) < 0.0;
+      if (predicted ? std::binary_search(edits.dropped.begin(), edits.dropped.end(), key)
+                    : !std::binary_search(edits.forced.begin(), edits.forced.end(), key))
+        continue;
+      PointContact pc;
+      pc.element = em.element;
+      pc.weight = w;
+      pc.normal = n;
+      pc.gap = gap;
+      pc.stiffness = b.contactStiffness;
+      chunkContacts[ch].push_back(pc);
+      chunkHits[ch].push_back({static_cast<std::uint32_t>(v), s, n, x - gap * n});
+    }
+  });
   std::vector<PointContact> contacts;
   for (std::size_t ch = 0; ch < chunks; ++ch) {
     contacts.insert(contacts.end(), chunkContacts[ch].begin(), chunkContacts[ch].end());
@@ -754,30 +763,17 @@ bool World::Impl::correctActiveSet(const SimBody& b, const ContactShapes& shapes
   }
   // Keys come out ascending: hits are in vertex order, shapes in order within a vertex.
   // Vertices that end more than a fiftieth of a voxel inside a shape they had no contact with.
-  const DeformationOctree& d = b.cut.deformation;
   const double tolerance = 0.02 * b.cut.grid.voxelSize();
-  constexpr std::size_t kChunk = 2048;
-  const std::size_t chunks = (b.embedding.size() + kChunk - 1) / kChunk;
-  std::vector<std::vector<std::uint64_t>> chunkForced(chunks);
-  parallelFor(
-      0, chunks, 1,
-      [&](std::size_t c0, std::size_t c1) {
-        for (std::size_t ch = c0; ch < c1; ++ch)
-          for (std::size_t v = ch * kChunk; v < std::min(b.embedding.size(), (ch + 1) * kChunk);
-               ++v) {
-            const VertexEmbedding& em = b.embedding[v];
-            if (em.element == kNoElement) continue;
-            const Vec3d x = d.pointInElement(em.element, em.local);
-            for (std::size_t s = 0; s < shapeCount; ++s) {
-              Vec3d n;
-              if (!(shapes.distance(s, x, n) < -tolerance)) continue;
-              const std::uint64_t key = v * shapeCount + s;
-              if (!std::binary_search(inSet.begin(), inSet.end(), key))
-                chunkForced[ch].push_back(key);
-            }
-          }
-      },
-      settings.threaded);
+  std::vector<std::vector<std::uint64_t>> chunkForced((b.embedding.size() + kVertexChunk - 1) /
+                                                      kVertexChunk);
+  forEachVertexChunked(b, settings.threaded, [&](std::size_t ch, std::size_t v, const Vec3d& x) {
+    for (std::size_t s = 0; s < shapeCount; ++s) {
+      Vec3d n;
+      if (!(shapes.distance(s, x, n) < -tolerance)) continue;
+      const std::uint64_t key = v * shapeCount + s;
+      if (!std::binary_search(inSet.begin(), inSet.end(), key)) chunkForced[ch].push_back(key);
+    }
+  });
   for (const std::vector<std::uint64_t>& f : chunkForced) {
     if (!f.empty()) changed = true;
     edits.forced.insert(edits.forced.end(), f.begin(), f.end());
