@@ -1,16 +1,26 @@
+include(GNUInstallDirs)
+
 # Warnings as an INTERFACE target every voxcut target links.
 add_library(voxcut_warnings INTERFACE)
 target_compile_options(voxcut_warnings INTERFACE
   -Wall -Wextra -Wpedantic -Wshadow -Wconversion -Wno-sign-conversion
   -Wnon-virtual-dtor -Wold-style-cast -Woverloaded-virtual -Wnull-dereference)
 
-# voxcut_add_module(name SOURCES ... DEPS ...): one library per module.
+# voxcut_add_module(name SOURCES ... DEPS ...): one library per module, target voxcut_<name>,
+# used in the build as voxcut::<name> and installed under that name (cmake/VoxcutPackage.cmake
+# installs every module listed in the global property VOXCUT_MODULES). The warnings are linked
+# for the build only: a static library passes its private links on, and the warnings are no
+# concern of an application that links the installed library.
 function(voxcut_add_module name)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})
   add_library(voxcut_${name} ${ARG_SOURCES})
   add_library(voxcut::${name} ALIAS voxcut_${name})
-  target_include_directories(voxcut_${name} PUBLIC ${PROJECT_SOURCE_DIR}/src)
-  target_link_libraries(voxcut_${name} PUBLIC ${ARG_DEPS} PRIVATE voxcut_warnings ${ARG_PRIVATE_DEPS})
+  set_target_properties(voxcut_${name} PROPERTIES EXPORT_NAME ${name})
+  target_include_directories(voxcut_${name} PUBLIC $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/src>
+                                                   $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
+  target_link_libraries(voxcut_${name} PUBLIC ${ARG_DEPS}
+                        PRIVATE $<BUILD_INTERFACE:voxcut_warnings> ${ARG_PRIVATE_DEPS})
+  set_property(GLOBAL APPEND PROPERTY VOXCUT_MODULES voxcut_${name})
 endfunction()
 
 # voxcut_add_test(name SOURCES ... DEPS ...): a GoogleTest executable registered with CTest.
