@@ -27,22 +27,22 @@ TEST(RestDistance, DepthBelowTheNearestFace) {
   double d = 0.0;
   Vec3d n;
   // Next to the +x face (at x = 10.5 voxels).
-  ASSERT_TRUE(f.depth(g.index(10, 4, 3), g.position(g.index(10, 4, 3)), d, n));
+  ASSERT_TRUE(f.depth(g, g.index(10, 4, 3), g.position(g.index(10, 4, 3)), d, n));
   EXPECT_NEAR(d, 0.005, 1e-7);
   EXPECT_TRUE(n.isApprox(Vec3d::UnitX(), 1e-6));
   // Three voxels from the -z face (at z = 0.5) and farther from the others.
   const std::size_t v = g.index(5, 4, 3);
-  ASSERT_TRUE(f.depth(v, g.position(v), d, n));
+  ASSERT_TRUE(f.depth(g, v, g.position(v), d, n));
   EXPECT_NEAR(d, 0.025, 1e-7);
   EXPECT_TRUE(n.isApprox(-Vec3d::UnitZ(), 1e-6));
   // A point off the centre: its own depth below that plane.
-  ASSERT_TRUE(f.depth(v, g.position(v) + Vec3d(0.003, 0.002, 0.004), d, n));
+  ASSERT_TRUE(f.depth(g, v, g.position(v) + Vec3d(0.003, 0.002, 0.004), d, n));
   EXPECT_NEAR(d, 0.029, 1e-7);
-  // Beyond the band: unknown. Empty voxels: none.
+  // Beyond the band (it and its neighbours): unknown. Empty voxels: none.
   RestDistanceField narrow;
-  narrow.build(g, 2);
-  EXPECT_FALSE(narrow.depth(v, g.position(v), d, n));
-  EXPECT_FALSE(f.depth(g.index(0, 0, 0), g.position(0), d, n));
+  narrow.build(g, 1);
+  EXPECT_FALSE(narrow.depth(g, v, g.position(v), d, n));
+  EXPECT_FALSE(f.depth(g, g.index(0, 0, 0), g.position(0), d, n));
 }
 
 TEST(RestDistance, EachSideOfACutSeesItAndUpdateMatchesBuild) {
@@ -61,15 +61,15 @@ TEST(RestDistance, EachSideOfACutSeesItAndUpdateMatchesBuild) {
   double d = 0.0;
   Vec3d n;
   const std::size_t left = g.index(5, 4, 3), right = g.index(6, 4, 3);
-  ASSERT_TRUE(f.depth(left, g.position(left), d, n));
+  ASSERT_TRUE(f.depth(g, left, g.position(left), d, n));
   EXPECT_NEAR(d, 0.005, 1e-7);
   EXPECT_TRUE(n.isApprox(Vec3d::UnitX(), 1e-6));
-  ASSERT_TRUE(f.depth(right, g.position(right), d, n));
+  ASSERT_TRUE(f.depth(g, right, g.position(right), d, n));
   EXPECT_NEAR(d, 0.005, 1e-7);
   EXPECT_TRUE(n.isApprox(-Vec3d::UnitX(), 1e-6));
   // A point of the right side pushed past the cut into the left side is below the left
   // side's cut face by as much.
-  ASSERT_TRUE(f.depth(left, g.position(left) + Vec3d(0.002, 0, 0), d, n));
+  ASSERT_TRUE(f.depth(g, left, g.position(left) + Vec3d(0.002, 0, 0), d, n));
   EXPECT_NEAR(d, 0.003, 1e-7);
   RestDistanceField fresh;
   fresh.build(g, 4);
@@ -77,7 +77,8 @@ TEST(RestDistance, EachSideOfACutSeesItAndUpdateMatchesBuild) {
   for (std::size_t v = 0; v < g.voxelCount(); ++v) {
     double d1 = 0.0, d2 = 0.0;
     Vec3d n1, n2;
-    const bool a = f.depth(v, g.position(v), d1, n1), b = fresh.depth(v, g.position(v), d2, n2);
+    const bool a = f.depth(g, v, g.position(v), d1, n1),
+               b = fresh.depth(g, v, g.position(v), d2, n2);
     ASSERT_EQ(a, b) << v;
     if (a) {
       EXPECT_NEAR(d1, d2, 1e-7) << v;

@@ -292,11 +292,26 @@ TEST(SceneReaderErrors, BadObstaclesNameTheKey) {
             "scene.json: obstacles[0].normal: missing (required)");
   EXPECT_EQ(parseError(body + R"("obstacles": [{"type": "box", "lo": [0, 0, 0],
                                                  "hi": [1, 1, 1], "normal": [0, 1, 0]}]})"),
-            "scene.json: obstacles[0].normal: unknown key (expected one of: type, lo, hi)");
+            "scene.json: obstacles[0].normal: unknown key (expected one of: type, lo, hi, "
+            "friction)");
   EXPECT_EQ(parseError(body + R"("contact": {"stiffness": -1}})"),
             "scene.json: contact.stiffness: must be >= 0, got -1");
-  EXPECT_EQ(parseError(body + R"("contact": {"friction": 0.3}})"),
-            "scene.json: contact.friction: unknown key (expected one of: stiffness)");
+  EXPECT_EQ(parseError(body + R"("contact": {"damping": 0.3}})"),
+            "scene.json: contact.damping: unknown key (expected one of: stiffness, self_collision, "
+            "friction)");
+  EXPECT_EQ(parseError(body + R"("contact": {"friction": -0.3}})"),
+            "scene.json: contact.friction: must be >= 0, got -0.3");
+  EXPECT_EQ(parseError(body + R"("contact": {"self_collision": 1}})"),
+            "scene.json: contact.self_collision: must be true or false, got 1");
+  EXPECT_EQ(parseError(body + R"("obstacles": [{"type": "plane", "point": [0, 0, 0],
+                                                 "normal": [0, 1, 0], "friction": -1}]})"),
+            "scene.json: obstacles[0].friction: must be >= 0, got -1");
+  const Scene s = parse(body + R"("contact": {"self_collision": true, "friction": 0.5},
+      "obstacles": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "friction": 0.8}]})");
+  EXPECT_TRUE(s.contact.selfCollision);
+  EXPECT_EQ(s.contact.friction, 0.5);
+  EXPECT_EQ(s.obstacles[0].friction, 0.8);
+  EXPECT_FALSE(parse(R"({"bodies": [{"model": "liver"}]})").contact.selfCollision);  // opt-in
 }
 
 // ---- errors: each kind names the file and the key path --------------------------------------

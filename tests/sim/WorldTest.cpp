@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cmath>
 #include <filesystem>
 #include <string>
 #include <thread>
@@ -11,6 +12,7 @@
 #include "voxcut/core/Parallel.h"
 #include "voxcut/io/SceneBodies.h"
 #include "voxcut/io/SceneReader.h"
+#include "voxcut/sim/BodyContacts.h"
 #include "voxcut/sim/World.h"
 #include "voxcut/sim/WorldInternals.h"
 
@@ -94,10 +96,10 @@ TEST(World, SurfaceChangesReplayTheView) {
 }
 
 // A probe pressed 5 mm into the top of a box fixed at its base, without gravity, then lifted:
-// the bodies push it up through its centre, and the box springs back.
+// the bodies push it up through its centre (without friction), and the box springs back.
 TEST(World, ProbePushesAndTheBodySpringsBack) {
-  const std::string probe = R"("tools": [{"type": "probe", "radius": 0.01, "keys": [
-      {"t": 0.0, "p": [0, 0.075, 0]}, {"t": 0.2, "p": [0, 0.065, 0]},
+  const std::string probe = R"("tools": [{"type": "probe", "radius": 0.01, "friction": 0,
+      "keys": [{"t": 0.0, "p": [0, 0.075, 0]}, {"t": 0.2, "p": [0, 0.065, 0]},
       {"t": 0.5, "p": [0, 0.065, 0]}, {"t": 0.6, "p": [0, 0.09, 0]}]}])";
   World w = worldOf(box(probe, kBaseFixed));
   double pressed = 0.0;
@@ -265,6 +267,124 @@ TEST(World, BunnyPokeSpringsBack) {
   double apart = 0.0;
   for (std::size_t n = 0; n < a.size(); ++n) apart = std::max(apart, (a[n] - b[n]).norm());
   EXPECT_LT(apart, 0.05 * pressed);
+}
+
+// The deepest any surface vertex of body a lies inside body b (a == b: itself, away from its
+// own neighbourhood), measured in b's rest frame, where they are now.
+double deepestInside(const World& w, std::size_t a, std::size_t b) {
+  const SimBody& ba = WorldInternals::body(w, a);
+  const SimBody& bb = WorldInternals::body(w, b);
+  SpatialHash hash;
+  buildElementHash(bb, hash, true);
+  double deepest = 0.0;
+  for (const BodyContactPoint& c : findBodyContacts(ba, bb, hash, a == b, 0.0, true))
+    deepest = std::max(deepest, c.currentDepth);
+  return deepest;
+}
+
+// A box slit from the top, then its left flap pushed by a probe against the right one: the
+// two sides of the cut meet and stay apart with self collision, and pass into each other
+// without it.
+TEST(World, SelfCollisionKeepsTheSidesOfACutApart) {
+  auto run = [](bool self) {
+    const std::string scene =
+        box(R"("contact": {"self_collision": )" + std::string(self ? "true" : "false") + R"(},
+        "tools": [{"type": "blade", "keys": [
+          {"t": 0.0, "a": [0.0005, 0.07, -0.06], "b": [0.0005, 0.07, 0.06]},
+          {"t": 0.06, "a": [0.0005, 0.02, -0.06], "b": [0.0005, 0.02, 0.06]}]},
+          {"type": "probe", "radius": 0.01, "friction": 0, "keys": [
+          {"t": 0.08, "p": [-0.062, 0.045, 0]}, {"t": 0.3, "p": [-0.05, 0.045, 0]}]}])",
+            kBaseFixed);
+    World w = worldOf(scene);
+    for (int f = 0; f < 100; ++f) EXPECT_TRUE(w.step().converged);
+    EXPECT_EQ(w.pieces(0), 1);  // a slit, not a cut through
+    return std::make_pair(deepestInside(w, 0, 0), w.bodyInfo(0).voxelSize);
+  };
+  const auto [with, voxel] = run(true);
+  const auto without = run(false).first;
+  EXPECT_LT(with, 0.5 * voxel);
+  EXPECT_GT(without, 0.5 * voxel);
+}
+
+// A small soft box dropped onto a larger one fixed at its base comes to rest on it, no vertex
+// deeper than half a voxel in the other, carrying its weight; from 0.3 m it does not pass
+// through.
+TEST(World, BodyDroppedOnAnotherComesToRest) {
+  auto scene = [](double height) {
+    return R"({"time_step": 0.004, "gravity": [0, -9.81, 0],
+      "solver": {"tolerance": 1e-6, "max_iterations": 1000},
+      "bodies": [
+        {"model": "box:0.1,0.06,0.08", "resolution": 32, "element_level": 2, "offset": [0, 0.03, 0],
+         "materials": {"default": {"young_modulus": 1e5, "poisson_ratio": 0.3, "density": 1000,
+                                   "damping": [2, 0.01]}},
+         "fixed": [{"box": [[-1, -1, -1], [1, 0.002, 1]]}]},
+        {"model": "box:0.06,0.04,0.05", "resolution": 20, "element_level": 2,
+         "offset": [0.01, )" +
+           std::to_string(0.08 + height) + R"(, 0.005],
+         "materials": {"default": {"young_modulus": 1e5, "poisson_ratio": 0.3, "density": 1000,
+                                   "damping": [2, 0.01]}}}]})";
+  };
+  {
+    World w = worldOf(scene(0.01));
+    double deepest = 0.0;
+    for (int f = 0; f < 300; ++f) deepest = std::max(deepest, w.step().maxPenetration);
+    const SimBody& top = WorldInternals::body(w, 1);
+    EXPECT_LT(deepest, 0.5 * top.cut.grid.voxelSize());
+    EXPECT_LT(top.solver.kineticEnergy(top.model), 1e-7);
+    EXPECT_LT(deepestInside(w, 1, 0), 0.5 * top.cut.grid.voxelSize());
+    // It rests on the lower box's top (y = 0.06), not beside or in it.
+    double lowest = 1e9;
+    for (const Vec3d& x : top.cut.deformation.positions()) lowest = std::min(lowest, x.y());
+    EXPECT_GT(lowest, 0.055);
+  }
+  {
+    World w = worldOf(scene(0.3));
+    for (int f = 0; f < 200; ++f) (void)w.step();
+    const SimBody& top = WorldInternals::body(w, 1);
+    double lowest = 1e9;
+    for (const Vec3d& x : top.cut.deformation.positions()) lowest = std::min(lowest, x.y());
+    EXPECT_GT(lowest, 0.055);
+  }
+}
+
+// Coulomb friction, with gravity tilted 20 degrees off the plane's normal: a box holds still
+// where mu > tan 20 (0.36) and slides with acceleration g (sin 20 - mu cos 20) where not (no
+// mass damping, which would slow the sliding box as a drag).
+TEST(World, FrictionHoldsOrSlidesAsCoulombSays) {
+  const double theta = 20.0 * 3.14159265358979 / 180.0;
+  auto slide = [&](double mu) {
+    const std::string scene = R"({"time_step": 0.004, "gravity": [)" +
+                              std::to_string(9.81 * std::sin(theta)) + ", " +
+                              std::to_string(-9.81 * std::cos(theta)) + R"(, 0],
+      "solver": {"tolerance": 1e-6, "max_iterations": 1000},
+      "bodies": [{"model": "box:0.1,0.06,0.08", "resolution": 32, "element_level": 2,
+        "offset": [0, 0.0301, 0],
+        "materials": {"default": {"young_modulus": 1e5, "poisson_ratio": 0.3, "density": 1000,
+                                  "damping": [0, 0.01]}}}],
+      "obstacles": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "friction": )" +
+                              std::to_string(mu) + "}]}";
+    World w = worldOf(scene);
+    auto centreX = [&] {
+      double x = 0.0;
+      const auto& p = WorldInternals::body(w, 0).cut.deformation.positions();
+      for (const Vec3d& q : p) x += q.x();
+      return x / static_cast<double>(p.size());
+    };
+    std::vector<double> xs;
+    for (int f = 0; f <= 150; ++f) {
+      (void)w.step();
+      if (f % 50 == 0) xs.push_back(centreX());
+    }
+    // Acceleration from the positions at frames 50, 100 and 150 (0.2 s apart).
+    const double t = 0.2;
+    return std::make_pair(xs[3] - xs[1], (xs[3] - 2.0 * xs[2] + xs[1]) / (t * t));
+  };
+  const auto [held, heldAcceleration] = slide(0.5);
+  EXPECT_LT(std::abs(held), 1e-3);
+  const auto [slid, acceleration] = slide(0.2);
+  const double expected = 9.81 * (std::sin(theta) - 0.2 * std::cos(theta));
+  EXPECT_GT(slid, 0.02);
+  EXPECT_NEAR(acceleration, expected, 0.1 * expected);
 }
 
 }  // namespace

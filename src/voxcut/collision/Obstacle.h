@@ -20,6 +20,8 @@ struct Obstacle {
   Vec3d normal = Vec3d::UnitY();
   Vec3d lo = Vec3d::Zero();
   Vec3d hi = Vec3d::Zero();
+  /// Coulomb friction coefficient of contacts with it, >= 0; negative: the world's default.
+  double friction = -1.0;
 };
 
 /// The signed distance of `x` from the obstacle's surface (m; negative inside) and, in

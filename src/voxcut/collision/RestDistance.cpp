@@ -157,12 +157,32 @@ void RestDistanceField::update(const VoxelGrid& grid, const std::vector<std::uin
   });
 }
 
-bool RestDistanceField::depth(std::size_t v, const Vec3d& x, double& depth, Vec3d& normal) const {
-  const Feature* f = field_.find(v);
-  if (f == nullptr) return false;
-  normal = Vec3d(f->normal[0], f->normal[1], f->normal[2]);
-  depth = normal.dot(Vec3d(f->point[0], f->point[1], f->point[2]) - x);
-  return true;
+bool RestDistanceField::depth(const VoxelGrid& grid, std::size_t v, const Vec3d& x, double& depth,
+                              Vec3d& normal) const {
+  if (!grid.occupied(v)) return false;
+  bool found = false;
+  auto consider = [&](const Feature& f) {
+    const Vec3d n(f.normal[0], f.normal[1], f.normal[2]);
+    const double d = n.dot(Vec3d(f.point[0], f.point[1], f.point[2]) - x);
+    if (!found || d < depth) {
+      depth = d;
+      normal = n;
+      found = true;
+    }
+  };
+  std::vector<Feature> own;
+  ownFeatures(grid, v, own);
+  for (const Feature& f : own) consider(f);
+  if (const Feature* f = field_.find(v)) consider(*f);
+  const Index3 c = grid.coord(v);
+  for (int a = 0; a < 3; ++a)
+    for (int sign : {-1, 1}) {
+      if (sign > 0 ? c[a] + 1 >= grid.dims()[a] : c[a] == 0) continue;
+      const std::size_t w = sign > 0 ? v + grid.stride(a) : v - grid.stride(a);
+      if (!grid.connected(sign > 0 ? v : w, a)) continue;
+      if (const Feature* f = field_.find(w)) consider(*f);
+    }
+  return found;
 }
 
 }  // namespace voxcut

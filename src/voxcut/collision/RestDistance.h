@@ -34,10 +34,14 @@ class RestDistanceField {
   /// the paths to a voxel farther away. O(changed links * band^3).
   void update(const VoxelGrid& grid, const std::vector<std::uint64_t>& changedLinks);
 
-  /// The depth (m, > 0 inside) of the rest point `x`, in occupied voxel v, below v's nearest
-  /// boundary plane, and in `normal` that plane's unit outward normal. False when v is deeper
-  /// than the band (no feature kept) or not occupied.
-  bool depth(std::size_t v, const Vec3d& x, double& depth, Vec3d& normal) const;
+  /// The depth (m, > 0 inside) of the rest point `x`, in occupied voxel v of `grid` (the grid
+  /// the field was built on), below the nearest boundary plane, and in `normal` that plane's
+  /// unit outward normal. The planes tried are v's own boundary faces and the nearest features
+  /// of v and of its neighbours through connected links, the smallest depth winning: near an
+  /// edge or corner of the boundary the plane nearest a voxel's centre is not the one nearest
+  /// every point of it. False when none is kept (v deeper than the band, or not occupied).
+  bool depth(const VoxelGrid& grid, std::size_t v, const Vec3d& x, double& depth,
+             Vec3d& normal) const;
 
   [[nodiscard]] int band() const { return band_; }
   [[nodiscard]] std::size_t size() const { return field_.size(); }

@@ -264,7 +264,15 @@ void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree&
             const double f = -pc.stiffness * (pc.gap + dt * pc.normal.dot(vp));
             for (std::size_t c = 0; c < 8; ++c)
               elementForce_[e][c] += (pc.weight[c] * f) * pc.normal;
-            const Eigen::Matrix3d nn = (dt * dt * pc.stiffness) * pc.normal * pc.normal.transpose();
+            Eigen::Matrix3d nn = (dt * dt * pc.stiffness) * pc.normal * pc.normal.transpose();
+            if (pc.friction > 0.0) {
+              // The tangential damper: force -c P (v_p - u), P = I - n n^T, matrix dt c P.
+              const Eigen::Matrix3d tangent =
+                  Eigen::Matrix3d::Identity() - pc.normal * pc.normal.transpose();
+              const Vec3d ft = -pc.friction * (tangent * (vp - pc.surfaceVelocity));
+              for (std::size_t c = 0; c < 8; ++c) elementForce_[e][c] += pc.weight[c] * ft;
+              nn += (dt * pc.friction) * tangent;
+            }
             for (int a = 0; a < 8; ++a)
               for (int c = a; c < 8; ++c)
                 elementBlocks_[36 * e + kUpperBlock[a][c]] +=
@@ -626,6 +634,7 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
   lastIterations_ = status.iterations;
   lastBridged_ = status.bridged;
   contactForce_.assign(contacts_.size(), 0.0);
+  contactFriction_.assign(contacts_.size(), Vec3d::Zero());
   if (!status.finite) {
     std::fill(lastDv_.begin(), lastDv_.end(), Vec3d::Zero());
     contacts_.clear();
@@ -643,6 +652,10 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
     Vec3d vp = Vec3d::Zero();
     for (std::size_t c = 0; c < 8; ++c) vp += pc.weight[c] * velocity_[el.nodes[c]];
     contactForce_[contactOrder_[k]] = -pc.stiffness * (pc.gap + dt * pc.normal.dot(vp));
+    if (pc.friction > 0.0) {
+      const Vec3d rel = vp - pc.surfaceVelocity;
+      contactFriction_[contactOrder_[k]] = -pc.friction * (rel - pc.normal.dot(rel) * pc.normal);
+    }
   }
   contacts_.clear();
   std::vector<Vec3d>& pos = octree.positions();

@@ -151,13 +151,19 @@ struct StepStatus {
 /// for one step (docs/algorithms.md, "Contact"): the force on the point is
 /// f = -stiffness (gap + n . (u - u0)) n, u - u0 its displacement during the step, taken into
 /// the implicit step with its stiffness (so contact is as stable as the elastic forces), and
-/// spread to the element's corners with the point's trilinear weights.
+/// spread to the element's corners with the point's trilinear weights. Friction, where given,
+/// is a tangential damper toward the velocity of what is pressed on, also implicit:
+/// f_t = -friction (I - n n^T) (v_p - surfaceVelocity) at the step's end velocity (the caller
+/// sets friction = mu f_n / max(|v_t|, eps), a regularised Coulomb law; docs/algorithms.md,
+/// "Friction").
 struct PointContact {
-  std::uint32_t element = 0;       ///< element (copy) holding the point
-  std::array<double, 8> weight{};  ///< the point's trilinear weights in it, summing to 1
-  Vec3d normal = Vec3d::UnitY();   ///< unit, pointing out of what is pressed on
-  double gap = 0.0;                ///< signed distance along normal at the step's start (m)
-  double stiffness = 0.0;          ///< penalty stiffness (N/m), >= 0
+  std::uint32_t element = 0;              ///< element (copy) holding the point
+  std::array<double, 8> weight{};         ///< the point's trilinear weights in it, summing to 1
+  Vec3d normal = Vec3d::UnitY();          ///< unit, pointing out of what is pressed on
+  double gap = 0.0;                       ///< signed distance along normal at the step's start (m)
+  double stiffness = 0.0;                 ///< penalty stiffness (N/m), >= 0
+  double friction = 0.0;                  ///< tangential damping (N s/m), >= 0
+  Vec3d surfaceVelocity = Vec3d::Zero();  ///< of what is pressed on (m/s; its tangential part)
 };
 
 /// Backward Euler integrator: the node velocities and the solver's state between steps.
@@ -184,6 +190,8 @@ class ImplicitEuler {
   /// Per contact of the last step, in the order given: the normal force at the step's end,
   /// -stiffness (gap + n . dt v_point) (N; negative when the step pulled the point).
   [[nodiscard]] const std::vector<double>& contactForces() const { return contactForce_; }
+  /// Per contact of the last step, in the order given: its friction force on the body (N).
+  [[nodiscard]] const std::vector<Vec3d>& contactFrictionForces() const { return contactFriction_; }
 
   /// Node velocities (m/s), one per node of the model last stepped (or set); empty before.
   [[nodiscard]] const std::vector<Vec3d>& velocities() const { return velocity_; }
@@ -242,6 +250,7 @@ class ImplicitEuler {
   std::vector<std::uint32_t> contactStart_;  ///< per element + 1: its contacts' range (when any)
   std::vector<std::size_t> contactOrder_;    ///< contacts_[k] was given at contactOrder_[k]
   std::vector<double> contactForce_;         ///< of the last step, in the order given
+  std::vector<Vec3d> contactFriction_;       ///< of the last step, in the order given
   std::vector<Vec3d> freePositions_;         ///< current positions of the free nodes
   std::vector<double> freeMasses_;           ///< lumped masses of the free nodes (kg)
   /// Per free row, the mass part of the reduced matrix summed over the row, sum_k w_k

@@ -389,9 +389,12 @@ SceneTool readTool(const Reader& r, const Json& v, const std::string& path) {
   if (tool.kind == ToolKind::Blade)
     checkKeys(r, v, path, {"type", "keys", "trajectory", "trajectory_tool"});
   else
-    checkKeys(r, v, path, {"type", "radius", "keys", "trajectory", "trajectory_tool"});
-  if (tool.kind == ToolKind::Probe)
+    checkKeys(r, v, path, {"type", "radius", "friction", "keys", "trajectory", "trajectory_tool"});
+  if (tool.kind == ToolKind::Probe) {
     tool.radius = positive(r, required(r, v, path, "radius"), child(path, "radius"), 1e3, "1e3 m");
+    if (v.contains("friction"))
+      tool.friction = nonNegative(r, v["friction"], child(path, "friction"), 100.0, "100");
+  }
   const bool keys = v.contains("keys"), trajectory = v.contains("trajectory");
   if (keys == trajectory) r.fail(path, "needs exactly one of \"keys\" and \"trajectory\"");
   if (v.contains("trajectory_tool") && !trajectory)
@@ -444,7 +447,7 @@ Obstacle readObstacle(const Reader& r, const Json& v, const std::string& path) {
   const Json& type = required(r, v, path, "type");
   Obstacle o;
   if (type.is_string() && type.get<std::string>() == "plane") {
-    checkKeys(r, v, path, {"type", "point", "normal"});
+    checkKeys(r, v, path, {"type", "point", "normal", "friction"});
     o.type = ObstacleType::Plane;
     o.point = point(r, required(r, v, path, "point"), child(path, "point"));
     const std::string p = child(path, "normal");
@@ -454,7 +457,7 @@ Obstacle readObstacle(const Reader& r, const Json& v, const std::string& path) {
       r.fail(p, "must be a non-zero direction, got " + shown(v["normal"]));
     o.normal = n / length;
   } else if (type.is_string() && type.get<std::string>() == "box") {
-    checkKeys(r, v, path, {"type", "lo", "hi"});
+    checkKeys(r, v, path, {"type", "lo", "hi", "friction"});
     o.type = ObstacleType::Box;
     o.lo = point(r, required(r, v, path, "lo"), child(path, "lo"));
     o.hi = point(r, required(r, v, path, "hi"), child(path, "hi"));
@@ -467,6 +470,8 @@ Obstacle readObstacle(const Reader& r, const Json& v, const std::string& path) {
     r.fail(child(path, "type"),
            "unknown obstacle type " + shown(type) + " (expected one of: \"plane\", \"box\")");
   }
+  if (v.contains("friction"))
+    o.friction = nonNegative(r, v["friction"], child(path, "friction"), 100.0, "100");
   return o;
 }
 
@@ -508,10 +513,19 @@ Scene readTop(const Reader& r, const Json& v) {
   if (v.contains("contact")) {
     const Json& c = v["contact"];
     expectObject(r, c, "contact");
-    checkKeys(r, c, "contact", {"stiffness"});
+    checkKeys(r, c, "contact", {"stiffness", "self_collision", "friction"});
+    if (c.contains("friction"))
+      scene.contact.friction =
+          nonNegative(r, c["friction"], child("contact", "friction"), 100.0, "100");
     if (c.contains("stiffness"))
       scene.contact.stiffness =
           nonNegative(r, c["stiffness"], child("contact", "stiffness"), 1e12, "1e12 N/m");
+    if (c.contains("self_collision")) {
+      const Json& sc = c["self_collision"];
+      if (!sc.is_boolean())
+        r.fail(child("contact", "self_collision"), "must be true or false, got " + shown(sc));
+      scene.contact.selfCollision = sc.get<bool>();
+    }
   }
   return scene;
 }

@@ -82,7 +82,8 @@ struct ToolKey {
 /// A key-framed tool. Keys have strictly increasing times; there is at least one.
 struct SceneTool {
   ToolKind kind = ToolKind::Blade;
-  double radius = 0.0;  ///< a probe's radius (m), > 0; 0 for a blade
+  double radius = 0.0;     ///< a probe's radius (m), > 0; 0 for a blade
+  double friction = -1.0;  ///< a probe's Coulomb coefficient, >= 0; negative: the default
   std::vector<ToolKey> keys;
 };
 
@@ -92,6 +93,12 @@ struct ContactSettings {
   /// Young's modulus times its voxel size (ten times the stiffness of one voxel of it;
   /// docs/algorithms.md, "Contact", says why not more).
   double stiffness = 0.0;
+  /// Whether a body's surface vertices are kept out of its own material away from their
+  /// neighbourhood (folds, the two sides of a cut); bodies never pass through each other.
+  bool selfCollision = false;
+  /// Coulomb friction coefficient of contacts, >= 0, where an obstacle or tool does not set
+  /// its own (and always between bodies).
+  double friction = 0.3;
 };
 
 /// A whole scene.

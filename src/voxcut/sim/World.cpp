@@ -13,6 +13,7 @@
 #include "voxcut/core/Timer.h"
 #include "voxcut/cutting/Fragments.h"
 #include "voxcut/fem/CutTopology.h"
+#include "voxcut/sim/BodyContacts.h"
 #include "voxcut/sim/WorldInternals.h"
 #include "voxcut/surface/VertexNormals.h"
 #include "voxcut/voxel/Pieces.h"
@@ -32,6 +33,26 @@ enum Stage : std::size_t {
   kSurfaceVertices,
   kStageCount
 };
+
+/// Voxels from the boundary that a body's rest distance field reaches: deeper points of another
+/// body (or of itself) are not found as contacts.
+constexpr int kRestDistanceBand = 3;
+
+/// Below this tangential speed (m/s) a contact's friction holds like a viscous stick; above it,
+/// it is the Coulomb force mu f_n against the sliding (docs/algorithms.md, "Friction").
+constexpr double kStickSpeed = 1e-3;
+
+/// Sets a contact's friction damper for the coefficient mu: the normal force estimated from the
+/// gap at the step's start, the tangential speed from the point's and the surface's velocities.
+void setFriction(PointContact& pc, double mu, const Vec3d& pointVelocity,
+                 const Vec3d& surfaceVelocity) {
+  pc.surfaceVelocity = surfaceVelocity;
+  const double normalForce = pc.stiffness * std::max(0.0, -pc.gap);
+  if (!(mu > 0.0) || !(normalForce > 0.0)) return;
+  const Vec3d rel = pointVelocity - surfaceVelocity;
+  const double slip = (rel - pc.normal.dot(rel) * pc.normal).norm();
+  pc.friction = mu * normalForce / std::max(slip, kStickSpeed);
+}
 
 bool samePose(const BladePose& p, const BladePose& q) {
   return p.a == q.a && p.b == q.b;
@@ -123,6 +144,7 @@ struct HapticSlot {
 struct WorldTool {
   ToolKind kind = ToolKind::Blade;
   double radius = 0.0;
+  double friction = -1.0;           ///< Coulomb coefficient (negative: the world's default)
   BladePose pose;                   ///< now
   std::optional<BladePose> target;  ///< set by setToolPose for the end of the next frame
   std::vector<ToolKey> keys;        ///< trajectory (empty: none)
@@ -147,6 +169,8 @@ struct ContactShapes {
   const std::vector<Obstacle>* obstacles = nullptr;
   std::vector<Capsule> probes;
   std::vector<std::size_t> probeTool;  ///< per probe, its tool index
+  std::vector<double> friction;        ///< per shape, its Coulomb coefficient
+  std::vector<Vec3d> velocity;         ///< per shape, the velocity of its surface (m/s)
 
   [[nodiscard]] std::size_t size() const { return obstacles->size() + probes.size(); }
   double distance(std::size_t s, const Vec3d& x, Vec3d& n) const {
@@ -179,8 +203,17 @@ struct World::Impl {
 
   [[nodiscard]] std::string prefix() const { return source.empty() ? "" : source + ": "; }
   [[nodiscard]] double time() const { return frame * settings.timeStep; }
-  void stepBody(SimBody& body, const Motion& motion, const ContactShapes& shapes,
-                std::vector<double>& stageMs, FrameReport& report);
+  /// A body's frame up to its contacts: cutting, cut topology, surface, distance field.
+  void cutPhase(SimBody& body, const Motion& motion, std::vector<double>& stageMs,
+                FrameReport& report);
+  /// The contacts between bodies and of bodies with themselves, as point contacts of each
+  /// body's next step (pairs the step's end finds pulling are left out and solved again).
+  std::vector<std::vector<PointContact>> findBodyContactsAll(std::vector<double>& stageMs,
+                                                             FrameReport& report);
+  /// A body's step with its contacts (the shapes', then `bodyContacts`), and its surface.
+  void solvePhase(SimBody& body, const Motion& motion, const ContactShapes& shapes,
+                  std::vector<PointContact> bodyContacts, std::vector<double>& stageMs,
+                  FrameReport& report);
   std::vector<std::uint64_t> cutBody(SimBody& body, const Motion& motion, BladeEnds& ends,
                                      std::vector<double>& stageMs);
   [[nodiscard]] std::optional<std::vector<BladeSweep>> toolSweeps(SimBody& body, std::size_t tool,
@@ -196,8 +229,9 @@ struct World::Impl {
     std::vector<std::uint64_t> dropped;  ///< pulled instead of pushing: left out
     [[nodiscard]] bool empty() const { return forced.empty() && dropped.empty(); }
   };
-  std::vector<ContactHit> findContacts(SimBody& body, const ContactShapes& shapes,
-                                       const ActiveSetEdits& edits) const;
+  std::vector<ContactHit> findContacts(const SimBody& body, const ContactShapes& shapes,
+                                       const ActiveSetEdits& edits,
+                                       std::vector<PointContact>& contacts) const;
   /// After a step with `hits`: the contacts that pulled and the vertices that ended inside a
   /// shape they had no contact with; false when there are none (the set was right).
   bool correctActiveSet(const SimBody& body, const ContactShapes& shapes,
@@ -246,8 +280,9 @@ World World::fromScene(const Scene& scene, std::vector<VoxelGrid> grids,
   // Tools first, so that each body sizes its fronts once.
   for (const SceneTool& t : scene.tools) {
     VOXCUT_ASSERT(!t.keys.empty(), "a scene tool has keys");
-    const std::size_t id = t.kind == ToolKind::Blade ? w.addBlade(t.keys.front().pose)
-                                                     : w.addProbe(t.radius, t.keys.front().pose);
+    const std::size_t id = t.kind == ToolKind::Blade
+                               ? w.addBlade(t.keys.front().pose)
+                               : w.addProbe(t.radius, t.keys.front().pose, t.friction);
     w.setToolTrajectory(id, t.keys);
   }
   for (const Obstacle& o : scene.obstacles) w.addObstacle(o);
@@ -307,6 +342,7 @@ std::size_t World::addBody(VoxelGrid grid, const BodySettings& settings) {
     DualContourParams dc;
     dc.threaded = ws.threaded;
     b.surface = ContouredSurface::build(b.cut.grid, dc);
+    b.restDistance.build(b.cut.grid, kRestDistanceBand);
     w.embedVertices(b, nullptr);
     w.updateVertexPositions(b);
   } catch (...) {
@@ -509,11 +545,12 @@ std::size_t World::addBlade(const BladePose& pose) {
   return impl_->addTool(std::move(t));
 }
 
-std::size_t World::addProbe(double radius, const BladePose& pose) {
+std::size_t World::addProbe(double radius, const BladePose& pose, double friction) {
   VOXCUT_ASSERT(radius > 0.0 && std::isfinite(radius), "a probe's radius is positive");
   WorldTool t;
   t.kind = ToolKind::Probe;
   t.radius = radius;
+  t.friction = friction;
   t.pose = pose;
   return impl_->addTool(std::move(t));
 }
@@ -627,8 +664,8 @@ void World::Impl::updateVertexPositions(SimBody& b) const {
       settings.threaded);
 }
 
-void World::Impl::stepBody(SimBody& b, const Motion& motion, const ContactShapes& shapes,
-                           std::vector<double>& ms, FrameReport& report) {
+void World::Impl::cutPhase(SimBody& b, const Motion& motion, std::vector<double>& ms,
+                           FrameReport& report) {
   BladeEnds ends;
   const std::vector<std::uint64_t> cut = cutBody(b, motion, ends, ms);
   report.cutLinks += cut.size();
@@ -643,14 +680,121 @@ void World::Impl::stepBody(SimBody& b, const Motion& motion, const ContactShapes
   ms[kSurfaceUpdate] += timer.ms();
 
   timer.restart();
+  if (!cut.empty()) b.restDistance.update(b.cut.grid, cut);
+  ms[kObjectCollision] += timer.ms();
+}
+
+std::vector<std::vector<PointContact>> World::Impl::findBodyContactsAll(std::vector<double>& ms,
+                                                                        FrameReport& report) {
+  std::vector<std::vector<PointContact>> out(bodies.size());
+  if (bodies.size() < 2 && !settings.contact.selfCollision) return out;
+  Timer timer;
+  const double dt = settings.timeStep;
+  // Which pairs can touch: bounding boxes of the current nodes, grown by a voxel.
+  std::vector<Eigen::AlignedBox3d> bounds(bodies.size());
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    for (const Vec3d& x : bodies[i].cut.deformation.positions()) bounds[i].extend(x);
+    const double pad = bodies[i].cut.grid.voxelSize();
+    bounds[i].extend(bounds[i].min() - Vec3d::Constant(pad));
+    bounds[i].extend(bounds[i].max() + Vec3d::Constant(pad));
+  }
+  std::vector<SpatialHash> hashes(bodies.size());
+  std::vector<std::uint8_t> hashed(bodies.size(), 0);
+  auto velocityAt = [](const SimBody& body, std::uint32_t e, const std::array<double, 8>& w) {
+    Vec3d v = Vec3d::Zero();
+    const std::vector<Vec3d>& vel = body.solver.velocities();
+    if (vel.empty()) return v;
+    const OctreeElement& el = body.cut.deformation.element(e);
+    for (std::size_t c = 0; c < 8; ++c) v += w[c] * vel[el.nodes[c]];
+    return v;
+  };
+  // Effective inverse mass of a point with trilinear weights w in element e: sum w_c^2 / m_c
+  // over its free corners (0 where every corner is fixed).
+  auto inverseMass = [](const SimBody& body, std::uint32_t e, const std::array<double, 8>& w) {
+    const OctreeElement& el = body.cut.deformation.element(e);
+    const std::vector<std::uint8_t>& fixed = body.model.fixed();
+    double sum = 0.0;
+    for (std::size_t c = 0; c < 8; ++c) {
+      const std::uint32_t n = el.nodes[c];
+      const double m = body.model.nodeMass()[n];
+      if ((n < fixed.size() && fixed[n] != 0) || !(m > 0.0)) continue;
+      sum += w[c] * w[c] / m;
+    }
+    return sum;
+  };
+  for (std::size_t ib_ = 0; ib_ < bodies.size(); ++ib_)
+    for (std::size_t ia_ = 0; ia_ < bodies.size(); ++ia_) {
+      const bool self = ia_ == ib_;
+      if (self ? !settings.contact.selfCollision : !bounds[ia_].intersects(bounds[ib_])) continue;
+      const SimBody& a = bodies[ia_];
+      const SimBody& b = bodies[ib_];
+      if (!hashed[ib_]) {
+        buildElementHash(b, hashes[ib_], settings.threaded);
+        hashed[ib_] = 1;
+      }
+      for (const BodyContactPoint& c :
+           findBodyContacts(a, b, hashes[ib_], self, dt, settings.threaded)) {
+        // The depth is the vertex's moved on by dt v_p: the gap now is g = -depth - dt n.v_p.
+        // Each body's step sees the other at its frame-start velocity, so each closes only
+        // its share of g, by inverse effective mass (all of it against fixed nodes), against
+        // a contact plane that moves with the pair's mass-weighted normal velocity
+        // (docs/algorithms.md, "Object collision").
+        const double ia = inverseMass(a, c.element, c.weight);
+        const double ib = inverseMass(b, c.other, c.otherWeight);
+        if (!(ia + ib > 0.0)) continue;
+        const double sa = ia / (ia + ib), sb = ib / (ia + ib);
+        const Vec3d va = velocityAt(a, c.element, c.weight);
+        const Vec3d vb = velocityAt(b, c.other, c.otherWeight);
+        const double vpn = c.normal.dot(va);
+        const double vqn = c.normal.dot(vb);
+        // Both bodies' vertices find the same interface (each inside the other), so each
+        // contact closes half of its gap: together they close it once.
+        const double g = 0.5 * (-c.depth - dt * vpn);
+        const double plane = sb * vpn + sa * vqn;
+        // Friction drags each side toward the pair's mass-weighted common velocity.
+        const Vec3d common = sb * va + sa * vb;
+        PointContact pa;
+        pa.element = c.element;
+        pa.weight = c.weight;
+        pa.normal = c.normal;
+        pa.gap = sa * g - dt * plane;
+        pa.stiffness = a.contactStiffness;
+        setFriction(pa, settings.contact.friction, va, common);
+        out[ia_].push_back(pa);
+        PointContact pb;
+        pb.element = c.other;
+        pb.weight = c.otherWeight;
+        pb.normal = -c.normal;
+        pb.gap = sb * g + dt * plane;
+        pb.stiffness = b.contactStiffness;
+        setFriction(pb, settings.contact.friction, vb, common);
+        out[ib_].push_back(pb);
+        report.maxPenetration = std::max(report.maxPenetration, c.currentDepth);
+      }
+    }
+  ms[kObjectCollision] += timer.ms();
+  return out;
+}
+
+void World::Impl::solvePhase(SimBody& b, const Motion& motion, const ContactShapes& shapes,
+                             std::vector<PointContact> bodyContacts, std::vector<double>& ms,
+                             FrameReport& report) {
+  Timer timer;
   ActiveSetEdits edits;
-  std::vector<ContactHit> hits = findContacts(b, shapes, edits);
+  std::vector<PointContact> shapeContacts;
+  std::vector<ContactHit> hits = findContacts(b, shapes, edits, shapeContacts);
+  auto setContacts = [&] {
+    std::vector<PointContact> all = shapeContacts;
+    all.insert(all.end(), bodyContacts.begin(), bodyContacts.end());
+    b.solver.setContacts(std::move(all));
+  };
+  setContacts();
   ms[kObjectCollision] += timer.ms();
 
   // The step, solved again (from the same start) while the contact set it ends with differs
   // from the one it was given, a few times at most.
   constexpr int kContactPasses = 3;
-  const bool contacts = shapes.size() > 0;
+  const bool contacts = shapes.size() > 0 || !bodyContacts.empty();
   const std::vector<Vec3d> startPositions =
       contacts ? b.cut.deformation.positions() : std::vector<Vec3d>{};
   const std::vector<Vec3d> startVelocities =
@@ -662,19 +806,28 @@ void World::Impl::stepBody(SimBody& b, const Motion& motion, const ContactShapes
     recordSolve(status, report);
     if (!contacts || pass == kContactPasses) break;
     timer.restart();
-    const bool changed = correctActiveSet(b, shapes, hits, edits);
+    bool changed = shapes.size() > 0 && correctActiveSet(b, shapes, hits, edits);
+    // Contacts with other bodies (and the body itself) that pulled: left out.
+    const std::vector<double>& force = b.solver.contactForces();
+    std::vector<PointContact> pushing;
+    for (std::size_t k = 0; k < bodyContacts.size(); ++k)
+      if (!(force[hits.size() + k] < 0.0)) pushing.push_back(bodyContacts[k]);
+    changed = changed || pushing.size() != bodyContacts.size();
+    bodyContacts = std::move(pushing);
     if (changed) {
       b.cut.deformation.positions() = startPositions;
       b.solver.setVelocities(startVelocities);
-      hits = findContacts(b, shapes, edits);
+      hits = findContacts(b, shapes, edits, shapeContacts);
+      setContacts();
     }
     ms[kObjectCollision] += timer.ms();
     if (!changed) break;
   }
   const std::vector<double>& force = b.solver.contactForces();
+  const std::vector<Vec3d>& friction = b.solver.contactFrictionForces();
   for (std::size_t k = 0; k < hits.size(); ++k) {
     const ContactHit& h = hits[k];
-    const Vec3d f = -force[k] * h.normal;  // on the obstacle or probe
+    const Vec3d f = -force[k] * h.normal - friction[k];  // on the obstacle or probe
     if (h.source < obstacles.size()) {
       report.obstacleForces[h.source] += f;
     } else {
@@ -684,7 +837,7 @@ void World::Impl::stepBody(SimBody& b, const Motion& motion, const ContactShapes
       report.toolReactions[ti].torque += (h.point - 0.5 * (p.a + p.b)).cross(f);
     }
   }
-  report.contacts += hits.size();
+  report.contacts += hits.size() + bodyContacts.size();
 
   timer.restart();
   updateVertexPositions(b);
@@ -699,13 +852,12 @@ void World::Impl::stepBody(SimBody& b, const Motion& motion, const ContactShapes
 // step at its current velocity, becomes a point contact of the implicit step
 // (docs/algorithms.md, "Contact"). Vertices in slot order, shapes in order (obstacles, then
 // probes).
-std::vector<ContactHit> World::Impl::findContacts(SimBody& b, const ContactShapes& shapes,
-                                                  const ActiveSetEdits& edits) const {
+std::vector<ContactHit> World::Impl::findContacts(const SimBody& b, const ContactShapes& shapes,
+                                                  const ActiveSetEdits& edits,
+                                                  std::vector<PointContact>& contacts) const {
   std::vector<ContactHit> hits;
-  if (shapes.size() == 0) {
-    b.solver.setContacts({});
-    return hits;
-  }
+  contacts.clear();
+  if (shapes.size() == 0) return hits;
   const DeformationOctree& d = b.cut.deformation;
   const std::vector<Vec3d>& velocity = b.solver.velocities();
   const double dt = settings.timeStep;
@@ -732,16 +884,15 @@ std::vector<ContactHit> World::Impl::findContacts(SimBody& b, const ContactShape
       pc.normal = n;
       pc.gap = gap;
       pc.stiffness = b.contactStiffness;
+      setFriction(pc, shapes.friction[s], vp, shapes.velocity[s]);
       chunkContacts[ch].push_back(pc);
       chunkHits[ch].push_back({static_cast<std::uint32_t>(v), s, n, x - gap * n});
     }
   });
-  std::vector<PointContact> contacts;
   for (std::size_t ch = 0; ch < chunks; ++ch) {
     contacts.insert(contacts.end(), chunkContacts[ch].begin(), chunkContacts[ch].end());
     hits.insert(hits.end(), chunkHits[ch].begin(), chunkHits[ch].end());
   }
-  b.solver.setContacts(std::move(contacts));
   return hits;
 }
 
@@ -1045,6 +1196,11 @@ FrameReport World::step() {
   Impl::Motion motion;
   ContactShapes shapes;
   shapes.obstacles = &w.obstacles;
+  const double mu = w.settings.contact.friction;
+  for (const Obstacle& o : w.obstacles) {
+    shapes.friction.push_back(o.friction >= 0.0 ? o.friction : mu);
+    shapes.velocity.push_back(Vec3d::Zero());
+  }
   for (std::size_t ti = 0; ti < w.tools.size(); ++ti) {
     const WorldTool& t = w.tools[ti];
     motion.from.push_back(t.pose);
@@ -1052,9 +1208,18 @@ FrameReport World::step() {
     if (t.kind == ToolKind::Probe) {
       shapes.probes.push_back({motion.to.back().a, motion.to.back().b, t.radius});
       shapes.probeTool.push_back(ti);
+      shapes.friction.push_back(t.friction >= 0.0 ? t.friction : mu);
+      const BladePose& from = motion.from.back();
+      const BladePose& to = motion.to.back();
+      shapes.velocity.push_back((0.5 * (to.a + to.b) - 0.5 * (from.a + from.b)) /
+                                w.settings.timeStep);
     }
   }
-  for (SimBody& b : w.bodies) w.stepBody(b, motion, shapes, report.stageMs, report);
+  for (SimBody& b : w.bodies) w.cutPhase(b, motion, report.stageMs, report);
+  std::vector<std::vector<PointContact>> bodyContacts =
+      w.findBodyContactsAll(report.stageMs, report);
+  for (std::size_t i = 0; i < w.bodies.size(); ++i)
+    w.solvePhase(w.bodies[i], motion, shapes, std::move(bodyContacts[i]), report.stageMs, report);
   ++w.frame;
   for (std::size_t ti = 0; ti < w.tools.size(); ++ti) {
     WorldTool& t = w.tools[ti];

@@ -161,8 +161,9 @@ class World {
   // ---- tools ----
   /// Adds a blade with its edge from pose.a to pose.b; returns the tool's index.
   std::size_t addBlade(const BladePose& pose);
-  /// Adds a probe of `radius` (m, > 0) around the segment pose.a-pose.b (a sphere when a == b).
-  std::size_t addProbe(double radius, const BladePose& pose);
+  /// Adds a probe of `radius` (m, > 0) around the segment pose.a-pose.b (a sphere when a == b),
+  /// with the Coulomb coefficient `friction` for its contacts (negative: the world's default).
+  std::size_t addProbe(double radius, const BladePose& pose, double friction = -1.0);
   [[nodiscard]] std::size_t toolCount() const;
   [[nodiscard]] ToolKind toolKind(std::size_t tool) const;
   [[nodiscard]] double toolRadius(std::size_t tool) const;  ///< 0 for a blade

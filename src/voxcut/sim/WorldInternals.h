@@ -8,6 +8,7 @@
 #include <deque>
 #include <vector>
 
+#include "voxcut/collision/RestDistance.h"
 #include "voxcut/cutting/CutStep.h"
 #include "voxcut/fem/ElasticModel.h"
 #include "voxcut/fem/ImplicitEuler.h"
@@ -32,10 +33,11 @@ struct SurfaceLogEntry {
 
 /// One deformable body of a world.
 struct SimBody {
-  CutBody cut;               ///< grid, deformation octree, voxel octree, collision structures
-  ElasticModel model;        ///< element matrices, constraints
-  ImplicitEuler solver;      ///< velocities
-  ContouredSurface surface;  ///< rest frame, updated locally after cuts
+  CutBody cut;                     ///< grid, deformation octree, voxel octree, collision structures
+  ElasticModel model;              ///< element matrices, constraints
+  ImplicitEuler solver;            ///< velocities
+  ContouredSurface surface;        ///< rest frame, updated locally after cuts
+  RestDistanceField restDistance;  ///< rest frame, near the boundary, updated after cuts
   std::vector<VertexEmbedding> embedding;  ///< per surface vertex slot
   std::vector<Vec3d> vertexPositions;      ///< per surface vertex slot, current (metres)
   std::vector<Vec3d> vertexNormals;        ///< per surface vertex slot, of normalsFrame

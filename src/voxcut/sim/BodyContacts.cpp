@@ -1,0 +1,168 @@
+#include "voxcut/sim/BodyContacts.h"
+
+#include <algorithm>
+
+#include "voxcut/core/Parallel.h"
+
+namespace voxcut {
+namespace {
+
+/// Whether voxel `to` is `from` or joined to it by at most two connected links.
+bool nearbyThroughLinks(const VoxelGrid& g, std::size_t from, std::size_t to) {
+  if (from == to) return true;
+  auto neighbours = [&](std::size_t v, auto&& fn) {
+    const Index3 c = g.coord(v);
+    for (int a = 0; a < 3; ++a) {
+      if (c[a] + 1 < g.dims()[a] && g.connected(v, a)) fn(v + g.stride(a));
+      if (c[a] > 0 && g.connected(v - g.stride(a), a)) fn(v - g.stride(a));
+    }
+  };
+  bool found = false;
+  neighbours(from, [&](std::size_t w) {
+    if (found) return;
+    if (w == to) {
+      found = true;
+      return;
+    }
+    neighbours(w, [&](std::size_t u) { found = found || u == to; });
+  });
+  return found;
+}
+
+bool shareNode(const OctreeElement& x, const OctreeElement& y) {
+  for (std::uint32_t n : x.nodes)
+    if (std::find(y.nodes.begin(), y.nodes.end(), n) != y.nodes.end()) return true;
+  return false;
+}
+
+/// The unit normal `rest` (b's rest frame) carried into the current frame by element e's
+/// deformation at trilinear coordinates t: F^-T rest, F the map's derivative there (by central
+/// differences; its scale drops out).
+Vec3d currentNormal(const DeformationOctree& d, std::uint32_t e, const Vec3d& t,
+                    const Vec3d& rest) {
+  constexpr double kStep = 1e-4;
+  Eigen::Matrix3d jacobian;
+  for (int i = 0; i < 3; ++i) {
+    Vec3d lo = t, hi = t;
+    lo[i] -= kStep;
+    hi[i] += kStep;
+    jacobian.col(i) = d.pointInElement(e, hi) - d.pointInElement(e, lo);
+  }
+  const double det = jacobian.determinant();
+  if (!(std::abs(det) > 0.0) || !std::isfinite(det)) return rest;
+  const Vec3d n = jacobian.inverse().transpose() * rest;
+  const double len = n.norm();
+  return len > 0.0 && std::isfinite(len) ? Vec3d(n / len) : rest;
+}
+
+/// The voxel of grid g holding trilinear coordinates t of element e (clamped into the element;
+/// it must lie on the grid).
+std::size_t voxelAt(const DeformationOctree& d, const VoxelGrid& g, std::uint32_t e,
+                    const Vec3d& t) {
+  const OctreeElement& el = d.element(e);
+  const int size = el.size();
+  const Index3 first = el.firstVoxel();
+  Index3 c;
+  for (int i = 0; i < 3; ++i)
+    c[i] = first[i] + std::clamp(static_cast<int>(t[i] * size), 0, size - 1);
+  return g.index(c);
+}
+
+/// Whether the current point x lies in the material of b's element copy e, and then its
+/// trilinear coordinates t there, its depth below b's boundary in b's rest frame and the
+/// boundary's normal (rest frame).
+bool pointDepth(const SimBody& b, std::uint32_t e, const Vec3d& x, Vec3d& t, double& depth,
+                Vec3d& normal) {
+  const DeformationOctree& d = b.cut.deformation;
+  const VoxelGrid& g = b.cut.grid;
+  if (!d.trilinearCoordinates(e, x, t)) return false;
+  const OctreeElement& el = d.element(e);
+  const int size = el.size();
+  const Index3 first = el.firstVoxel();
+  for (int i = 0; i < 3; ++i)  // an element at the grid's edge reaches past it
+    if (first[i] + std::clamp(static_cast<int>(t[i] * size), 0, size - 1) >= g.dims()[i])
+      return false;
+  const std::size_t vx = voxelAt(d, g, e, t);
+  if (!g.occupied(vx) || d.owner(vx) != e) return false;  // not this copy's material
+  const Vec3d rest = d.nodeGridPosition(first) + (size * g.voxelSize()) * t;
+  return b.restDistance.depth(g, vx, rest, depth, normal);
+}
+
+}  // namespace
+
+void buildElementHash(const SimBody& body, SpatialHash& hash, bool threaded) {
+  const DeformationOctree& d = body.cut.deformation;
+  std::vector<Eigen::AlignedBox3d> boxes(d.elementCount());
+  parallelFor(
+      0, boxes.size(), 1024,
+      [&](std::size_t lo, std::size_t hi) {
+        for (std::size_t e = lo; e < hi; ++e)
+          for (std::uint32_t n : d.element(static_cast<std::uint32_t>(e)).nodes)
+            boxes[e].extend(d.positions()[n]);
+      },
+      threaded);
+  hash.build(boxes, 0.0, threaded);
+}
+
+std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& b,
+                                               const SpatialHash& bHash, bool self, double dt,
+                                               bool threaded) {
+  const DeformationOctree& da = a.cut.deformation;
+  const DeformationOctree& db = b.cut.deformation;
+  const VoxelGrid& gb = b.cut.grid;
+  const std::vector<Vec3d>& velocity = a.solver.velocities();
+  constexpr std::size_t kChunk = 2048;
+  const std::size_t chunks = (a.embedding.size() + kChunk - 1) / kChunk;
+  std::vector<std::vector<BodyContactPoint>> found(chunks);
+  parallelFor(
+      0, chunks, 1,
+      [&](std::size_t c0, std::size_t c1) {
+        for (std::size_t ch = c0; ch < c1; ++ch)
+          for (std::size_t v = ch * kChunk; v < std::min(a.embedding.size(), (ch + 1) * kChunk);
+               ++v) {
+            const VertexEmbedding& em = a.embedding[v];
+            if (em.element == kNoElement) continue;
+            const std::array<double, 8> w = trilinearWeights(em.local);
+            const OctreeElement& own = da.element(em.element);
+            Vec3d x = da.pointInElement(em.element, em.local);
+            if (!velocity.empty()) {
+              Vec3d vp = Vec3d::Zero();
+              for (std::size_t c = 0; c < 8; ++c) vp += w[c] * velocity[own.nodes[c]];
+              x += dt * vp;
+            }
+            BodyContactPoint best;
+            bHash.forEachInCell(bHash.cellOf(x), [&](std::uint32_t e) {
+              if (!bHash.elementBox(e).contains(x)) return;
+              if (self && (e == em.element || shareNode(own, db.element(e)))) return;
+              Vec3d t, n;
+              double depth = 0.0;
+              if (!pointDepth(b, e, x, t, depth, n)) return;
+              if (self &&
+                  nearbyThroughLinks(gb, static_cast<std::size_t>(a.surface.vertexVoxels()[v]),
+                                     voxelAt(db, gb, e, t)))
+                return;
+              if (!(depth > best.depth)) return;
+              best.vertex = static_cast<std::uint32_t>(v);
+              best.element = em.element;
+              best.weight = w;
+              best.other = e;
+              best.otherWeight = trilinearWeights(t);
+              best.normal = currentNormal(db, e, t, n);
+              best.depth = depth;
+            });
+            if (best.depth > 0.0) {
+              Vec3d t, n;
+              const Vec3d now = da.pointInElement(em.element, em.local);
+              if (!pointDepth(b, best.other, now, t, best.currentDepth, n)) best.currentDepth = 0.0;
+              best.currentDepth = std::max(best.currentDepth, 0.0);
+              found[ch].push_back(best);
+            }
+          }
+      },
+      threaded);
+  std::vector<BodyContactPoint> out;
+  for (const auto& f : found) out.insert(out.end(), f.begin(), f.end());
+  return out;
+}
+
+}  // namespace voxcut

@@ -1,0 +1,45 @@
+#pragma once
+/// @file BodyContacts.h
+/// Object collision between deformable bodies, and of a body with itself (docs/algorithms.md,
+/// "Object collision"): surface vertices of one body found inside the material of another (or
+/// of its own, away from the vertex's neighbourhood), through the spatial hash of the other
+/// body's element boxes, the inverse trilinear map of the element holding the point, and the
+/// other body's rest-frame distance field, so the depth stays right next to cuts. Internal to
+/// World.
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "voxcut/collision/SpatialHash.h"
+#include "voxcut/sim/WorldInternals.h"
+
+namespace voxcut {
+
+/// A surface vertex of body A inside the material of body B (A == B for self collision).
+struct BodyContactPoint {
+  std::uint32_t vertex = 0;             ///< A's surface vertex slot
+  std::uint32_t element = 0;            ///< A's element copy holding the vertex
+  std::array<double, 8> weight{};       ///< the vertex's trilinear weights there
+  std::uint32_t other = 0;              ///< B's element copy holding the point
+  std::array<double, 8> otherWeight{};  ///< the point's trilinear weights there
+  Vec3d normal = Vec3d::Zero();         ///< current frame, unit, out of B's material
+  double depth = 0.0;                   ///< below B's boundary, in B's rest frame (m), > 0
+  /// The same for the vertex where it is now, not moved on (0 when it is not inside there).
+  double currentDepth = 0.0;
+};
+
+/// Boxes of every element copy of the body at its current node positions, in a spatial hash.
+void buildElementHash(const SimBody& body, SpatialHash& hash, bool threaded);
+
+/// The surface vertices of `a`, moved on by dt times their velocity, that lie inside the
+/// material of `b` (whose element boxes `bHash` holds): per vertex at most one point, the
+/// deepest, within b's distance band. With self (a and b the same body) an element sharing a
+/// node with the vertex's own, and a point whose voxel is joined to the vertex's voxel by at
+/// most two connected links, are the vertex's own neighbourhood and skipped; the other side of
+/// a cut is not. In vertex order, whatever the thread count.
+[[nodiscard]] std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& b,
+                                                             const SpatialHash& bHash, bool self,
+                                                             double dt, bool threaded);
+
+}  // namespace voxcut
