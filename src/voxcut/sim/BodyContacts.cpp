@@ -111,46 +111,76 @@ std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& 
   const DeformationOctree& db = b.cut.deformation;
   const VoxelGrid& gb = b.cut.grid;
   const std::vector<Vec3d>& velocity = a.solver.velocities();
-  constexpr std::size_t kChunk = 2048;
-  const std::size_t chunks = (a.embedding.size() + kChunk - 1) / kChunk;
+  // A's vertices by element (a counting sort), moved on by dt v.
+  const std::size_t elements = da.elementCount();
+  std::vector<std::uint32_t> start(elements + 1, 0);
+  for (const VertexEmbedding& em : a.embedding)
+    if (em.element != kNoElement) ++start[em.element + 1];
+  for (std::size_t e = 0; e < elements; ++e) start[e + 1] += start[e];
+  std::vector<std::uint32_t> order(start.back());
+  {
+    std::vector<std::uint32_t> next(start.begin(), start.end() - 1);
+    for (std::size_t v = 0; v < a.embedding.size(); ++v)
+      if (a.embedding[v].element != kNoElement)
+        order[next[a.embedding[v].element]++] = static_cast<std::uint32_t>(v);
+  }
+  // A vertex moved on by dt v (its velocity from the element's nodes).
+  auto movedVertex = [&](std::uint32_t v) {
+    const VertexEmbedding& em = a.embedding[v];
+    Vec3d x = da.pointInElement(em.element, em.local);
+    if (velocity.empty()) return x;
+    const std::array<double, 8> w = trilinearWeights(em.local);
+    for (std::size_t c = 0; c < 8; ++c) x += dt * w[c] * velocity[da.element(em.element).nodes[c]];
+    return x;
+  };
+  // Per element of A: the elements of B whose boxes meet its box, its nodes where they are
+  // and moved on by dt v (which holds its vertices, moved on), less its own neighbourhood for
+  // self; most elements have none, and their vertices are not even placed.
+  constexpr std::size_t kChunk = 256;
+  const std::size_t chunks = (elements + kChunk - 1) / kChunk;
   std::vector<std::vector<BodyContactPoint>> found(chunks);
   parallelFor(
       0, chunks, 1,
       [&](std::size_t c0, std::size_t c1) {
         for (std::size_t ch = c0; ch < c1; ++ch)
-          for (std::size_t v = ch * kChunk; v < std::min(a.embedding.size(), (ch + 1) * kChunk);
-               ++v) {
-            const VertexEmbedding& em = a.embedding[v];
-            if (em.element == kNoElement) continue;
-            const std::array<double, 8> w = trilinearWeights(em.local);
-            const OctreeElement& own = da.element(em.element);
-            Vec3d x = da.pointInElement(em.element, em.local);
-            if (!velocity.empty()) {
-              Vec3d vp = Vec3d::Zero();
-              for (std::size_t c = 0; c < 8; ++c) vp += w[c] * velocity[own.nodes[c]];
-              x += dt * vp;
+          for (std::size_t ea = ch * kChunk; ea < std::min(elements, (ch + 1) * kChunk); ++ea) {
+            if (start[ea] == start[ea + 1]) continue;
+            const OctreeElement& own = da.element(static_cast<std::uint32_t>(ea));
+            Eigen::AlignedBox3d box;
+            for (std::uint32_t n : own.nodes) {
+              box.extend(da.positions()[n]);
+              if (!velocity.empty()) box.extend(da.positions()[n] + dt * velocity[n]);
             }
-            BodyContactPoint best;
-            bHash.forEachInCell(bHash.cellOf(x), [&](std::uint32_t e) {
-              if (!bHash.elementBox(e).contains(x)) return;
-              if (self && (e == em.element || shareNode(own, db.element(e)))) return;
-              Vec3d t, n;
-              double depth = 0.0;
-              if (!pointDepth(b, e, x, t, depth, n)) return;
-              if (self &&
-                  nearbyThroughLinks(gb, static_cast<std::size_t>(a.surface.vertexVoxels()[v]),
-                                     voxelAt(db, gb, e, t)))
-                return;
-              if (!(depth > best.depth)) return;
-              best.vertex = static_cast<std::uint32_t>(v);
-              best.element = em.element;
-              best.weight = w;
-              best.other = e;
-              best.otherWeight = trilinearWeights(t);
-              best.normal = currentNormal(db, e, t, n);
-              best.depth = depth;
-            });
-            if (best.depth > 0.0) {
+            std::vector<std::uint32_t> candidates = bHash.elementsInBox(box);
+            if (self)
+              std::erase_if(candidates, [&](std::uint32_t e) {
+                return e == ea || shareNode(own, db.element(e));
+              });
+            if (candidates.empty()) continue;
+            for (std::uint32_t k = start[ea]; k < start[ea + 1]; ++k) {
+              const std::uint32_t v = order[k];
+              const Vec3d x = movedVertex(v);
+              const VertexEmbedding& em = a.embedding[v];
+              BodyContactPoint best;
+              for (std::uint32_t e : candidates) {
+                if (!bHash.elementBox(e).contains(x)) continue;
+                Vec3d t, n;
+                double depth = 0.0;
+                if (!pointDepth(b, e, x, t, depth, n)) continue;
+                if (self &&
+                    nearbyThroughLinks(gb, static_cast<std::size_t>(a.surface.vertexVoxels()[v]),
+                                       voxelAt(db, gb, e, t)))
+                  continue;
+                if (!(depth > best.depth)) continue;
+                best.vertex = v;
+                best.element = em.element;
+                best.weight = trilinearWeights(em.local);
+                best.other = e;
+                best.otherWeight = trilinearWeights(t);
+                best.normal = currentNormal(db, e, t, n);
+                best.depth = depth;
+              }
+              if (!(best.depth > 0.0)) continue;
               Vec3d t, n;
               const Vec3d now = da.pointInElement(em.element, em.local);
               if (!pointDepth(b, best.other, now, t, best.currentDepth, n)) best.currentDepth = 0.0;
@@ -162,6 +192,10 @@ std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& 
       threaded);
   std::vector<BodyContactPoint> out;
   for (const auto& f : found) out.insert(out.end(), f.begin(), f.end());
+  // In vertex order, whatever the thread count (chunks went by element).
+  std::sort(out.begin(), out.end(), [](const BodyContactPoint& x, const BodyContactPoint& y) {
+    return x.vertex < y.vertex;
+  });
   return out;
 }
 

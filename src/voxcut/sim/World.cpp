@@ -103,12 +103,13 @@ namespace {
 /// Vertices per task of the per-vertex contact loops.
 constexpr std::size_t kVertexChunk = 2048;
 
-/// Calls fn(chunk, vertex, x) for every embedded surface vertex slot of the body, x its
+/// Calls fn(chunk, vertex, x) for every embedded surface vertex slot of the body whose element
+/// e passes wanted(e), x its
 /// current position from the nodes (not vertexPositions: vertices a cut added this frame have
 /// none yet), over chunks of kVertexChunk slots in parallel. Per-chunk outputs joined in chunk
 /// order come out in vertex order whatever the thread count.
-template <class Fn>
-void forEachVertexChunked(const SimBody& b, bool threaded, Fn&& fn) {
+template <class Fn, class Wanted>
+void forEachVertexChunked(const SimBody& b, bool threaded, Wanted&& wanted, Fn&& fn) {
   const DeformationOctree& d = b.cut.deformation;
   const std::size_t chunks = (b.embedding.size() + kVertexChunk - 1) / kVertexChunk;
   parallelFor(
@@ -118,7 +119,8 @@ void forEachVertexChunked(const SimBody& b, bool threaded, Fn&& fn) {
           for (std::size_t v = ch * kVertexChunk;
                v < std::min(b.embedding.size(), (ch + 1) * kVertexChunk); ++v) {
             const VertexEmbedding& em = b.embedding[v];
-            if (em.element != kNoElement) fn(ch, v, d.pointInElement(em.element, em.local));
+            if (em.element != kNoElement && wanted(em.element))
+              fn(ch, v, d.pointInElement(em.element, em.local));
           }
       },
       threaded);
@@ -171,6 +173,16 @@ struct ContactShapes {
   std::vector<std::size_t> probeTool;  ///< per probe, its tool index
   std::vector<double> friction;        ///< per shape, its Coulomb coefficient
   std::vector<Vec3d> velocity;         ///< per shape, the velocity of its surface (m/s)
+  /// Per element of the body being stepped: bit s set where shape s may come near its
+  /// vertices during the step (nearShapes); all bits past the 64th shape are always set.
+  std::vector<std::uint64_t> near;
+
+  [[nodiscard]] bool mayTouch(std::uint32_t element, std::size_t s) const {
+    return s >= 64 || ((near[element] >> s) & 1u) != 0;
+  }
+  [[nodiscard]] bool mayTouchAny(std::uint32_t element) const {
+    return size() > 64 || near[element] != 0;
+  }
 
   [[nodiscard]] std::size_t size() const { return obstacles->size() + probes.size(); }
   double distance(std::size_t s, const Vec3d& x, Vec3d& n) const {
@@ -211,7 +223,7 @@ struct World::Impl {
   std::vector<std::vector<PointContact>> findBodyContactsAll(std::vector<double>& stageMs,
                                                              FrameReport& report);
   /// A body's step with its contacts (the shapes', then `bodyContacts`), and its surface.
-  void solvePhase(SimBody& body, const Motion& motion, const ContactShapes& shapes,
+  void solvePhase(SimBody& body, const Motion& motion, ContactShapes& shapes,
                   std::vector<PointContact> bodyContacts, std::vector<double>& stageMs,
                   FrameReport& report);
   std::vector<std::uint64_t> cutBody(SimBody& body, const Motion& motion, BladeEnds& ends,
@@ -229,6 +241,10 @@ struct World::Impl {
     std::vector<std::uint64_t> dropped;  ///< pulled instead of pushing: left out
     [[nodiscard]] bool empty() const { return forced.empty() && dropped.empty(); }
   };
+  /// Which shapes may come near each element's vertices in this step (ContactShapes::near):
+  /// the shape's distance from the element's bounding ball, against how far its nodes can
+  /// move in the step with a voxel to spare. Lets the per-vertex tests skip most vertices.
+  void nearShapes(const SimBody& body, ContactShapes& shapes) const;
   std::vector<ContactHit> findContacts(const SimBody& body, const ContactShapes& shapes,
                                        const ActiveSetEdits& edits,
                                        std::vector<PointContact>& contacts) const;
@@ -776,10 +792,11 @@ std::vector<std::vector<PointContact>> World::Impl::findBodyContactsAll(std::vec
   return out;
 }
 
-void World::Impl::solvePhase(SimBody& b, const Motion& motion, const ContactShapes& shapes,
+void World::Impl::solvePhase(SimBody& b, const Motion& motion, ContactShapes& shapes,
                              std::vector<PointContact> bodyContacts, std::vector<double>& ms,
                              FrameReport& report) {
   Timer timer;
+  nearShapes(b, shapes);
   ActiveSetEdits edits;
   std::vector<PointContact> shapeContacts;
   std::vector<ContactHit> hits = findContacts(b, shapes, edits, shapeContacts);
@@ -864,31 +881,34 @@ std::vector<ContactHit> World::Impl::findContacts(const SimBody& b, const Contac
   const std::size_t chunks = (b.embedding.size() + kVertexChunk - 1) / kVertexChunk;
   std::vector<std::vector<PointContact>> chunkContacts(chunks);
   std::vector<std::vector<ContactHit>> chunkHits(chunks);
-  forEachVertexChunked(b, settings.threaded, [&](std::size_t ch, std::size_t v, const Vec3d& x) {
-    const VertexEmbedding& em = b.embedding[v];
-    const std::array<double, 8> w = trilinearWeights(em.local);
-    Vec3d vp = Vec3d::Zero();
-    if (!velocity.empty())
-      for (std::size_t c = 0; c < 8; ++c) vp += w[c] * velocity[d.element(em.element).nodes[c]];
-    for (std::size_t s = 0; s < shapes.size(); ++s) {
-      Vec3d n;
-      const double gap = shapes.distance(s, x, n);
-      const std::uint64_t key = v * shapes.size() + s;
-      const bool predicted = gap < 0.0 || gap + dt * n.dot(vp) < 0.0;
-      if (predicted ? std::binary_search(edits.dropped.begin(), edits.dropped.end(), key)
-                    : !std::binary_search(edits.forced.begin(), edits.forced.end(), key))
-        continue;
-      PointContact pc;
-      pc.element = em.element;
-      pc.weight = w;
-      pc.normal = n;
-      pc.gap = gap;
-      pc.stiffness = b.contactStiffness;
-      setFriction(pc, shapes.friction[s], vp, shapes.velocity[s]);
-      chunkContacts[ch].push_back(pc);
-      chunkHits[ch].push_back({static_cast<std::uint32_t>(v), s, n, x - gap * n});
-    }
-  });
+  forEachVertexChunked(
+      b, settings.threaded, [&](std::uint32_t e) { return shapes.mayTouchAny(e); },
+      [&](std::size_t ch, std::size_t v, const Vec3d& x) {
+        const VertexEmbedding& em = b.embedding[v];
+        const std::array<double, 8> w = trilinearWeights(em.local);
+        Vec3d vp = Vec3d::Zero();
+        if (!velocity.empty())
+          for (std::size_t c = 0; c < 8; ++c) vp += w[c] * velocity[d.element(em.element).nodes[c]];
+        for (std::size_t s = 0; s < shapes.size(); ++s) {
+          if (!shapes.mayTouch(em.element, s)) continue;
+          Vec3d n;
+          const double gap = shapes.distance(s, x, n);
+          const std::uint64_t key = v * shapes.size() + s;
+          const bool predicted = gap < 0.0 || gap + dt * n.dot(vp) < 0.0;
+          if (predicted ? std::binary_search(edits.dropped.begin(), edits.dropped.end(), key)
+                        : !std::binary_search(edits.forced.begin(), edits.forced.end(), key))
+            continue;
+          PointContact pc;
+          pc.element = em.element;
+          pc.weight = w;
+          pc.normal = n;
+          pc.gap = gap;
+          pc.stiffness = b.contactStiffness;
+          setFriction(pc, shapes.friction[s], vp, shapes.velocity[s]);
+          chunkContacts[ch].push_back(pc);
+          chunkHits[ch].push_back({static_cast<std::uint32_t>(v), s, n, x - gap * n});
+        }
+      });
   for (std::size_t ch = 0; ch < chunks; ++ch) {
     contacts.insert(contacts.end(), chunkContacts[ch].begin(), chunkContacts[ch].end());
     hits.insert(hits.end(), chunkHits[ch].begin(), chunkHits[ch].end());
@@ -917,14 +937,17 @@ bool World::Impl::correctActiveSet(const SimBody& b, const ContactShapes& shapes
   const double tolerance = 0.02 * b.cut.grid.voxelSize();
   std::vector<std::vector<std::uint64_t>> chunkForced((b.embedding.size() + kVertexChunk - 1) /
                                                       kVertexChunk);
-  forEachVertexChunked(b, settings.threaded, [&](std::size_t ch, std::size_t v, const Vec3d& x) {
-    for (std::size_t s = 0; s < shapeCount; ++s) {
-      Vec3d n;
-      if (!(shapes.distance(s, x, n) < -tolerance)) continue;
-      const std::uint64_t key = v * shapeCount + s;
-      if (!std::binary_search(inSet.begin(), inSet.end(), key)) chunkForced[ch].push_back(key);
-    }
-  });
+  forEachVertexChunked(
+      b, settings.threaded, [&](std::uint32_t e) { return shapes.mayTouchAny(e); },
+      [&](std::size_t ch, std::size_t v, const Vec3d& x) {
+        for (std::size_t s = 0; s < shapeCount; ++s) {
+          if (!shapes.mayTouch(b.embedding[v].element, s)) continue;
+          Vec3d n;
+          if (!(shapes.distance(s, x, n) < -tolerance)) continue;
+          const std::uint64_t key = v * shapeCount + s;
+          if (!std::binary_search(inSet.begin(), inSet.end(), key)) chunkForced[ch].push_back(key);
+        }
+      });
   for (const std::vector<std::uint64_t>& f : chunkForced) {
     if (!f.empty()) changed = true;
     edits.forced.insert(edits.forced.end(), f.begin(), f.end());
@@ -937,6 +960,37 @@ bool World::Impl::correctActiveSet(const SimBody& b, const ContactShapes& shapes
                       edits.dropped.end(), std::back_inserter(forced));
   edits.forced = std::move(forced);
   return changed;
+}
+
+void World::Impl::nearShapes(const SimBody& b, ContactShapes& shapes) const {
+  const DeformationOctree& d = b.cut.deformation;
+  const std::vector<Vec3d>& velocity = b.solver.velocities();
+  const double dt = settings.timeStep;
+  // A node moves at most dt (|v| + |g| dt) in a step unless forces beyond gravity act; twice
+  // that, and a voxel, to spare (the step's re-solves and the contacts' own pushes).
+  const double spare = b.cut.grid.voxelSize() + 2.0 * dt * dt * settings.gravity.norm();
+  shapes.near.assign(d.elementCount(), 0);
+  parallelFor(
+      0, d.elementCount(), 512,
+      [&](std::size_t lo, std::size_t hi) {
+        for (std::size_t e = lo; e < hi; ++e) {
+          const OctreeElement& el = d.element(static_cast<std::uint32_t>(e));
+          Eigen::AlignedBox3d box;
+          double speed = 0.0;
+          for (std::uint32_t n : el.nodes) {
+            box.extend(d.positions()[n]);
+            if (!velocity.empty()) speed = std::max(speed, velocity[n].norm());
+          }
+          const double reach = 0.5 * box.diagonal().norm() + 2.0 * dt * speed + spare;
+          std::uint64_t bits = 0;
+          for (std::size_t s = 0; s < std::min<std::size_t>(shapes.size(), 64); ++s) {
+            Vec3d n;
+            if (shapes.distance(s, box.center(), n) < reach) bits |= std::uint64_t{1} << s;
+          }
+          shapes.near[e] = bits;
+        }
+      },
+      settings.threaded);
 }
 
 // The deepest any surface vertex of the body lies inside an obstacle or probe (m; 0 when
@@ -952,8 +1006,10 @@ double World::Impl::deepestPenetration(const SimBody& b, const ContactShapes& sh
           double deepest = 0.0;
           for (std::size_t v = ch * kChunk; v < std::min(b.embedding.size(), (ch + 1) * kChunk);
                ++v) {
-            if (b.embedding[v].element == kNoElement) continue;
+            if (b.embedding[v].element == kNoElement || !shapes.mayTouchAny(b.embedding[v].element))
+              continue;
             for (std::size_t s = 0; s < shapes.size(); ++s) {
+              if (!shapes.mayTouch(b.embedding[v].element, s)) continue;
               Vec3d n;
               deepest = std::max(deepest, -shapes.distance(s, b.vertexPositions[v], n));
             }
