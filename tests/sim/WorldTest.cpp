@@ -15,6 +15,7 @@
 #include "voxcut/sim/BodyContacts.h"
 #include "voxcut/sim/World.h"
 #include "voxcut/sim/WorldInternals.h"
+#include "voxcut/voxel/Pieces.h"
 
 namespace voxcut {
 namespace {
@@ -385,6 +386,50 @@ TEST(World, FrictionHoldsOrSlidesAsCoulombSays) {
   const double expected = 9.81 * (std::sin(theta) - 0.2 * std::cos(theta));
   EXPECT_GT(slid, 0.02);
   EXPECT_NEAR(acceleration, expected, 0.1 * expected);
+}
+
+// ear-on-table.json: the ear comes off, and ends at rest on the table beside the bunny, above
+// the table and outside the bunny; the bunny stays standing where it was.
+TEST(World, EarOnTableComesToRestBesideTheBunny) {
+  const Scene scene = readScene(std::string(VOXCUT_SOURCE_DIR) + "/scenes/ear-on-table.json");
+  World w = World::fromScene(scene, voxelizeSceneBodies(scene));
+  const SimBody& b = WorldInternals::body(w, 0);
+  auto earCentre = [&](const PieceLabels& pieces, int ear) {
+    Vec3d c = Vec3d::Zero();
+    for (std::size_t v = 0; v < b.cut.grid.voxelCount(); ++v)
+      if (pieces.label[v] == ear) c += b.cut.deformation.voxelPosition(v);
+    return Vec3d(c / static_cast<double>(pieces.voxels[static_cast<std::size_t>(ear)]));
+  };
+  double deepest = 0.0;
+  Vec3d before = Vec3d::Zero();
+  for (int f = 0; f < *scene.frames; ++f) {
+    const FrameReport r = w.step();
+    ASSERT_TRUE(r.converged) << "frame " << f;
+    deepest = std::max(deepest, r.maxPenetration);
+    if (f == *scene.frames - 26) {
+      const PieceLabels pieces = findPieces(b.cut.grid);
+      ASSERT_EQ(pieces.count, 2);
+      before = earCentre(pieces, pieces.voxels[0] < pieces.voxels[1] ? 0 : 1);
+    }
+  }
+  const PieceLabels pieces = findPieces(b.cut.grid);
+  ASSERT_EQ(pieces.count, 2);
+  const int ear = pieces.voxels[0] < pieces.voxels[1] ? 0 : 1;
+  const Vec3d now = earCentre(pieces, ear);
+  const double voxel = b.cut.grid.voxelSize();
+  EXPECT_LT((now - before).norm(), 0.5 * voxel) << "the ear still moves";
+  // On the table: its lowest voxel no more than a voxel above the top (y = 0), none below.
+  double lowest = 1e9;
+  for (std::size_t v = 0; v < b.cut.grid.voxelCount(); ++v)
+    if (pieces.label[v] == ear) lowest = std::min(lowest, b.cut.deformation.voxelPosition(v).y());
+  EXPECT_GT(lowest, -0.5 * voxel);
+  EXPECT_LT(lowest, 1.5 * voxel);
+  // Through neither the table nor the bunny: at rest less than half a voxel inside, and never
+  // a voxel deep on the way (the ear hits the body at about 0.3 m/s, which the halved contacts
+  // between bodies take a frame or two to stop: docs/algorithms.md, "Object collision").
+  EXPECT_LT(deepest, voxel);
+  EXPECT_LT(deepestInside(w, 0, 0), 0.5 * voxel);
+  EXPECT_GT(now.y(), 0.0);
 }
 
 }  // namespace
