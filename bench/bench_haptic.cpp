@@ -56,6 +56,25 @@ void report(const char* what, const std::vector<double>& j) {
               j.size());
 }
 
+/// Where the jumps above 10 % of the force happen: the force then, as a fraction of the peak;
+/// and the largest jump relative to the peak.
+void whereJumps(const char* what, const std::vector<Vec3d>& force, double peak) {
+  std::size_t above = 0, small = 0;
+  double largest = 0.0;
+  for (std::size_t k = 1; k < force.size(); ++k) {
+    const double before = force[k - 1].norm(), jump = (force[k] - force[k - 1]).norm();
+    largest = std::max(largest, jump / peak);
+    if (before > 0.0 && force[k] != Vec3d::Zero() && jump > 0.1 * before) {
+      ++above;
+      if (before < 0.1 * peak) ++small;
+    }
+  }
+  std::printf(
+      "%-34s %zu jumps above 10%% (contact onsets included), %zu of them where the "
+      "force is below 10%% of its peak; largest jump %.4f of the peak\n",
+      what, above, small, largest);
+}
+
 int run(const std::string& scenePath, double seconds) {
   const Scene scene = readScene(scenePath);
   std::size_t probe = scene.tools.size();
@@ -116,6 +135,8 @@ int run(const std::string& scenePath, double seconds) {
   const auto perFrame = static_cast<std::size_t>(std::lround(dt * 1000.0));
   report("force jump, haptic model", jumps(hapticForces, 2 * perFrame));
   report("force jump, frame force held", jumps(frameForces, 2));
+  whereJumps("haptic model:", hapticForces, peak);
+  whereJumps("frame force held:", frameForces, peak);
   return 0;
 }
 

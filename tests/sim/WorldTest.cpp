@@ -432,5 +432,31 @@ TEST(World, EarOnTableComesToRestBesideTheBunny) {
   EXPECT_GT(now.y(), 0.0);
 }
 
+// liver-probe-cut.json, the paper's complex scenario: a probe presses the lobe from below while
+// the blade cuts around the tumor; the column comes off, rests on the probe (which carries its
+// weight) and is lifted; every surface stays closed.
+TEST(World, LiverProbeCutLiftsTheColumn) {
+  const Scene scene = readScene(std::string(VOXCUT_SOURCE_DIR) + "/scenes/liver-probe-cut.json");
+  World w = World::fromScene(scene, voxelizeSceneBodies(scene));
+  for (int f = 0; f < *scene.frames; ++f) ASSERT_TRUE(w.step().converged) << "frame " << f;
+  const SimBody& b = WorldInternals::body(w, 0);
+  const PieceLabels pieces = findPieces(b.cut.grid);
+  ASSERT_EQ(pieces.count, 2);
+  // The column is the piece that no fixed box holds: the smaller one.
+  const int column = pieces.voxels[0] < pieces.voxels[1] ? 0 : 1;
+  Vec3d rest = Vec3d::Zero(), now = Vec3d::Zero();
+  for (std::size_t v = 0; v < b.cut.grid.voxelCount(); ++v)
+    if (pieces.label[v] == column) {
+      rest += b.cut.grid.position(v);
+      now += b.cut.deformation.voxelPosition(v);
+    }
+  const double n = static_cast<double>(pieces.voxels[static_cast<std::size_t>(column)]);
+  EXPECT_GT((now - rest).z() / n, 0.015) << "the column was not lifted";
+  // The probe carries the column's weight (it is at rest on it, within a fifth).
+  const double weight = 1060.0 * n * std::pow(b.cut.grid.voxelSize(), 3) * 9.81;
+  EXPECT_NEAR(-w.toolReaction(1).force.z(), weight, 0.2 * weight);
+  EXPECT_TRUE(surfaceTopology(w.surfaceMesh(0)).closed);
+}
+
 }  // namespace
 }  // namespace voxcut
