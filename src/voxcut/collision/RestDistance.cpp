@@ -106,55 +106,60 @@ void RestDistanceField::build(const VoxelGrid& grid, int band) {
 
 void RestDistanceField::update(const VoxelGrid& grid, const std::vector<std::uint64_t>& changed) {
   if (changed.empty()) return;
-  // The region: every voxel within band + 1 (Chebyshev) of a changed link's ends; the ring
-  // around it (as far again) holds the kept features that flow back in.
-  FlatHashMap<std::uint8_t> region;  // 1: recomputed, 2: ring
+  // The region: every voxel within band + 1 (Chebyshev) of a changed link's ends, found by
+  // dilating the ends one axis at a time (so each voxel of the region is listed once). The
+  // voxels just outside it keep their features, which flow back in: propagation passes a
+  // feature only from neighbour to neighbour.
   const int r = band_ + 1;
-  auto mark = [&](std::size_t v0, int reach, std::uint8_t value) {
-    const Index3 c = grid.coord(v0);
-    for (int z = std::max(0, c.z - reach); z <= std::min(grid.dims().z - 1, c.z + reach); ++z)
-      for (int y = std::max(0, c.y - reach); y <= std::min(grid.dims().y - 1, c.y + reach); ++y)
-        for (int x = std::max(0, c.x - reach); x <= std::min(grid.dims().x - 1, c.x + reach); ++x) {
-          const std::size_t v = grid.index(x, y, z);
-          std::uint8_t& m = region[v];
-          if (m == 0 || value < m) m = value;
-        }
-  };
+  std::vector<std::uint64_t> region;
   for (std::uint64_t link : changed) {
     const std::size_t v = static_cast<std::size_t>(link / 3);
     const int a = static_cast<int>(link % 3);
-    mark(v, 2 * r, 2);
-    if (grid.hasLink(v, a)) mark(v + grid.stride(a), 2 * r, 2);
+    region.push_back(v);
+    if (grid.hasLink(v, a)) region.push_back(v + grid.stride(a));
   }
-  for (std::uint64_t link : changed) {
-    const std::size_t v = static_cast<std::size_t>(link / 3);
-    const int a = static_cast<int>(link % 3);
-    mark(v, r, 1);
-    if (grid.hasLink(v, a)) mark(v + grid.stride(a), r, 1);
+  std::sort(region.begin(), region.end());
+  region.erase(std::unique(region.begin(), region.end()), region.end());
+  for (int a = 0; a < 3; ++a) {
+    FlatHashMap<std::uint8_t> seen;
+    std::vector<std::uint64_t> next;
+    for (std::uint64_t v : region) {
+      const int c = grid.coord(v)[a];
+      for (int d = std::max(-r, -c); d <= std::min(r, grid.dims()[a] - 1 - c); ++d) {
+        const std::uint64_t w = d >= 0 ? v + static_cast<std::uint64_t>(d) * grid.stride(a)
+                                       : v - static_cast<std::uint64_t>(-d) * grid.stride(a);
+        if (seen.insert(w, 1)) next.push_back(w);
+      }
+    }
+    region = std::move(next);
   }
-  std::vector<std::uint64_t> voxels;
-  region.forEach([&](std::uint64_t v, std::uint8_t) { voxels.push_back(v); });
-  std::sort(voxels.begin(), voxels.end());  // a fixed order, whatever the table's
+  std::sort(region.begin(), region.end());  // a fixed order, whatever the tables'
+  FlatHashMap<std::uint8_t> inRegion;
+  inRegion.reserve(region.size());
+  for (std::uint64_t v : region) inRegion.insert(v, 1);
+  for (std::uint64_t v : region) (void)field_.erase(v);
   std::vector<HeapEntry> heap;
   std::vector<Feature> own;
-  for (std::uint64_t v : voxels)
-    if (region.at(v) == 1) (void)field_.erase(v);
-  for (std::uint64_t v : voxels) {
-    if (!grid.occupied(v)) continue;
-    if (region.at(v) == 2) {
-      if (const Feature* f = field_.find(v)) heap.emplace_back(f->distance, v);
-      continue;
+  std::vector<std::uint64_t> ring;
+  for (std::uint64_t v : region) {
+    const Index3 c = grid.coord(v);
+    for (int a = 0; a < 3; ++a) {
+      if (c[a] + 1 < grid.dims()[a] && !inRegion.contains(v + grid.stride(a)))
+        ring.push_back(v + grid.stride(a));
+      if (c[a] > 0 && !inRegion.contains(v - grid.stride(a))) ring.push_back(v - grid.stride(a));
     }
+    if (!grid.occupied(v)) continue;
     ownFeatures(grid, v, own);
     if (own.empty()) continue;
     field_.set(v, own.front());
     heap.emplace_back(own.front().distance, v);
   }
+  std::sort(ring.begin(), ring.end());
+  ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
+  for (std::uint64_t v : ring)
+    if (const Feature* f = field_.find(v)) heap.emplace_back(f->distance, v);
   std::make_heap(heap.begin(), heap.end(), std::greater<>());
-  propagate(grid, heap, [&](std::size_t v) {
-    const std::uint8_t* m = region.find(v);
-    return m != nullptr && *m == 1;
-  });
+  propagate(grid, heap, [&](std::size_t v) { return inRegion.contains(v); });
 }
 
 bool RestDistanceField::depth(const VoxelGrid& grid, std::size_t v, const Vec3d& x, double& depth,

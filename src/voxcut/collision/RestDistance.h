@@ -30,8 +30,9 @@ class RestDistanceField {
   void build(const VoxelGrid& grid, int band);
   /// After links changed (cut, or healed): recomputes the voxels within band + 1 voxels of
   /// their ends (Chebyshev), from their own boundary faces and the kept features of the voxels
-  /// around them. The same as build() on the changed grid except where the change re-routed
-  /// the paths to a voxel farther away. O(changed links * band^3).
+  /// just around them. The same as build() on the changed grid except where the change
+  /// re-routed the paths to a voxel farther away. O(voxels of that region), which for a cut is
+  /// about its area times 2 band + 3.
   void update(const VoxelGrid& grid, const std::vector<std::uint64_t>& changedLinks);
 
   /// The depth (m, > 0 inside) of the rest point `x`, in occupied voxel v of `grid` (the grid
