@@ -844,9 +844,8 @@ void World::Impl::solvePhase(SimBody& b, const Motion& motion, ContactShapes& sh
   const std::vector<Vec3d>& friction = b.solver.contactFrictionForces();
   for (std::size_t k = 0; k < hits.size(); ++k) {
     const ContactHit& h = hits[k];
-    // On the obstacle or probe. A spring that still pulls after the last solve (the set did
-    // not settle within kContactPasses) is not a contact force: it is left out of the report.
-    if (force[k] < 0.0) continue;
+    // On the obstacle or probe: what the step applied, a spring that still pulls after the
+    // last solve included (docs/algorithms.md, "Contact").
     const Vec3d f = -force[k] * h.normal - friction[k];
     if (h.source < obstacles.size()) {
       report.obstacleForces[h.source] += f;
