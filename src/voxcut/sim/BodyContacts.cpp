@@ -127,11 +127,8 @@ std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& 
   // A vertex moved on by dt v (its velocity from the element's nodes).
   auto movedVertex = [&](std::uint32_t v) {
     const VertexEmbedding& em = a.embedding[v];
-    Vec3d x = da.pointInElement(em.element, em.local);
-    if (velocity.empty()) return x;
-    const std::array<double, 8> w = trilinearWeights(em.local);
-    for (std::size_t c = 0; c < 8; ++c) x += dt * w[c] * velocity[da.element(em.element).nodes[c]];
-    return x;
+    return Vec3d(da.pointInElement(em.element, em.local) +
+                 dt * pointVelocity(a, em.element, trilinearWeights(em.local)));
   };
   // Per element of A: the elements of B whose boxes meet its box, its nodes where they are
   // and moved on by dt v (which holds its vertices, moved on), less its own neighbourhood for

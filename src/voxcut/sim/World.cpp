@@ -239,7 +239,6 @@ struct World::Impl {
   struct ActiveSetEdits {
     std::vector<std::uint64_t> forced;   ///< end inside although not predicted to: added
     std::vector<std::uint64_t> dropped;  ///< pulled instead of pushing: left out
-    [[nodiscard]] bool empty() const { return forced.empty() && dropped.empty(); }
   };
   /// Which shapes may come near each element's vertices in this step (ContactShapes::near):
   /// the shape's distance from the element's bounding ball, against how far its nodes can
@@ -716,14 +715,6 @@ std::vector<std::vector<PointContact>> World::Impl::findBodyContactsAll(std::vec
   }
   std::vector<SpatialHash> hashes(bodies.size());
   std::vector<std::uint8_t> hashed(bodies.size(), 0);
-  auto velocityAt = [](const SimBody& body, std::uint32_t e, const std::array<double, 8>& w) {
-    Vec3d v = Vec3d::Zero();
-    const std::vector<Vec3d>& vel = body.solver.velocities();
-    if (vel.empty()) return v;
-    const OctreeElement& el = body.cut.deformation.element(e);
-    for (std::size_t c = 0; c < 8; ++c) v += w[c] * vel[el.nodes[c]];
-    return v;
-  };
   // Effective inverse mass of a point with trilinear weights w in element e: sum w_c^2 / m_c
   // over its free corners (0 where every corner is fixed).
   auto inverseMass = [](const SimBody& body, std::uint32_t e, const std::array<double, 8>& w) {
@@ -759,8 +750,8 @@ std::vector<std::vector<PointContact>> World::Impl::findBodyContactsAll(std::vec
         const double ib = inverseMass(b, c.other, c.otherWeight);
         if (!(ia + ib > 0.0)) continue;
         const double sa = ia / (ia + ib), sb = ib / (ia + ib);
-        const Vec3d va = velocityAt(a, c.element, c.weight);
-        const Vec3d vb = velocityAt(b, c.other, c.otherWeight);
+        const Vec3d va = pointVelocity(a, c.element, c.weight);
+        const Vec3d vb = pointVelocity(b, c.other, c.otherWeight);
         const double vpn = c.normal.dot(va);
         const double vqn = c.normal.dot(vb);
         // Both bodies' vertices find the same interface (each inside the other), so each
@@ -877,8 +868,6 @@ std::vector<ContactHit> World::Impl::findContacts(const SimBody& b, const Contac
   std::vector<ContactHit> hits;
   contacts.clear();
   if (shapes.size() == 0) return hits;
-  const DeformationOctree& d = b.cut.deformation;
-  const std::vector<Vec3d>& velocity = b.solver.velocities();
   const double dt = settings.timeStep;
   const std::size_t chunks = (b.embedding.size() + kVertexChunk - 1) / kVertexChunk;
   std::vector<std::vector<PointContact>> chunkContacts(chunks);
@@ -888,9 +877,7 @@ std::vector<ContactHit> World::Impl::findContacts(const SimBody& b, const Contac
       [&](std::size_t ch, std::size_t v, const Vec3d& x) {
         const VertexEmbedding& em = b.embedding[v];
         const std::array<double, 8> w = trilinearWeights(em.local);
-        Vec3d vp = Vec3d::Zero();
-        if (!velocity.empty())
-          for (std::size_t c = 0; c < 8; ++c) vp += w[c] * velocity[d.element(em.element).nodes[c]];
+        const Vec3d vp = pointVelocity(b, em.element, w);
         for (std::size_t s = 0; s < shapes.size(); ++s) {
           if (!shapes.mayTouch(em.element, s)) continue;
           Vec3d n;

@@ -4,6 +4,7 @@
 /// invariants on the deformation octree and the grid). Applications use World.h only: nothing
 /// here is a stable interface.
 
+#include <array>
 #include <cstdint>
 #include <deque>
 #include <vector>
@@ -53,6 +54,18 @@ struct SimBody {
   std::vector<LinkCut> cuts;               ///< every cut so far (for the cut set hash)
   SubdivisionWorkspace subdivision;        ///< the cutting step's buffers, kept between frames
 };
+
+/// The velocity (m/s) of the point with trilinear weights `weight` in element copy `element`
+/// of the body: its corners' node velocities interpolated; zero before the first step.
+[[nodiscard]] inline Vec3d pointVelocity(const SimBody& body, std::uint32_t element,
+                                         const std::array<double, 8>& weight) {
+  const std::vector<Vec3d>& velocity = body.solver.velocities();
+  Vec3d v = Vec3d::Zero();
+  if (velocity.empty()) return v;
+  const OctreeElement& el = body.cut.deformation.element(element);
+  for (std::size_t c = 0; c < 8; ++c) v += weight[c] * velocity[el.nodes[c]];
+  return v;
+}
 
 /// Read access to a world's bodies.
 struct WorldInternals {
