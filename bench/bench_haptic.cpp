@@ -5,7 +5,9 @@
 // median and 99.9th percentile time, and how much the force jumps between consecutive calls,
 // beside what a loop that held each frame's force would feel.
 //
-//   build/release/bench/bench_haptic [SCENE] [--seconds S]
+//   build/release/bench/bench_haptic [SCENE] [--seconds S] [--dump FILE.csv]
+//
+// --dump writes every call's and every frame's force with its wall-clock time.
 
 #include <algorithm>
 #include <atomic>
@@ -75,7 +77,7 @@ void whereJumps(const char* what, const std::vector<Vec3d>& force, double peak) 
       what, above, small, largest);
 }
 
-int run(const std::string& scenePath, double seconds) {
+int run(const std::string& scenePath, double seconds, const std::string& dump) {
   const Scene scene = readScene(scenePath);
   std::size_t probe = scene.tools.size();
   for (std::size_t t = 0; t < scene.tools.size(); ++t)
@@ -92,6 +94,7 @@ int run(const std::string& scenePath, double seconds) {
   auto wall = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
   std::vector<double> callMs;
   std::vector<Vec3d> hapticForces;
+  std::vector<double> callTimes;
   std::thread haptic([&] {
     for (int k = 0; !done.load(); ++k) {
       std::this_thread::sleep_until(start + std::chrono::microseconds(1000 * k));
@@ -100,10 +103,11 @@ int run(const std::string& scenePath, double seconds) {
       const ToolReaction r = world.hapticForce(probe, pose);
       callMs.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
       hapticForces.push_back(r.force);
+      callTimes.push_back(wall());
     }
   });
   std::vector<Vec3d> frameForces;
-  std::vector<double> frameMs;
+  std::vector<double> frameMs, frameTimes;
   int late = 0;
   for (int f = 0; f * dt < seconds; ++f) {
     // Frame f ends at wall time (f + 1) dt: it starts when its start time has come.
@@ -115,6 +119,7 @@ int run(const std::string& scenePath, double seconds) {
     const FrameReport r = world.step();
     frameMs.push_back(r.totalMs);
     frameForces.push_back(world.toolReaction(probe).force);
+    frameTimes.push_back(wall());
   }
   done = true;
   haptic.join();
@@ -137,6 +142,19 @@ int run(const std::string& scenePath, double seconds) {
   report("force jump, frame force held", jumps(frameForces, 2));
   whereJumps("haptic model:", hapticForces, peak);
   whereJumps("frame force held:", frameForces, peak);
+  if (!dump.empty()) {
+    // One row per haptic call and per frame end: wall time (s), which, force (N).
+    std::FILE* out = std::fopen(dump.c_str(), "w");
+    if (out == nullptr) throw InputError(dump + ": cannot write");
+    std::fprintf(out, "t,source,fx,fy,fz\n");
+    for (std::size_t k = 0; k < hapticForces.size(); ++k)
+      std::fprintf(out, "%.6f,call,%.6g,%.6g,%.6g\n", callTimes[k], hapticForces[k].x(),
+                   hapticForces[k].y(), hapticForces[k].z());
+    for (std::size_t k = 0; k < frameForces.size(); ++k)
+      std::fprintf(out, "%.6f,frame,%.6g,%.6g,%.6g\n", frameTimes[k], frameForces[k].x(),
+                   frameForces[k].y(), frameForces[k].z());
+    std::fclose(out);
+  }
   return 0;
 }
 
@@ -146,14 +164,17 @@ int run(const std::string& scenePath, double seconds) {
 int main(int argc, char** argv) {
   std::string scene = std::string(VOXCUT_SOURCE_DIR) + "/scenes/bunny-poke.json";
   double seconds = 6.0;
+  std::string dump;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--seconds") == 0 && i + 1 < argc)
       seconds = std::atof(argv[++i]);
+    else if (std::strcmp(argv[i], "--dump") == 0 && i + 1 < argc)
+      dump = argv[++i];
     else
       scene = argv[i];
   }
   try {
-    return voxcut::run(scene, seconds);
+    return voxcut::run(scene, seconds, dump);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "bench_haptic: error: %s\n", e.what());
     return 1;

@@ -124,12 +124,21 @@ std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& 
       if (a.embedding[v].element != kNoElement)
         order[next[a.embedding[v].element]++] = static_cast<std::uint32_t>(v);
   }
-  // A vertex moved on by dt v (its velocity from the element's nodes).
-  auto movedVertex = [&](std::uint32_t v) {
-    const VertexEmbedding& em = a.embedding[v];
-    return Vec3d(da.pointInElement(em.element, em.local) +
-                 dt * pointVelocity(a, em.element, trilinearWeights(em.local)));
-  };
+  // B's element velocities (the mean of their nodes'), and the fastest: a vertex is moved on
+  // by dt times its velocity relative to the element it is tested against, so two bodies (or
+  // two parts of one) moving together do not see each other ahead of where they are.
+  const std::vector<Vec3d>& bVelocity = b.solver.velocities();
+  std::vector<Vec3d> elementVelocity;
+  double fastestB = 0.0;
+  if (!bVelocity.empty()) {
+    elementVelocity.resize(db.elementCount());
+    for (std::size_t e = 0; e < db.elementCount(); ++e) {
+      Vec3d sum = Vec3d::Zero();
+      for (std::uint32_t n : db.element(static_cast<std::uint32_t>(e)).nodes) sum += bVelocity[n];
+      elementVelocity[e] = sum / 8.0;
+      fastestB = std::max(fastestB, elementVelocity[e].norm());
+    }
+  }
   // Per element of A: the elements of B whose boxes meet its box, its nodes where they are
   // and moved on by dt v (which holds its vertices, moved on), less its own neighbourhood for
   // self; most elements have none, and their vertices are not even placed.
@@ -148,6 +157,8 @@ std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& 
               box.extend(da.positions()[n]);
               if (!velocity.empty()) box.extend(da.positions()[n] + dt * velocity[n]);
             }
+            box.extend(box.min() - Vec3d::Constant(dt * fastestB));
+            box.extend(box.max() + Vec3d::Constant(dt * fastestB));
             std::vector<std::uint32_t> candidates = bHash.elementsInBox(box);
             if (self)
               std::erase_if(candidates, [&](std::uint32_t e) {
@@ -156,10 +167,13 @@ std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& 
             if (candidates.empty()) continue;
             for (std::uint32_t k = start[ea]; k < start[ea + 1]; ++k) {
               const std::uint32_t v = order[k];
-              const Vec3d x = movedVertex(v);
               const VertexEmbedding& em = a.embedding[v];
+              const Vec3d now = da.pointInElement(em.element, em.local);
+              const Vec3d vp = pointVelocity(a, em.element, trilinearWeights(em.local));
               BodyContactPoint best;
               for (std::uint32_t e : candidates) {
+                const Vec3d ve = elementVelocity.empty() ? Vec3d::Zero() : elementVelocity[e];
+                const Vec3d x = now + dt * (vp - ve);
                 if (!bHash.elementBox(e).contains(x)) continue;
                 Vec3d t, n;
                 double depth = 0.0;
@@ -176,10 +190,10 @@ std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& 
                 best.otherWeight = trilinearWeights(t);
                 best.normal = currentNormal(db, e, t, n);
                 best.depth = depth;
+                best.otherVelocity = ve;
               }
               if (!(best.depth > 0.0)) continue;
               Vec3d t, n;
-              const Vec3d now = da.pointInElement(em.element, em.local);
               if (!pointDepth(b, best.other, now, t, best.currentDepth, n)) best.currentDepth = 0.0;
               best.currentDepth = std::max(best.currentDepth, 0.0);
               found[ch].push_back(best);

@@ -24,7 +24,9 @@ struct BodyContactPoint {
   std::uint32_t other = 0;              ///< B's element copy holding the point
   std::array<double, 8> otherWeight{};  ///< the point's trilinear weights there
   Vec3d normal = Vec3d::Zero();         ///< current frame, unit, out of B's material
-  double depth = 0.0;                   ///< below B's boundary, in B's rest frame (m), > 0
+  /// The velocity of B's element the vertex was moved against (its nodes' mean, m/s).
+  Vec3d otherVelocity = Vec3d::Zero();
+  double depth = 0.0;  ///< below B's boundary, in B's rest frame (m), > 0
   /// The same for the vertex where it is now, not moved on (0 when it is not inside there).
   double currentDepth = 0.0;
 };
@@ -32,7 +34,8 @@ struct BodyContactPoint {
 /// Boxes of every element copy of the body at its current node positions, in a spatial hash.
 void buildElementHash(const SimBody& body, SpatialHash& hash, bool threaded);
 
-/// The surface vertices of `a`, moved on by dt times their velocity, that lie inside the
+/// The surface vertices of `a`, moved on by dt times their velocity relative to the element of
+/// `b` they are tested against, that lie inside the
 /// material of `b` (whose element boxes `bHash` holds): per vertex at most one point, the
 /// deepest, within b's distance band. With self (a and b the same body) an element sharing a
 /// node with the vertex's own, and a point whose voxel is joined to the vertex's voxel by at

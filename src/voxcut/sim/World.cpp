@@ -1,6 +1,7 @@
 #include "voxcut/sim/World.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <iterator>
 #include <mutex>
@@ -41,13 +42,16 @@ constexpr int kRestDistanceBand = 3;
 /// Below this tangential speed (m/s) a contact's friction holds like a viscous stick; above it,
 /// it is the Coulomb force mu f_n against the sliding (docs/algorithms.md, "Friction").
 constexpr double kStickSpeed = 1e-3;
+constexpr double kPairClosing = 0.5;
 
-/// Sets a contact's friction damper for the coefficient mu: the normal force estimated from the
-/// gap at the step's start, the tangential speed from the point's and the surface's velocities.
-void setFriction(PointContact& pc, double mu, const Vec3d& pointVelocity,
+/// Sets a contact's friction damper for the coefficient mu: the normal force estimated from
+/// `overlap`, how far the point is pressed in at the step's start (m; the contact's own share of
+/// it between bodies, not the part of its gap that only follows the other body's motion), the
+/// tangential speed from the point's and the surface's velocities.
+void setFriction(PointContact& pc, double mu, double overlap, const Vec3d& pointVelocity,
                  const Vec3d& surfaceVelocity) {
   pc.surfaceVelocity = surfaceVelocity;
-  const double normalForce = pc.stiffness * std::max(0.0, -pc.gap);
+  const double normalForce = pc.stiffness * std::max(0.0, overlap);
   if (!(mu > 0.0) || !(normalForce > 0.0)) return;
   const Vec3d rel = pointVelocity - surfaceVelocity;
   const double slip = (rel - pc.normal.dot(rel) * pc.normal).norm();
@@ -126,6 +130,12 @@ void forEachVertexChunked(const SimBody& b, bool threaded, Wanted&& wanted, Fn&&
       threaded);
 }
 
+/// The span of wall-clock time between two frames that the haptic call blends over is held
+/// within these bounds (seconds): a world stepped in a tight loop, or left paused, still blends
+/// over a sensible time.
+constexpr double kHapticMinPeriod = 1e-3;
+constexpr double kHapticMaxPeriod = 0.05;
+
 /// A probe's force model between frames (World::hapticForce; docs/algorithms.md, "Forces at
 /// haptic rate"): F(c) = reaction.force + jacobian (c - centre), c the probe's segment midpoint.
 struct HapticModel {
@@ -134,12 +144,30 @@ struct HapticModel {
   Eigen::Matrix3d jacobian = Eigen::Matrix3d::Zero();  ///< estimate of dF/dc (N/m)
   bool contact = false;                                ///< the last frame pushed on the probe
   double radius = 0.0;                                 ///< the probe's (m)
+  /// How far from `centre` the linearisation is used (m; held there beyond): the last frame's
+  /// motion of the probe, at most half its radius.
+  double reach = 0.0;
 };
 
-/// The model a haptic thread reads, published at each frame's end.
+/// What a haptic thread reads, published at each frame's end: the newest model; the force the
+/// call answered just before it came minus the newest model's there (at the pose of the latest
+/// call), which the call fades out over one frame period; when it came; and the frames'
+/// wall-clock period.
 struct HapticSlot {
   mutable std::mutex mutex;
   HapticModel model;
+  Vec3d offset = Vec3d::Zero();
+  /// The probe midpoint of the latest call (the device's pose), and whether there was one.
+  mutable Vec3d asked = Vec3d::Zero();
+  mutable bool wasAsked = false;
+  std::chrono::steady_clock::time_point published{};
+  double period = 0.0;  ///< seconds, 0 before the second publication
+
+  /// The weight of the newest model at `now`: from 0 when it came to 1 a period later.
+  [[nodiscard]] double blend(std::chrono::steady_clock::time_point now) const {
+    if (!(period > 0.0)) return 1.0;
+    return std::min(1.0, std::chrono::duration<double>(now - published).count() / period);
+  }
 };
 
 /// A tool of the world: its shape, where it is, where it goes next frame, and what pushes on it.
@@ -741,7 +769,8 @@ std::vector<std::vector<PointContact>> World::Impl::findBodyContactsAll(std::vec
       }
       for (const BodyContactPoint& c :
            findBodyContacts(a, b, hashes[ib_], self, dt, settings.threaded)) {
-        // The depth is the vertex's moved on by dt v_p: the gap now is g = -depth - dt n.v_p.
+        // The depth is the vertex's moved on by dt times its velocity relative to B's element,
+        // v_p - v_e: the gap now is -depth - dt n.(v_p - v_e).
         // Each body's step sees the other at its frame-start velocity, so each closes only
         // its share of g, by inverse effective mass (all of it against fixed nodes), against
         // a contact plane that moves with the pair's mass-weighted normal velocity
@@ -756,7 +785,8 @@ std::vector<std::vector<PointContact>> World::Impl::findBodyContactsAll(std::vec
         const double vqn = c.normal.dot(vb);
         // Both bodies' vertices find the same interface (each inside the other), so each
         // contact closes half of its gap: together they close it once.
-        const double g = 0.5 * (-c.depth - dt * vpn);
+        const double gNow = -c.depth - dt * c.normal.dot(va - c.otherVelocity);
+        const double g = (gNow < 0.0 ? 0.5 * kPairClosing : 0.5) * gNow;
         const double plane = sb * vpn + sa * vqn;
         // Friction drags each side toward the pair's mass-weighted common velocity.
         const Vec3d common = sb * va + sa * vb;
@@ -766,7 +796,7 @@ std::vector<std::vector<PointContact>> World::Impl::findBodyContactsAll(std::vec
         pa.normal = c.normal;
         pa.gap = sa * g - dt * plane;
         pa.stiffness = a.contactStiffness;
-        setFriction(pa, settings.contact.friction, va, common);
+        setFriction(pa, settings.contact.friction, -sa * g, va, common);
         out[ia_].push_back(pa);
         PointContact pb;
         pb.element = c.other;
@@ -774,7 +804,7 @@ std::vector<std::vector<PointContact>> World::Impl::findBodyContactsAll(std::vec
         pb.normal = -c.normal;
         pb.gap = sb * g + dt * plane;
         pb.stiffness = b.contactStiffness;
-        setFriction(pb, settings.contact.friction, vb, common);
+        setFriction(pb, settings.contact.friction, -sb * g, vb, common);
         out[ib_].push_back(pb);
         report.maxPenetration = std::max(report.maxPenetration, c.currentDepth);
       }
@@ -893,7 +923,7 @@ std::vector<ContactHit> World::Impl::findContacts(const SimBody& b, const Contac
           pc.normal = n;
           pc.gap = gap;
           pc.stiffness = b.contactStiffness;
-          setFriction(pc, shapes.friction[s], vp, shapes.velocity[s]);
+          setFriction(pc, shapes.friction[s], -gap, vp, shapes.velocity[s]);
           chunkContacts[ch].push_back(pc);
           chunkHits[ch].push_back({static_cast<std::uint32_t>(v), s, n, x - gap * n});
         }
@@ -1176,6 +1206,22 @@ void World::Impl::recordSolve(const StepStatus& status, FrameReport& report) con
 
 namespace {
 
+/// The force of one model at the probe's midpoint c: the linearisation, used within the last
+/// frame's motion of the model's pose (held at that distance beyond: a device running ahead of
+/// frames that fall behind feels no extrapolated wall or cliff), zero where it would pull, and
+/// zero once the probe is pulled out by more than its radius.
+Vec3d hapticModelForce(const HapticModel& m, const Vec3d& c) {
+  if (!m.contact) return Vec3d::Zero();
+  Vec3d offset = c - m.centre;
+  // Pulled out farther than its radius, the probe has left whatever the frames say.
+  if (offset.dot(m.reaction.force) > 0.0 && offset.norm() > m.radius) return Vec3d::Zero();
+  if (offset.norm() > m.reach) offset *= m.reach / offset.norm();
+  const Vec3d force = m.reaction.force + m.jacobian * offset;
+  // Contact pushes and never pulls: past the point where the extrapolation turns round, the
+  // probe has left the surface.
+  return force.dot(m.reaction.force) > 0.0 ? force : Vec3d::Zero();
+}
+
 /// The probe's force model after a frame: its reaction there, and the Jacobian estimate
 /// updated by the secant of the last two frames along the probe's motion (Broyden's rank-one
 /// update, which keeps what earlier motions taught in the other directions). A frame without
@@ -1186,6 +1232,7 @@ void publishHaptic(WorldTool& t) {
   next.radius = t.radius;
   next.reaction = t.reaction;
   next.contact = t.reaction.force != Vec3d::Zero();
+  next.reach = std::min(0.5 * t.radius, (next.centre - t.haptic.centre).norm());
   if (next.contact && t.haptic.contact) {
     next.jacobian = t.haptic.jacobian;
     const Vec3d dc = next.centre - t.haptic.centre;
@@ -1197,8 +1244,19 @@ void publishHaptic(WorldTool& t) {
     }
   }
   t.haptic = next;
+  const auto now = std::chrono::steady_clock::now();
   const std::lock_guard<std::mutex> lock(t.slot->mutex);
-  t.slot->model = next;
+  HapticSlot& slot = *t.slot;
+  // What the call answered at the new pose until now, less what the new model answers there:
+  // faded out over the next period, it makes the force continuous in time.
+  const Vec3d at = slot.wasAsked ? slot.asked : next.centre;
+  const Vec3d answered = hapticModelForce(slot.model, at) + (1.0 - slot.blend(now)) * slot.offset;
+  slot.offset = answered - hapticModelForce(next, at);
+  if (slot.published != std::chrono::steady_clock::time_point{})
+    slot.period = std::clamp(std::chrono::duration<double>(now - slot.published).count(),
+                             kHapticMinPeriod, kHapticMaxPeriod);
+  slot.model = next;
+  slot.published = now;
 }
 
 }  // namespace
@@ -1206,24 +1264,22 @@ void publishHaptic(WorldTool& t) {
 ToolReaction World::hapticForce(std::size_t tool, const BladePose& pose) const {
   VOXCUT_ASSERT(tool < impl_->tools.size(), "tool index out of range");
   HapticModel m;
+  Vec3d offset;
   {
     const HapticSlot& slot = *impl_->tools[tool].slot;
     const std::lock_guard<std::mutex> lock(slot.mutex);
     m = slot.model;
+    offset = (1.0 - slot.blend(std::chrono::steady_clock::now())) * slot.offset;
+    slot.asked = 0.5 * (pose.a + pose.b);
+    slot.wasAsked = true;
   }
+  // The newest frame's model, plus what is left of the step to it (docs/algorithms.md,
+  // "Forces at haptic rate"); still never pulling.
   ToolReaction r;
-  if (!m.contact) return r;
-  // The linearisation holds near the last frame's pose: farther than half the probe's radius
-  // (a device running ahead of frames that fall behind), it is held at that distance.
-  Vec3d offset = 0.5 * (pose.a + pose.b) - m.centre;
-  const double reach = 0.5 * m.radius;
-  if (offset.norm() > reach) offset *= reach / offset.norm();
-  const Vec3d force = m.reaction.force + m.jacobian * offset;
-  // Contact pushes and never pulls: past the point where the extrapolation turns round, the
-  // probe has left the surface.
-  if (!(force.dot(m.reaction.force) > 0.0)) return r;
-  r.force = force;
-  r.torque = m.reaction.torque;
+  r.force = hapticModelForce(m, 0.5 * (pose.a + pose.b)) + offset;
+  const Vec3d along = m.contact ? m.reaction.force : offset;
+  if (!(r.force.dot(along) > 0.0)) r.force = Vec3d::Zero();
+  if (r.force != Vec3d::Zero()) r.torque = m.reaction.torque;
   return r;
 }
 
