@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "voxcut/core/Parallel.h"
@@ -8,6 +10,7 @@
 #include "voxcut/io/SceneReader.h"
 #include "voxcut/sim/World.h"
 #include "voxcut/sim/WorldInternals.h"
+#include "voxcut/voxel/BuiltinModels.h"
 
 namespace voxcut {
 namespace {
@@ -45,8 +48,11 @@ struct Landing {
   double voxel = 0.0;           // voxel size (m)
 };
 
-Landing land(double height, const std::string& obstacle, int frames) {
+// The box dropped onto `obstacle` (JSON; may be empty) and then onto `extra`, if given.
+Landing land(double height, const std::string& obstacle, int frames,
+             const std::optional<Obstacle>& extra = std::nullopt) {
   World sim = simulationOf(droppedBox(height, obstacle));
+  if (extra) sim.addObstacle(*extra);
   Landing l;
   for (int f = 0; f < frames; ++f) {
     const FrameReport r = sim.step();
@@ -82,6 +88,38 @@ TEST(Contact, BoxDroppedOnATableComesToRestOnTop) {
   EXPECT_LT(l.deepest, 0.5 * l.voxel);
   EXPECT_GT(l.lowest, -0.5 * l.voxel);
   EXPECT_NEAR(l.force.y(), -l.weight, 0.01 * l.weight);
+}
+
+// The table of kTable as a mesh obstacle: a box of 12 triangles, rotated by `degrees` about
+// the z axis through the origin (the middle of its top face).
+Obstacle meshTable(double degrees) {
+  TriangleMesh table = makeBox(Vec3d(0.4, 0.03, 0.4));
+  const Eigen::Matrix3d turn =
+      Eigen::AngleAxisd(degrees * 3.14159265358979323846 / 180.0, Vec3d::UnitZ()).matrix();
+  for (Vec3d& v : table.vertices) v = turn * (v - Vec3d(0, 0.015, 0));
+  return meshObstacle(table);
+}
+
+// On the same table as a mesh, the same landing as on the Box obstacle.
+TEST(Contact, BoxDroppedOnAMeshTableComesToRestOnTop) {
+  const Landing l = land(0.3, "", 500, meshTable(0.0));
+  EXPECT_LT(l.deepest, 0.5 * l.voxel);
+  EXPECT_LT(l.kinetic, 1e-6 * l.weight * 0.06);
+  EXPECT_GT(l.lowest, -0.5 * l.voxel);
+  EXPECT_NEAR(l.force.y(), -l.weight, 0.01 * l.weight);
+  EXPECT_LT(std::hypot(l.force.x(), l.force.z()), 0.01 * l.weight);
+}
+
+// A slab tilted by 10 degrees, friction 0.5 (tan 10 = 0.18): the box lands on its lower edge,
+// settles flat on the slope and stays; the slab carries its weight, straight down.
+TEST(Contact, BoxDroppedOnATiltedMeshSlabComesToRestOnIt) {
+  Obstacle slab = meshTable(10.0);
+  slab.friction = 0.5;
+  const Landing l = land(0.01, "", 400, slab);
+  EXPECT_LT(l.deepest, 0.5 * l.voxel);
+  EXPECT_LT(l.kinetic, 1e-6 * l.weight * 0.06);
+  EXPECT_NEAR(l.force.y(), -l.weight, 0.01 * l.weight);
+  EXPECT_LT(std::hypot(l.force.x(), l.force.z()), 0.01 * l.weight);
 }
 
 // The bunny set on a floor, with the default contact stiffness and solver settings, comes to
