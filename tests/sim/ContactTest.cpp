@@ -122,6 +122,33 @@ TEST(Contact, BoxDroppedOnATiltedMeshSlabComesToRestOnIt) {
   EXPECT_LT(std::hypot(l.force.x(), l.force.z()), 0.01 * l.weight);
 }
 
+// box-down-ramp.json: the box slides down the ramp (a mesh), never half a voxel into it or the
+// floor, and comes to rest on the floor past the ramp's foot (x = 0.1), the two carrying its
+// weight.
+TEST(Contact, BoxSlidesDownTheRampSceneAndRestsOnTheFloor) {
+  const Scene scene = readScene(std::string(VOXCUT_SOURCE_DIR) + "/scenes/box-down-ramp.json");
+  ASSERT_EQ(scene.obstacles.at(0).type, ObstacleType::Mesh);
+  World sim = World::fromScene(scene, voxelizeSceneBodies(scene));
+  double deepest = 0.0;
+  FrameReport last;
+  for (int f = 0; f < scene.frames.value_or(0); ++f) {
+    last = sim.step();
+    ASSERT_TRUE(last.converged) << "frame " << f;
+    deepest = std::max(deepest, last.maxPenetration);
+  }
+  const SimBody& b = WorldInternals::body(sim, 0);
+  const double weight = b.model.totalMass() * 9.81;
+  EXPECT_LT(deepest, 0.5 * b.cut.grid.voxelSize());
+  EXPECT_LT(b.solver.kineticEnergy(b.model), 1e-6 * weight * 0.06);
+  Vec3d centre = Vec3d::Zero();
+  const std::vector<Vec3d>& positions = sim.surfaceMesh(0).positions;
+  for (const Vec3d& p : positions) centre += p;
+  centre /= static_cast<double>(positions.size());
+  EXPECT_GT(centre.x(), 0.1);
+  EXPECT_NEAR(centre.y(), 0.03, 0.005);
+  EXPECT_NEAR((last.obstacleForces[0] + last.obstacleForces[1]).y(), -weight, 0.01 * weight);
+}
+
 // The bunny set on a floor, with the default contact stiffness and solver settings, comes to
 // rest on it and carries its weight.
 TEST(Contact, BunnyOnAFloorComesToRest) {
