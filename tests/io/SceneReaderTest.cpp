@@ -10,6 +10,7 @@
 #include "CubeFiles.h"
 #include "SceneText.h"
 #include "TempDir.h"
+#include "voxcut/collision/Obstacle.h"
 #include "voxcut/core/Error.h"
 #include "voxcut/cutting/CutStep.h"
 #include "voxcut/io/SceneReader.h"
@@ -281,7 +282,7 @@ TEST(SceneReaderErrors, BadObstaclesNameTheKey) {
   const std::string body = R"({"bodies": [{"model": "liver"}], )";
   EXPECT_EQ(parseError(body + R"("obstacles": [{"type": "cone"}]})"),
             "scene.json: obstacles[0].type: unknown obstacle type \"cone\" (expected one of: "
-            "\"plane\", \"box\")");
+            "\"plane\", \"box\", \"mesh\")");
   EXPECT_EQ(parseError(body + R"("obstacles": [{"type": "plane", "point": [0, 0, 0],
                                                  "normal": [0, 0, 0]}]})"),
             "scene.json: obstacles[0].normal: must be a non-zero direction, got [0,0,0]");
@@ -312,6 +313,85 @@ TEST(SceneReaderErrors, BadObstaclesNameTheKey) {
   EXPECT_EQ(s.contact.friction, 0.5);
   EXPECT_EQ(s.obstacles[0].friction, 0.8);
   EXPECT_FALSE(parse(R"({"bodies": [{"model": "liver"}]})").contact.selfCollision);  // opt-in
+}
+
+// ---- mesh obstacles --------------------------------------------------------------------------
+
+// A scene in `dir` whose obstacles are `obstacles` (JSON list text).
+Scene withObstacles(const TempDir& dir, const std::string& obstacles) {
+  return parseScene(withTop(R"("obstacles": )" + obstacles), "scene.json", dir.path());
+}
+
+TEST(SceneReader, MeshObstaclesReadTheirFileFromTheScenesFolder) {
+  const TempDir dir;
+  fs::create_directories(dir.path() / "meshes");
+  dir.write("meshes/cube.obj", test::cubeObj());  // [0.25, 0.75]^3
+  const Scene s = withObstacles(dir, R"([
+      {"type": "mesh", "path": "meshes/cube.obj", "friction": 0.4},
+      {"type": "mesh", "path": "meshes/../meshes/cube.obj", "scale": 2, "translate": [0, -1, 0]}])");
+  ASSERT_EQ(s.obstacles.size(), 2u);
+  const Obstacle& cube = s.obstacles[0];
+  EXPECT_EQ(cube.type, ObstacleType::Mesh);
+  EXPECT_EQ(cube.friction, 0.4);
+  ASSERT_NE(cube.mesh, nullptr);
+  EXPECT_EQ(cube.mesh->triangleCount(), 12u);
+  Vec3d n;
+  EXPECT_NEAR(signedDistance(cube, Vec3d(0.5, 1.0, 0.5), n), 0.25, 1e-15);
+  EXPECT_TRUE(n.isApprox(Vec3d::UnitY()));
+  EXPECT_NEAR(signedDistance(cube, Vec3d(0.5, 0.5, 0.55), n), -0.2, 1e-15);
+  EXPECT_TRUE(n.isApprox(Vec3d::UnitZ()));
+  // Scaled about the origin, then moved.
+  EXPECT_EQ(s.obstacles[1].friction, -1.0);  // the world's
+  EXPECT_TRUE(s.obstacles[1].mesh->bounds()[0].isApprox(Vec3d(0.5, -0.5, 0.5)));
+  EXPECT_TRUE(s.obstacles[1].mesh->bounds()[1].isApprox(Vec3d(1.5, 0.5, 1.5)));
+}
+
+TEST(SceneReaderErrors, BadMeshObstaclesNameTheKey) {
+  const TempDir dir;
+  dir.write("cube.obj", test::cubeObj());
+  dir.write("empty.obj", "");
+  dir.write("flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n");
+  const auto error = [&](const std::string& obstacle) {
+    try {
+      (void)withObstacles(dir, "[" + obstacle + "]");
+    } catch (const InputError& e) {
+      const std::string msg = e.what();
+      EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+      return msg;
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(error(R"({"type": "mesh", "path": "none.obj"})"),
+            "scene.json: obstacles[0].path: cannot read: mesh file '" + dir.file("none.obj") +
+                "' does not exist (relative paths start at the scene's folder)");
+  EXPECT_EQ(error(R"({"type": "mesh", "path": "empty.obj"})"),
+            "scene.json: obstacles[0].path: cannot read: mesh file '" + dir.file("empty.obj") +
+                "' is empty");
+  EXPECT_EQ(error(R"({"type": "mesh", "path": "flat.obj"})"),
+            "scene.json: obstacles[0].path: mesh file '" + dir.file("flat.obj") +
+                "' has no non-degenerate triangles");
+  fs::create_directories(dir.path() / "sub");
+  EXPECT_EQ(error(R"({"type": "mesh", "path": "sub"})"),
+            "scene.json: obstacles[0].path: cannot read: mesh file '" + dir.file("sub") +
+                "' is a directory");
+  EXPECT_EQ(error(R"({"type": "mesh"})"), "scene.json: obstacles[0].path: missing (required)");
+  EXPECT_EQ(error(R"({"type": "mesh", "path": 3})"),
+            "scene.json: obstacles[0].path: must be the path of a mesh file (a non-empty "
+            "string), got 3");
+  EXPECT_EQ(error(R"({"type": "mesh", "path": "cube.obj", "normal": [0, 1, 0]})"),
+            "scene.json: obstacles[0].normal: unknown key (expected one of: type, path, scale, "
+            "translate, friction)");
+  EXPECT_EQ(error(R"({"type": "mesh", "path": "cube.obj", "scale": 0})"),
+            "scene.json: obstacles[0].scale: must be > 0, got 0");
+  EXPECT_EQ(error(R"({"type": "mesh", "path": "cube.obj", "translate": [0, 1]})"),
+            "scene.json: obstacles[0].translate: must be a list of 3 numbers [x, y, z], got [0,1]");
+  EXPECT_EQ(error(R"({"type": "mesh", "path": "cube.obj", "scale": 1e6, "translate": [5e5, 0, 0]})")
+                .rfind("scene.json: obstacles[0]: the mesh, scaled and translated, reaches outside "
+                       "the coordinate range [-1e6, 1e6] m (a vertex at ",
+                       0),
+            0u);
+  EXPECT_EQ(error(R"({"type": "mesh", "path": "cube.obj", "friction": -1})"),
+            "scene.json: obstacles[0].friction: must be >= 0, got -1");
 }
 
 // ---- errors: each kind names the file and the key path --------------------------------------

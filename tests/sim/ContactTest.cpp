@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "voxcut/core/Parallel.h"
@@ -8,6 +10,7 @@
 #include "voxcut/io/SceneReader.h"
 #include "voxcut/sim/World.h"
 #include "voxcut/sim/WorldInternals.h"
+#include "voxcut/voxel/BuiltinModels.h"
 
 namespace voxcut {
 namespace {
@@ -45,8 +48,11 @@ struct Landing {
   double voxel = 0.0;           // voxel size (m)
 };
 
-Landing land(double height, const std::string& obstacle, int frames) {
+// The box dropped onto `obstacle` (JSON; may be empty) and then onto `extra`, if given.
+Landing land(double height, const std::string& obstacle, int frames,
+             const std::optional<Obstacle>& extra = std::nullopt) {
   World sim = simulationOf(droppedBox(height, obstacle));
+  if (extra) sim.addObstacle(*extra);
   Landing l;
   for (int f = 0; f < frames; ++f) {
     const FrameReport r = sim.step();
@@ -82,6 +88,65 @@ TEST(Contact, BoxDroppedOnATableComesToRestOnTop) {
   EXPECT_LT(l.deepest, 0.5 * l.voxel);
   EXPECT_GT(l.lowest, -0.5 * l.voxel);
   EXPECT_NEAR(l.force.y(), -l.weight, 0.01 * l.weight);
+}
+
+// The table of kTable as a mesh obstacle: a box of 12 triangles, rotated by `degrees` about
+// the z axis through the origin (the middle of its top face).
+Obstacle meshTable(double degrees) {
+  TriangleMesh table = makeBox(Vec3d(0.4, 0.03, 0.4));
+  const Eigen::Matrix3d turn =
+      Eigen::AngleAxisd(degrees * 3.14159265358979323846 / 180.0, Vec3d::UnitZ()).matrix();
+  for (Vec3d& v : table.vertices) v = turn * (v - Vec3d(0, 0.015, 0));
+  return meshObstacle(table);
+}
+
+// On the same table as a mesh, the same landing as on the Box obstacle.
+TEST(Contact, BoxDroppedOnAMeshTableComesToRestOnTop) {
+  const Landing l = land(0.3, "", 500, meshTable(0.0));
+  EXPECT_LT(l.deepest, 0.5 * l.voxel);
+  EXPECT_LT(l.kinetic, 1e-6 * l.weight * 0.06);
+  EXPECT_GT(l.lowest, -0.5 * l.voxel);
+  EXPECT_NEAR(l.force.y(), -l.weight, 0.01 * l.weight);
+  EXPECT_LT(std::hypot(l.force.x(), l.force.z()), 0.01 * l.weight);
+}
+
+// A slab tilted by 10 degrees, friction 0.5 (tan 10 = 0.18): the box lands on its lower edge,
+// settles flat on the slope and stays; the slab carries its weight, straight down.
+TEST(Contact, BoxDroppedOnATiltedMeshSlabComesToRestOnIt) {
+  Obstacle slab = meshTable(10.0);
+  slab.friction = 0.5;
+  const Landing l = land(0.01, "", 400, slab);
+  EXPECT_LT(l.deepest, 0.5 * l.voxel);
+  EXPECT_LT(l.kinetic, 1e-6 * l.weight * 0.06);
+  EXPECT_NEAR(l.force.y(), -l.weight, 0.01 * l.weight);
+  EXPECT_LT(std::hypot(l.force.x(), l.force.z()), 0.01 * l.weight);
+}
+
+// box-down-ramp.json: the box slides down the ramp (a mesh), never half a voxel into it or the
+// floor, and comes to rest on the floor past the ramp's foot (x = 0.1), the two carrying its
+// weight.
+TEST(Contact, BoxSlidesDownTheRampSceneAndRestsOnTheFloor) {
+  const Scene scene = readScene(std::string(VOXCUT_SOURCE_DIR) + "/scenes/box-down-ramp.json");
+  ASSERT_EQ(scene.obstacles.at(0).type, ObstacleType::Mesh);
+  World sim = World::fromScene(scene, voxelizeSceneBodies(scene));
+  double deepest = 0.0;
+  FrameReport last;
+  for (int f = 0; f < scene.frames.value_or(0); ++f) {
+    last = sim.step();
+    ASSERT_TRUE(last.converged) << "frame " << f;
+    deepest = std::max(deepest, last.maxPenetration);
+  }
+  const SimBody& b = WorldInternals::body(sim, 0);
+  const double weight = b.model.totalMass() * 9.81;
+  EXPECT_LT(deepest, 0.5 * b.cut.grid.voxelSize());
+  EXPECT_LT(b.solver.kineticEnergy(b.model), 1e-6 * weight * 0.06);
+  Vec3d centre = Vec3d::Zero();
+  const std::vector<Vec3d>& positions = sim.surfaceMesh(0).positions;
+  for (const Vec3d& p : positions) centre += p;
+  centre /= static_cast<double>(positions.size());
+  EXPECT_GT(centre.x(), 0.1);
+  EXPECT_NEAR(centre.y(), 0.03, 0.005);
+  EXPECT_NEAR((last.obstacleForces[0] + last.obstacleForces[1]).y(), -weight, 0.01 * weight);
 }
 
 // The bunny set on a floor, with the default contact stiffness and solver settings, comes to

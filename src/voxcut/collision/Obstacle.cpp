@@ -3,9 +3,22 @@
 #include <algorithm>
 #include <cmath>
 
+#include "voxcut/core/Error.h"
+
 namespace voxcut {
 
-double signedDistance(const Obstacle& o, const Vec3d& x, Vec3d& normal) {
+Obstacle meshObstacle(const TriangleMesh& mesh) {
+  Obstacle o;
+  o.type = ObstacleType::Mesh;
+  o.mesh = std::make_shared<const MeshDistance>(mesh);
+  return o;
+}
+
+double signedDistance(const Obstacle& o, const Vec3d& x, Vec3d& normal, double maxDistance) {
+  if (o.type == ObstacleType::Mesh) {
+    VOXCUT_ASSERT(o.mesh != nullptr, "a mesh obstacle needs its MeshDistance (meshObstacle)");
+    return o.mesh->signedDistance(x, normal, maxDistance);
+  }
   if (o.type == ObstacleType::Plane) {
     normal = o.normal;
     return o.normal.dot(x - o.point);

@@ -11,6 +11,7 @@
 
 #include "voxcut/core/CoordinateRange.h"
 #include "voxcut/core/Error.h"
+#include "voxcut/io/MeshReader.h"
 #include "voxcut/io/StrictJson.h"
 
 namespace voxcut {
@@ -442,6 +443,44 @@ std::vector<ToolKey> readTrajectory(const Reader& r, const Json& file, const std
   return readKeys(inner, required(inner, t, tp, "keys"), child(tp, "keys"), kind);
 }
 
+/// A mesh obstacle: the mesh file at "path" (relative to the scene's folder), scaled by
+/// "scale" about the origin, then moved by "translate"; its signed distance is built here.
+Obstacle readMeshObstacle(const Reader& r, const Json& v, const std::string& path) {
+  const std::string p = child(path, "path");
+  const Json& file = required(r, v, path, "path");
+  if (!file.is_string() || file.get<std::string>().empty())
+    r.fail(p, "must be the path of a mesh file (a non-empty string), got " + shown(file));
+  const fs::path given(file.get<std::string>());
+  const fs::path resolved = fs::absolute(r.baseDir / given).lexically_normal();
+  TriangleMesh mesh;
+  try {
+    mesh = readMesh(resolved.string());
+  } catch (const InputError& e) {
+    std::error_code ec;
+    const bool missing = !fs::exists(resolved, ec);
+    r.fail(p, std::string("cannot read: ") + e.what() +
+                  (missing && given.is_relative() ? " (relative paths start at the scene's folder)"
+                                                  : ""));
+  }
+  const double scale =
+      v.contains("scale") ? positive(r, v["scale"], child(path, "scale"), 1e6, "1e6") : 1.0;
+  const Vec3d translate = v.contains("translate")
+                              ? point(r, v["translate"], child(path, "translate"))
+                              : Vec3d(Vec3d::Zero());
+  for (Vec3d& x : mesh.vertices) {
+    x = scale * x + translate;
+    if (!isCoordinate(x))
+      r.fail(path, std::string("the mesh, scaled and translated, reaches outside the coordinate "
+                               "range ") +
+                       kCoordinateRangeText + " (a vertex at " + shown(x.x()) + ", " +
+                       shown(x.y()) + ", " + shown(x.z()) + ")");
+  }
+  Obstacle o = meshObstacle(mesh);
+  if (o.mesh->triangleCount() == 0)
+    r.fail(p, "mesh file '" + resolved.string() + "' has no non-degenerate triangles");
+  return o;
+}
+
 Obstacle readObstacle(const Reader& r, const Json& v, const std::string& path) {
   expectObject(r, v, path);
   const Json& type = required(r, v, path, "type");
@@ -466,9 +505,12 @@ Obstacle readObstacle(const Reader& r, const Json& v, const std::string& path) {
       if (!(o.lo[a] < o.hi[a]))
         r.fail(path, std::string("must have lo < hi on every axis, got ") + kAxes[a] + " " +
                          shown(o.lo[a]) + " >= " + shown(o.hi[a]));
+  } else if (type.is_string() && type.get<std::string>() == "mesh") {
+    checkKeys(r, v, path, {"type", "path", "scale", "translate", "friction"});
+    o = readMeshObstacle(r, v, path);
   } else {
-    r.fail(child(path, "type"),
-           "unknown obstacle type " + shown(type) + " (expected one of: \"plane\", \"box\")");
+    r.fail(child(path, "type"), "unknown obstacle type " + shown(type) +
+                                    " (expected one of: \"plane\", \"box\", \"mesh\")");
   }
   if (v.contains("friction"))
     o.friction = nonNegative(r, v["friction"], child(path, "friction"), 100.0, "100");

@@ -26,13 +26,17 @@ inline constexpr std::size_t kMaxSceneFileBytes = std::size_t{64} << 20;
 inline constexpr std::size_t kMaxSceneDepth = 64;
 
 /// Reads and validates the scene file at `path`: readSceneText, then parseScene. Relative
-/// mesh paths in `model` are resolved against the file's folder. Scene::source is set to
-/// `path` as given.
+/// mesh paths in `model` and in mesh obstacles' `path` are resolved against the file's
+/// folder. Scene::source is set to `path` as given. A mesh obstacle's file is read here
+/// (io/MeshReader.h) and its signed distance built (collision/MeshDistance.h); body models
+/// are loaded later (loadBodyModel).
 /// Throws InputError for a missing, unreadable, irregular or oversized file, nesting deeper
 /// than kMaxSceneDepth, a JSON syntax error (with line and column), an unknown key anywhere,
 /// a missing required key, a value of the wrong type or out of range (coordinates within
-/// core/CoordinateRange.h's range), and a mesh file that does not exist (see docs/scenes.md
-/// for every rule). Time and memory are linear in the size of the file.
+/// core/CoordinateRange.h's range), a mesh file that does not exist, and an obstacle mesh
+/// that cannot be read or has no non-degenerate triangle (see docs/scenes.md for every rule).
+/// Time and memory are linear in the size of the file, plus building the obstacle meshes'
+/// signed distances.
 [[nodiscard]] Scene readScene(const std::string& path);
 
 /// The bytes of the scene file at `path`. Throws InputError for a path that does not exist,

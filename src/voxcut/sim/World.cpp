@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <iterator>
+#include <limits>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -213,8 +214,11 @@ struct ContactShapes {
   }
 
   [[nodiscard]] std::size_t size() const { return obstacles->size() + probes.size(); }
-  double distance(std::size_t s, const Vec3d& x, Vec3d& n) const {
-    return s < obstacles->size() ? signedDistance((*obstacles)[s], x, n)
+  /// Shape s's signed distance at x; where it is at least `maxDistance`, only some value
+  /// >= maxDistance (a mesh obstacle stops its search early; Obstacle.h).
+  double distance(std::size_t s, const Vec3d& x, Vec3d& n,
+                  double maxDistance = std::numeric_limits<double>::infinity()) const {
+    return s < obstacles->size() ? signedDistance((*obstacles)[s], x, n, maxDistance)
                                  : signedDistance(probes[s - obstacles->size()], x, n);
   }
 };
@@ -910,12 +914,16 @@ std::vector<ContactHit> World::Impl::findContacts(const SimBody& b, const Contac
         const Vec3d vp = pointVelocity(b, em.element, w);
         for (std::size_t s = 0; s < shapes.size(); ++s) {
           if (!shapes.mayTouch(em.element, s)) continue;
-          Vec3d n;
-          const double gap = shapes.distance(s, x, n);
           const std::uint64_t key = v * shapes.size() + s;
+          const bool forced = std::binary_search(edits.forced.begin(), edits.forced.end(), key);
+          // Only a gap below dt |v_p| can be predicted to close; a forced contact needs its gap
+          // wherever the vertex is.
+          const double bound = forced ? std::numeric_limits<double>::infinity() : dt * vp.norm();
+          Vec3d n;
+          const double gap = shapes.distance(s, x, n, bound);
           const bool predicted = gap < 0.0 || gap + dt * n.dot(vp) < 0.0;
           if (predicted ? std::binary_search(edits.dropped.begin(), edits.dropped.end(), key)
-                        : !std::binary_search(edits.forced.begin(), edits.forced.end(), key))
+                        : !forced)
             continue;
           PointContact pc;
           pc.element = em.element;
@@ -962,7 +970,7 @@ bool World::Impl::correctActiveSet(const SimBody& b, const ContactShapes& shapes
         for (std::size_t s = 0; s < shapeCount; ++s) {
           if (!shapes.mayTouch(b.embedding[v].element, s)) continue;
           Vec3d n;
-          if (!(shapes.distance(s, x, n) < -tolerance)) continue;
+          if (!(shapes.distance(s, x, n, 0.0) < -tolerance)) continue;
           const std::uint64_t key = v * shapeCount + s;
           if (!std::binary_search(inSet.begin(), inSet.end(), key)) chunkForced[ch].push_back(key);
         }
@@ -1004,7 +1012,7 @@ void World::Impl::nearShapes(const SimBody& b, ContactShapes& shapes) const {
           std::uint64_t bits = 0;
           for (std::size_t s = 0; s < std::min<std::size_t>(shapes.size(), 64); ++s) {
             Vec3d n;
-            if (shapes.distance(s, box.center(), n) < reach) bits |= std::uint64_t{1} << s;
+            if (shapes.distance(s, box.center(), n, reach) < reach) bits |= std::uint64_t{1} << s;
           }
           shapes.near[e] = bits;
         }
@@ -1030,7 +1038,7 @@ double World::Impl::deepestPenetration(const SimBody& b, const ContactShapes& sh
             for (std::size_t s = 0; s < shapes.size(); ++s) {
               if (!shapes.mayTouch(b.embedding[v].element, s)) continue;
               Vec3d n;
-              deepest = std::max(deepest, -shapes.distance(s, b.vertexPositions[v], n));
+              deepest = std::max(deepest, -shapes.distance(s, b.vertexPositions[v], n, 0.0));
             }
           }
           partial[ch] = deepest;

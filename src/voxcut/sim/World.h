@@ -197,6 +197,9 @@ class World {
   [[nodiscard]] const std::vector<ToolKey>& recording(std::size_t tool) const;
 
   // ---- obstacles ----
+  /// Adds a static obstacle (a plane, a box, or a mesh from meshObstacle; collision/Obstacle.h)
+  /// and returns its index in FrameReport::obstacleForces. A mesh obstacle's hierarchies are
+  /// shared with the caller's copy, not rebuilt.
   std::size_t addObstacle(const Obstacle& obstacle);
   [[nodiscard]] std::size_t obstacleCount() const;
 
