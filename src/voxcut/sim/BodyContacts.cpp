@@ -29,12 +29,6 @@ bool nearbyThroughLinks(const VoxelGrid& g, std::size_t from, std::size_t to) {
   return found;
 }
 
-bool shareNode(const OctreeElement& x, const OctreeElement& y) {
-  for (std::uint32_t n : x.nodes)
-    if (std::find(y.nodes.begin(), y.nodes.end(), n) != y.nodes.end()) return true;
-  return false;
-}
-
 /// The unit normal `rest` (b's rest frame) carried into the current frame by element e's
 /// deformation at trilinear coordinates t: F^-T rest, F the map's derivative there (by central
 /// differences; its scale drops out).
@@ -142,7 +136,7 @@ std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& 
   // Per element of A: the elements of B whose boxes meet its box, its nodes where they are
   // and moved on by dt v (which holds its vertices, moved on), less its own neighbourhood for
   // self; most elements have none, and their vertices are not even placed.
-  constexpr std::size_t kChunk = 256;
+  constexpr std::size_t kChunk = 32;
   const std::size_t chunks = (elements + kChunk - 1) / kChunk;
   std::vector<std::vector<BodyContactPoint>> found(chunks);
   parallelFor(
@@ -160,10 +154,18 @@ std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& 
             box.extend(box.min() - Vec3d::Constant(dt * fastestB));
             box.extend(box.max() + Vec3d::Constant(dt * fastestB));
             std::vector<std::uint32_t> candidates = bHash.elementsInBox(box);
-            if (self)
+            if (self) {
+              // Its own neighbourhood: itself and the elements sharing a node with it (its
+              // nodes sorted, each candidate node found by binary search).
+              std::array<std::uint32_t, 8> ownNodes = own.nodes;
+              std::sort(ownNodes.begin(), ownNodes.end());
               std::erase_if(candidates, [&](std::uint32_t e) {
-                return e == ea || shareNode(own, db.element(e));
+                if (e == ea) return true;
+                for (std::uint32_t n : db.element(e).nodes)
+                  if (std::binary_search(ownNodes.begin(), ownNodes.end(), n)) return true;
+                return false;
               });
+            }
             if (candidates.empty()) continue;
             for (std::uint32_t k = start[ea]; k < start[ea + 1]; ++k) {
               const std::uint32_t v = order[k];

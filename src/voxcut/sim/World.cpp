@@ -106,29 +106,33 @@ const std::vector<std::string>& frameStageNames() {
 namespace {
 
 /// Vertices per task of the per-vertex contact loops.
-constexpr std::size_t kVertexChunk = 2048;
+constexpr std::size_t kVertexChunk = 512;
 
-/// Calls fn(chunk, vertex, x) for every embedded surface vertex slot of the body whose element
-/// e passes wanted(e), x its
-/// current position from the nodes (not vertexPositions: vertices a cut added this frame have
-/// none yet), over chunks of kVertexChunk slots in parallel. Per-chunk outputs joined in chunk
-/// order come out in vertex order whatever the thread count.
-template <class Fn, class Wanted>
-void forEachVertexChunked(const SimBody& b, bool threaded, Wanted&& wanted, Fn&& fn) {
+/// Calls fn(chunk, vertex, x) for every surface vertex slot in `vertices` (embedded, ascending),
+/// x its current position from the nodes (not vertexPositions: vertices a cut added this frame
+/// have none yet), over chunks of kVertexChunk list entries in parallel. Per-chunk outputs
+/// joined in chunk order come out in vertex order whatever the thread count.
+template <class Fn>
+void forEachVertexChunked(const SimBody& b, bool threaded,
+                          const std::vector<std::uint32_t>& vertices, Fn&& fn) {
   const DeformationOctree& d = b.cut.deformation;
-  const std::size_t chunks = (b.embedding.size() + kVertexChunk - 1) / kVertexChunk;
+  const std::size_t chunks = (vertices.size() + kVertexChunk - 1) / kVertexChunk;
   parallelFor(
       0, chunks, 1,
       [&](std::size_t c0, std::size_t c1) {
         for (std::size_t ch = c0; ch < c1; ++ch)
-          for (std::size_t v = ch * kVertexChunk;
-               v < std::min(b.embedding.size(), (ch + 1) * kVertexChunk); ++v) {
-            const VertexEmbedding& em = b.embedding[v];
-            if (em.element != kNoElement && wanted(em.element))
-              fn(ch, v, d.pointInElement(em.element, em.local));
+          for (std::size_t k = ch * kVertexChunk;
+               k < std::min(vertices.size(), (ch + 1) * kVertexChunk); ++k) {
+            const VertexEmbedding& em = b.embedding[vertices[k]];
+            fn(ch, vertices[k], d.pointInElement(em.element, em.local));
           }
       },
       threaded);
+}
+
+/// Chunks forEachVertexChunked splits `vertices` into.
+std::size_t vertexChunks(const std::vector<std::uint32_t>& vertices) {
+  return (vertices.size() + kVertexChunk - 1) / kVertexChunk;
 }
 
 /// The span of wall-clock time between two frames that the haptic call blends over is held
@@ -205,6 +209,9 @@ struct ContactShapes {
   /// Per element of the body being stepped: bit s set where shape s may come near its
   /// vertices during the step (nearShapes); all bits past the 64th shape are always set.
   std::vector<std::uint64_t> near;
+  /// The body's surface vertex slots that some shape may reach during the step (nearShapes),
+  /// ascending: the only ones the contact loops look at.
+  std::vector<std::uint32_t> vertices;
 
   [[nodiscard]] bool mayTouch(std::uint32_t element, std::size_t s) const {
     return s >= 64 || ((near[element] >> s) & 1u) != 0;
@@ -903,12 +910,11 @@ std::vector<ContactHit> World::Impl::findContacts(const SimBody& b, const Contac
   contacts.clear();
   if (shapes.size() == 0) return hits;
   const double dt = settings.timeStep;
-  const std::size_t chunks = (b.embedding.size() + kVertexChunk - 1) / kVertexChunk;
+  const std::size_t chunks = vertexChunks(shapes.vertices);
   std::vector<std::vector<PointContact>> chunkContacts(chunks);
   std::vector<std::vector<ContactHit>> chunkHits(chunks);
   forEachVertexChunked(
-      b, settings.threaded, [&](std::uint32_t e) { return shapes.mayTouchAny(e); },
-      [&](std::size_t ch, std::size_t v, const Vec3d& x) {
+      b, settings.threaded, shapes.vertices, [&](std::size_t ch, std::size_t v, const Vec3d& x) {
         const VertexEmbedding& em = b.embedding[v];
         const std::array<double, 8> w = trilinearWeights(em.local);
         const Vec3d vp = pointVelocity(b, em.element, w);
@@ -962,19 +968,18 @@ bool World::Impl::correctActiveSet(const SimBody& b, const ContactShapes& shapes
   // Keys come out ascending: hits are in vertex order, shapes in order within a vertex.
   // Vertices that end more than a fiftieth of a voxel inside a shape they had no contact with.
   const double tolerance = 0.02 * b.cut.grid.voxelSize();
-  std::vector<std::vector<std::uint64_t>> chunkForced((b.embedding.size() + kVertexChunk - 1) /
-                                                      kVertexChunk);
-  forEachVertexChunked(
-      b, settings.threaded, [&](std::uint32_t e) { return shapes.mayTouchAny(e); },
-      [&](std::size_t ch, std::size_t v, const Vec3d& x) {
-        for (std::size_t s = 0; s < shapeCount; ++s) {
-          if (!shapes.mayTouch(b.embedding[v].element, s)) continue;
-          Vec3d n;
-          if (!(shapes.distance(s, x, n, 0.0) < -tolerance)) continue;
-          const std::uint64_t key = v * shapeCount + s;
-          if (!std::binary_search(inSet.begin(), inSet.end(), key)) chunkForced[ch].push_back(key);
-        }
-      });
+  std::vector<std::vector<std::uint64_t>> chunkForced(vertexChunks(shapes.vertices));
+  forEachVertexChunked(b, settings.threaded, shapes.vertices,
+                       [&](std::size_t ch, std::size_t v, const Vec3d& x) {
+                         for (std::size_t s = 0; s < shapeCount; ++s) {
+                           if (!shapes.mayTouch(b.embedding[v].element, s)) continue;
+                           Vec3d n;
+                           if (!(shapes.distance(s, x, n, 0.0) < -tolerance)) continue;
+                           const std::uint64_t key = v * shapeCount + s;
+                           if (!std::binary_search(inSet.begin(), inSet.end(), key))
+                             chunkForced[ch].push_back(key);
+                         }
+                       });
   for (const std::vector<std::uint64_t>& f : chunkForced) {
     if (!f.empty()) changed = true;
     edits.forced.insert(edits.forced.end(), f.begin(), f.end());
@@ -997,6 +1002,7 @@ void World::Impl::nearShapes(const SimBody& b, ContactShapes& shapes) const {
   // that, and a voxel, to spare (the step's re-solves and the contacts' own pushes).
   const double spare = b.cut.grid.voxelSize() + 2.0 * dt * dt * settings.gravity.norm();
   shapes.near.assign(d.elementCount(), 0);
+  std::vector<double> motion(d.elementCount(), 0.0);  // how far the element's nodes may move
   parallelFor(
       0, d.elementCount(), 512,
       [&](std::size_t lo, std::size_t hi) {
@@ -1008,7 +1014,8 @@ void World::Impl::nearShapes(const SimBody& b, ContactShapes& shapes) const {
             box.extend(d.positions()[n]);
             if (!velocity.empty()) speed = std::max(speed, velocity[n].norm());
           }
-          const double reach = 0.5 * box.diagonal().norm() + 2.0 * dt * speed + spare;
+          motion[e] = 2.0 * dt * speed + spare;
+          const double reach = 0.5 * box.diagonal().norm() + motion[e];
           std::uint64_t bits = 0;
           for (std::size_t s = 0; s < std::min<std::size_t>(shapes.size(), 64); ++s) {
             Vec3d n;
@@ -1018,23 +1025,42 @@ void World::Impl::nearShapes(const SimBody& b, ContactShapes& shapes) const {
         }
       },
       settings.threaded);
+  // Then the vertices of those elements that a shape can reach within their element's motion:
+  // an element's vertices lie anywhere in its ball, most of them farther than that.
+  std::vector<std::uint32_t> all;
+  for (std::size_t v = 0; v < b.embedding.size(); ++v)
+    if (b.embedding[v].element != kNoElement && shapes.mayTouchAny(b.embedding[v].element))
+      all.push_back(static_cast<std::uint32_t>(v));
+  std::vector<std::vector<std::uint32_t>> chunkNear(vertexChunks(all));
+  forEachVertexChunked(
+      b, settings.threaded, all, [&](std::size_t ch, std::size_t v, const Vec3d& x) {
+        const std::uint32_t e = b.embedding[v].element;
+        for (std::size_t s = 0; s < shapes.size(); ++s) {
+          Vec3d n;
+          if (shapes.mayTouch(e, s) && shapes.distance(s, x, n, motion[e]) < motion[e]) {
+            chunkNear[ch].push_back(static_cast<std::uint32_t>(v));
+            return;
+          }
+        }
+      });
+  shapes.vertices.clear();
+  for (const std::vector<std::uint32_t>& c : chunkNear)
+    shapes.vertices.insert(shapes.vertices.end(), c.begin(), c.end());
 }
 
 // The deepest any surface vertex of the body lies inside an obstacle or probe (m; 0 when
 // none). The maximum does not depend on how the vertices are split among threads.
 double World::Impl::deepestPenetration(const SimBody& b, const ContactShapes& shapes) const {
   if (shapes.size() == 0) return 0.0;
-  constexpr std::size_t kChunk = 4096;
-  std::vector<double> partial((b.embedding.size() + kChunk - 1) / kChunk, 0.0);
+  std::vector<double> partial(vertexChunks(shapes.vertices), 0.0);
   parallelFor(
       0, partial.size(), 1,
       [&](std::size_t c0, std::size_t c1) {
         for (std::size_t ch = c0; ch < c1; ++ch) {
           double deepest = 0.0;
-          for (std::size_t v = ch * kChunk; v < std::min(b.embedding.size(), (ch + 1) * kChunk);
-               ++v) {
-            if (b.embedding[v].element == kNoElement || !shapes.mayTouchAny(b.embedding[v].element))
-              continue;
+          for (std::size_t k = ch * kVertexChunk;
+               k < std::min(shapes.vertices.size(), (ch + 1) * kVertexChunk); ++k) {
+            const std::uint32_t v = shapes.vertices[k];
             for (std::size_t s = 0; s < shapes.size(); ++s) {
               if (!shapes.mayTouch(b.embedding[v].element, s)) continue;
               Vec3d n;
