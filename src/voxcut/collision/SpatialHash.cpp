@@ -156,10 +156,17 @@ std::vector<std::uint32_t> SpatialHash::cellElements(const Index3& cell) const {
 std::vector<std::uint32_t> SpatialHash::elementsInBox(const Eigen::AlignedBox3d& box) const {
   std::vector<std::uint32_t> out;
   auto any = [](const Eigen::AlignedBox3d&) { return true; };
-  visitCells(box, any, [&](std::uint32_t e) {
-    if (boxes_[e].intersects(box)) out.push_back(e);
+  // An element registered in several of the cells visited is listed from one only: the cell
+  // holding the low corner of its overlap with the box (which it is registered in, and which
+  // the box touches), so no duplicates need sorting out.
+  Index3 cell{0, 0, 0};
+  visitCellsWithCell(box, any, [&](const Index3& c, std::uint32_t e) {
+    const Eigen::AlignedBox3d& b = boxes_[e];
+    if (!b.intersects(box)) return;
+    cell = cellOf(b.min().cwiseMax(box.min()));
+    if (cell == c) out.push_back(e);
   });
-  sortUnique(out);
+  std::sort(out.begin(), out.end());
   return out;
 }
 

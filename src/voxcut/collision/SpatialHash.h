@@ -95,6 +95,11 @@ class SpatialHash {
   /// its elements (an element in several cells is emitted once per cell).
   template <class CellTest, class Emit>
   void visitCells(const Eigen::AlignedBox3d& bounds, CellTest& test, Emit&& emit) const {
+    visitCellsWithCell(bounds, test, [&](const Index3&, std::uint32_t e) { emit(e); });
+  }
+  /// As visitCells, with emit(cell, element).
+  template <class CellTest, class Emit>
+  void visitCellsWithCell(const Eigen::AlignedBox3d& bounds, CellTest& test, Emit&& emit) const {
     Index3 lo, hi;
     if (!cellRange(bounds, lo, hi)) return;
     for (int z = lo.z; z <= hi.z; ++z)
@@ -108,7 +113,7 @@ class SpatialHash {
           while (hit != last && !(hit->cell == c)) ++hit;
           if (hit == last || !test(cellBox(c))) continue;
           for (const Entry* p = hit; p != last; ++p)
-            if (p->cell == c) emit(p->element);
+            if (p->cell == c) emit(c, p->element);
         }
   }
 
