@@ -135,10 +135,9 @@ std::size_t vertexChunks(const std::vector<std::uint32_t>& vertices) {
   return (vertices.size() + kVertexChunk - 1) / kVertexChunk;
 }
 
-/// The span of wall-clock time between two frames that the haptic call blends over is held
-/// within these bounds (seconds): a world stepped in a tight loop, or left paused, still blends
-/// over a sensible time.
-constexpr double kHapticMinPeriod = 1e-3;
+/// The span of wall-clock time between two frames that the haptic call blends over is held at
+/// most this (seconds; a paused world still blends over a sensible time), and at least the
+/// time step: frames that run back to back to catch up do not shorten the blend.
 constexpr double kHapticMaxPeriod = 0.05;
 
 /// A probe's force model between frames (World::hapticForce; docs/algorithms.md, "Forces at
@@ -1260,7 +1259,7 @@ Vec3d hapticModelForce(const HapticModel& m, const Vec3d& c) {
 /// updated by the secant of the last two frames along the probe's motion (Broyden's rank-one
 /// update, which keeps what earlier motions taught in the other directions). A frame without
 /// contact forgets it; the first frame of a contact has no slope yet. Published to the slot.
-void publishHaptic(WorldTool& t) {
+void publishHaptic(WorldTool& t, double timeStep) {
   HapticModel next;
   next.centre = 0.5 * (t.pose.a + t.pose.b);
   next.radius = t.radius;
@@ -1288,7 +1287,7 @@ void publishHaptic(WorldTool& t) {
   slot.offset = answered - hapticModelForce(next, at);
   if (slot.published != std::chrono::steady_clock::time_point{})
     slot.period = std::clamp(std::chrono::duration<double>(now - slot.published).count(),
-                             kHapticMinPeriod, kHapticMaxPeriod);
+                             std::min(timeStep, kHapticMaxPeriod), kHapticMaxPeriod);
   slot.model = next;
   slot.published = now;
 }
@@ -1361,7 +1360,7 @@ FrameReport World::step() {
     t.pose = motion.to[ti];
     t.target.reset();
     t.reaction = report.toolReactions[ti];
-    if (t.kind == ToolKind::Probe) publishHaptic(t);
+    if (t.kind == ToolKind::Probe) publishHaptic(t, w.settings.timeStep);
     if (w.recording) t.recorded.push_back({w.time(), t.pose});
   }
   report.time = w.time();
