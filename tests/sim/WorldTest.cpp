@@ -313,6 +313,41 @@ TEST(World, SelfCollisionKeepsTheSidesOfACutApart) {
   EXPECT_GT(without, 0.5 * voxel);
 }
 
+// Self collision's candidates kept between frames (a Verlet list) find the same contacts as a
+// fresh query every frame, while the slit box's flap is pushed against its other side; and
+// they are reused, not rebuilt every frame.
+TEST(World, SelfCandidatesKeptBetweenFramesFindTheSameContacts) {
+  const std::string scene = box(R"("contact": {"self_collision": true},
+        "tools": [{"type": "blade", "keys": [
+          {"t": 0.0, "a": [0.0005, 0.07, -0.06], "b": [0.0005, 0.07, 0.06]},
+          {"t": 0.06, "a": [0.0005, 0.02, -0.06], "b": [0.0005, 0.02, 0.06]}]},
+          {"type": "probe", "radius": 0.01, "friction": 0, "keys": [
+          {"t": 0.08, "p": [-0.062, 0.045, 0]}, {"t": 0.3, "p": [-0.05, 0.045, 0]}]}])",
+                                kBaseFixed);
+  World w = worldOf(scene);
+  SelfCandidateCache cache;
+  int rebuilt = 0, found = 0;
+  for (int f = 0; f < 100; ++f) {
+    (void)w.step();
+    const SimBody& b = WorldInternals::body(w, 0);
+    SpatialHash hash;
+    buildElementHash(b, hash, true);
+    const std::vector<Vec3d> before = cache.nodes;
+    const auto kept = findBodyContacts(b, b, hash, true, 0.004, true, &cache);
+    const auto fresh = findBodyContacts(b, b, hash, true, 0.004, true);
+    rebuilt += cache.nodes != before ? 1 : 0;
+    ASSERT_EQ(kept.size(), fresh.size()) << "frame " << f;
+    for (std::size_t k = 0; k < kept.size(); ++k) {
+      EXPECT_EQ(kept[k].vertex, fresh[k].vertex);
+      EXPECT_EQ(kept[k].other, fresh[k].other);
+      EXPECT_EQ(kept[k].depth, fresh[k].depth);
+    }
+    found += static_cast<int>(kept.size());
+  }
+  EXPECT_GT(found, 0);
+  EXPECT_LT(rebuilt, 50);
+}
+
 // A small soft box dropped onto a larger one fixed at its base comes to rest on it, no vertex
 // deeper than half a voxel in the other, carrying its weight; from 0.3 m it does not pass
 // through.

@@ -82,6 +82,27 @@ bool pointDepth(const SimBody& b, std::uint32_t e, const Vec3d& x, Vec3d& t, dou
   return b.restDistance.depth(g, vx, rest, depth, normal);
 }
 
+/// The elements of b (whose element boxes `bHash` holds) whose boxes meet `box`; for self,
+/// less element `own` of the same body and the elements sharing a node with it (its own
+/// neighbourhood; its nodes sorted, each candidate node found by binary search). Ascending.
+std::vector<std::uint32_t> candidatesOf(const SimBody& b, const SpatialHash& bHash,
+                                        std::uint32_t own, const Eigen::AlignedBox3d& box,
+                                        bool self) {
+  std::vector<std::uint32_t> candidates = bHash.elementsInBox(box);
+  if (self) {
+    const DeformationOctree& d = b.cut.deformation;
+    std::array<std::uint32_t, 8> ownNodes = d.element(own).nodes;
+    std::sort(ownNodes.begin(), ownNodes.end());
+    std::erase_if(candidates, [&](std::uint32_t e) {
+      if (e == own) return true;
+      for (std::uint32_t n : d.element(e).nodes)
+        if (std::binary_search(ownNodes.begin(), ownNodes.end(), n)) return true;
+      return false;
+    });
+  }
+  return candidates;
+}
+
 }  // namespace
 
 void buildElementHash(const SimBody& body, SpatialHash& hash, bool threaded) {
@@ -100,7 +121,7 @@ void buildElementHash(const SimBody& body, SpatialHash& hash, bool threaded) {
 
 std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& b,
                                                const SpatialHash& bHash, bool self, double dt,
-                                               bool threaded) {
+                                               bool threaded, SelfCandidateCache* cache) {
   const DeformationOctree& da = a.cut.deformation;
   const DeformationOctree& db = b.cut.deformation;
   const VoxelGrid& gb = b.cut.grid;
@@ -133,9 +154,63 @@ std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& 
       fastestB = std::max(fastestB, elementVelocity[e].norm());
     }
   }
-  // Per element of A: the elements of B whose boxes meet its box, its nodes where they are
-  // and moved on by dt v (which holds its vertices, moved on), less its own neighbourhood for
-  // self; most elements have none, and their vertices are not even placed.
+  // Per element of A: the box its vertices can reach in the step (its nodes where they are and
+  // moved on by dt v, grown by B's fastest motion).
+  std::vector<Eigen::AlignedBox3d> reach(elements);
+  parallelFor(
+      0, elements, 256,
+      [&](std::size_t lo, std::size_t hi) {
+        for (std::size_t ea = lo; ea < hi; ++ea) {
+          if (start[ea] == start[ea + 1]) continue;
+          Eigen::AlignedBox3d& box = reach[ea];
+          for (std::uint32_t n : da.element(static_cast<std::uint32_t>(ea)).nodes) {
+            box.extend(da.positions()[n]);
+            if (!velocity.empty()) box.extend(da.positions()[n] + dt * velocity[n]);
+          }
+          // (and a millionth of a voxel: the moved vertices are computed another way, and a
+          // rounding must not leave one just outside a box that touches this one)
+          const double pad = dt * fastestB + 1e-6 * b.cut.grid.voxelSize();
+          box.extend(box.min() - Vec3d::Constant(pad));
+          box.extend(box.max() + Vec3d::Constant(pad));
+        }
+      },
+      threaded);
+  // The elements of B whose boxes meet that box, less its own neighbourhood for self: from the
+  // cache while it holds (nothing has moved out of its skin), else queried (and kept).
+  if (cache != nullptr && self) {
+    bool usable = cache->valid && cache->cutLinks == a.cutLinks &&
+                  cache->nodes.size() == da.positions().size() && cache->query.size() == elements;
+    if (usable) {
+      Vec3d moved = Vec3d::Zero();  // per axis, the farthest any node has moved since
+      for (std::size_t n = 0; n < cache->nodes.size(); ++n)
+        moved = moved.cwiseMax((da.positions()[n] - cache->nodes[n]).cwiseAbs());
+      for (std::size_t ea = 0; ea < elements && usable; ++ea)
+        if (start[ea] != start[ea + 1])
+          usable = cache->query[ea].contains(
+              Eigen::AlignedBox3d(reach[ea].min() - moved, reach[ea].max() + moved));
+    }
+    if (!usable) {
+      const double skin = a.cut.grid.voxelSize();
+      cache->nodes = da.positions();
+      cache->cutLinks = a.cutLinks;
+      cache->query.assign(elements, Eigen::AlignedBox3d());
+      cache->candidates.assign(elements, {});
+      parallelFor(
+          0, elements, 32,
+          [&](std::size_t lo, std::size_t hi) {
+            for (std::size_t ea = lo; ea < hi; ++ea) {
+              if (start[ea] == start[ea + 1]) continue;
+              cache->query[ea] = Eigen::AlignedBox3d(reach[ea].min() - Vec3d::Constant(skin),
+                                                     reach[ea].max() + Vec3d::Constant(skin));
+              cache->candidates[ea] =
+                  candidatesOf(b, bHash, static_cast<std::uint32_t>(ea), cache->query[ea], true);
+            }
+          },
+          threaded);
+      cache->valid = true;
+    }
+  }
+  // Most elements have no candidates, and their vertices are not even placed.
   constexpr std::size_t kChunk = 32;
   const std::size_t chunks = (elements + kChunk - 1) / kChunk;
   std::vector<std::vector<BodyContactPoint>> found(chunks);
@@ -145,27 +220,11 @@ std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& 
         for (std::size_t ch = c0; ch < c1; ++ch)
           for (std::size_t ea = ch * kChunk; ea < std::min(elements, (ch + 1) * kChunk); ++ea) {
             if (start[ea] == start[ea + 1]) continue;
-            const OctreeElement& own = da.element(static_cast<std::uint32_t>(ea));
-            Eigen::AlignedBox3d box;
-            for (std::uint32_t n : own.nodes) {
-              box.extend(da.positions()[n]);
-              if (!velocity.empty()) box.extend(da.positions()[n] + dt * velocity[n]);
-            }
-            box.extend(box.min() - Vec3d::Constant(dt * fastestB));
-            box.extend(box.max() + Vec3d::Constant(dt * fastestB));
-            std::vector<std::uint32_t> candidates = bHash.elementsInBox(box);
-            if (self) {
-              // Its own neighbourhood: itself and the elements sharing a node with it (its
-              // nodes sorted, each candidate node found by binary search).
-              std::array<std::uint32_t, 8> ownNodes = own.nodes;
-              std::sort(ownNodes.begin(), ownNodes.end());
-              std::erase_if(candidates, [&](std::uint32_t e) {
-                if (e == ea) return true;
-                for (std::uint32_t n : db.element(e).nodes)
-                  if (std::binary_search(ownNodes.begin(), ownNodes.end(), n)) return true;
-                return false;
-              });
-            }
+            std::vector<std::uint32_t> fresh;
+            if (cache == nullptr || !self)
+              fresh = candidatesOf(b, bHash, static_cast<std::uint32_t>(ea), reach[ea], self);
+            const std::vector<std::uint32_t>& candidates =
+                cache != nullptr && self ? cache->candidates[ea] : fresh;
             if (candidates.empty()) continue;
             for (std::uint32_t k = start[ea]; k < start[ea + 1]; ++k) {
               const std::uint32_t v = order[k];

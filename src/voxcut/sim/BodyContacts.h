@@ -41,8 +41,11 @@ void buildElementHash(const SimBody& body, SpatialHash& hash, bool threaded);
 /// node with the vertex's own, and a point whose voxel is joined to the vertex's voxel by at
 /// most two connected links, are the vertex's own neighbourhood and skipped; the other side of
 /// a cut is not. In vertex order, whatever the thread count.
+/// For self, `cache` (a's own, may be null) keeps the broad phase's candidates between frames
+/// and is used while still valid (SelfCandidateCache); the result is the same with or without.
 [[nodiscard]] std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& b,
                                                              const SpatialHash& bHash, bool self,
-                                                             double dt, bool threaded);
+                                                             double dt, bool threaded,
+                                                             SelfCandidateCache* cache = nullptr);
 
 }  // namespace voxcut

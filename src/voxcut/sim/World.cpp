@@ -778,7 +778,8 @@ std::vector<std::vector<PointContact>> World::Impl::findBodyContactsAll(std::vec
         hashed[ib_] = 1;
       }
       for (const BodyContactPoint& c :
-           findBodyContacts(a, b, hashes[ib_], self, dt, settings.threaded)) {
+           findBodyContacts(a, b, hashes[ib_], self, dt, settings.threaded,
+                            self ? &bodies[ia_].selfCandidates : nullptr)) {
         // The depth is the vertex's moved on by dt times its velocity relative to B's element,
         // v_p - v_e: the gap now is -depth - dt n.(v_p - v_e).
         // Each body's step sees the other at its frame-start velocity, so each closes only

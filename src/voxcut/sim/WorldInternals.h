@@ -32,6 +32,19 @@ struct SurfaceLogEntry {
   SurfaceDelta delta;
 };
 
+/// A body's self-collision candidates kept between frames (a Verlet list; docs/algorithms.md,
+/// "Object collision"): per element, the other elements, less its own neighbourhood, whose
+/// boxes met its query box grown by a skin. They stay a superset of what a fresh query would
+/// find while every query box, grown by the farthest any node has moved since, still fits in
+/// the grown box it was built with, and no cut has changed the elements.
+struct SelfCandidateCache {
+  std::vector<Vec3d> nodes;                            ///< node positions when built
+  std::vector<Eigen::AlignedBox3d> query;              ///< per element, its grown query box
+  std::vector<std::vector<std::uint32_t>> candidates;  ///< per element, ascending
+  std::size_t cutLinks = 0;                            ///< the body's cut links when built
+  bool valid = false;
+};
+
 /// One deformable body of a world.
 struct SimBody {
   CutBody cut;                     ///< grid, deformation octree, voxel octree, collision structures
@@ -53,6 +66,7 @@ struct SimBody {
   std::size_t cutLinks = 0;                ///< links cut so far
   std::vector<LinkCut> cuts;               ///< every cut so far (for the cut set hash)
   SubdivisionWorkspace subdivision;        ///< the cutting step's buffers, kept between frames
+  SelfCandidateCache selfCandidates;       ///< self collision's broad phase, kept between frames
 };
 
 /// The velocity (m/s) of the point with trilinear weights `weight` in element copy `element`
