@@ -119,26 +119,43 @@ void buildElementHash(const SimBody& body, SpatialHash& hash, bool threaded) {
   hash.build(boxes, 0.0, threaded);
 }
 
+void groupVerticesByElement(const SimBody& body, VerticesByElement& groups) {
+  if (groups.valid && groups.cutLinks == body.cutLinks && groups.revision == body.surfaceRevision &&
+      groups.slots == body.embedding.size())
+    return;
+  const std::size_t elements = body.cut.deformation.elementCount();
+  groups.start.assign(elements + 1, 0);
+  for (const VertexEmbedding& em : body.embedding)
+    if (em.element != kNoElement) ++groups.start[em.element + 1];
+  for (std::size_t e = 0; e < elements; ++e) groups.start[e + 1] += groups.start[e];
+  groups.order.resize(groups.start.back());
+  std::vector<std::uint32_t> next(groups.start.begin(), groups.start.end() - 1);
+  for (std::size_t v = 0; v < body.embedding.size(); ++v)
+    if (body.embedding[v].element != kNoElement)
+      groups.order[next[body.embedding[v].element]++] = static_cast<std::uint32_t>(v);
+  groups.cutLinks = body.cutLinks;
+  groups.revision = body.surfaceRevision;
+  groups.slots = body.embedding.size();
+  groups.valid = true;
+}
+
 std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& b,
                                                const SpatialHash& bHash, bool self, double dt,
-                                               bool threaded, SelfCandidateCache* cache) {
+                                               bool threaded, SelfCandidateCache* cache,
+                                               const VerticesByElement* groups) {
   const DeformationOctree& da = a.cut.deformation;
   const DeformationOctree& db = b.cut.deformation;
   const VoxelGrid& gb = b.cut.grid;
   const std::vector<Vec3d>& velocity = a.solver.velocities();
-  // A's vertices by element (a counting sort), moved on by dt v.
+  // A's vertices by element.
   const std::size_t elements = da.elementCount();
-  std::vector<std::uint32_t> start(elements + 1, 0);
-  for (const VertexEmbedding& em : a.embedding)
-    if (em.element != kNoElement) ++start[em.element + 1];
-  for (std::size_t e = 0; e < elements; ++e) start[e + 1] += start[e];
-  std::vector<std::uint32_t> order(start.back());
-  {
-    std::vector<std::uint32_t> next(start.begin(), start.end() - 1);
-    for (std::size_t v = 0; v < a.embedding.size(); ++v)
-      if (a.embedding[v].element != kNoElement)
-        order[next[a.embedding[v].element]++] = static_cast<std::uint32_t>(v);
+  VerticesByElement local;
+  if (groups == nullptr) {
+    groupVerticesByElement(a, local);
+    groups = &local;
   }
+  const std::vector<std::uint32_t>& start = groups->start;
+  const std::vector<std::uint32_t>& order = groups->order;
   // B's element velocities (the mean of their nodes'), and the fastest: a vertex is moved on
   // by dt times its velocity relative to the element it is tested against, so two bodies (or
   // two parts of one) moving together do not see each other ahead of where they are.

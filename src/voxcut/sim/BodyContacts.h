@@ -31,6 +31,9 @@ struct BodyContactPoint {
   double currentDepth = 0.0;
 };
 
+/// Brings `groups` up to date with the body's surface embedding (regrouped only after a cut).
+void groupVerticesByElement(const SimBody& body, VerticesByElement& groups);
+
 /// Boxes of every element copy of the body at its current node positions, in a spatial hash.
 void buildElementHash(const SimBody& body, SpatialHash& hash, bool threaded);
 
@@ -43,9 +46,9 @@ void buildElementHash(const SimBody& body, SpatialHash& hash, bool threaded);
 /// a cut is not. In vertex order, whatever the thread count.
 /// For self, `cache` (a's own, may be null) keeps the broad phase's candidates between frames
 /// and is used while still valid (SelfCandidateCache); the result is the same with or without.
-[[nodiscard]] std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& b,
-                                                             const SpatialHash& bHash, bool self,
-                                                             double dt, bool threaded,
-                                                             SelfCandidateCache* cache = nullptr);
+/// `groups` (may be null: grouped here) are a's vertices by element, up to date.
+[[nodiscard]] std::vector<BodyContactPoint> findBodyContacts(
+    const SimBody& a, const SimBody& b, const SpatialHash& bHash, bool self, double dt,
+    bool threaded, SelfCandidateCache* cache = nullptr, const VerticesByElement* groups = nullptr);
 
 }  // namespace voxcut

@@ -767,6 +767,7 @@ std::vector<std::vector<PointContact>> World::Impl::findBodyContactsAll(std::vec
     }
     return sum;
   };
+  for (SimBody& body : bodies) groupVerticesByElement(body, body.verticesByElement);
   for (std::size_t ib_ = 0; ib_ < bodies.size(); ++ib_)
     for (std::size_t ia_ = 0; ia_ < bodies.size(); ++ia_) {
       const bool self = ia_ == ib_;
@@ -777,9 +778,9 @@ std::vector<std::vector<PointContact>> World::Impl::findBodyContactsAll(std::vec
         buildElementHash(b, hashes[ib_], settings.threaded);
         hashed[ib_] = 1;
       }
-      for (const BodyContactPoint& c :
-           findBodyContacts(a, b, hashes[ib_], self, dt, settings.threaded,
-                            self ? &bodies[ia_].selfCandidates : nullptr)) {
+      for (const BodyContactPoint& c : findBodyContacts(
+               a, b, hashes[ib_], self, dt, settings.threaded,
+               self ? &bodies[ia_].selfCandidates : nullptr, &bodies[ia_].verticesByElement)) {
         // The depth is the vertex's moved on by dt times its velocity relative to B's element,
         // v_p - v_e: the gap now is -depth - dt n.(v_p - v_e).
         // Each body's step sees the other at its frame-start velocity, so each closes only

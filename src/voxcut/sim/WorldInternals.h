@@ -45,6 +45,18 @@ struct SelfCandidateCache {
   bool valid = false;
 };
 
+/// A body's surface vertex slots grouped by the element holding them (a counting sort): the
+/// slots in element e are order[start[e]] .. order[start[e + 1] - 1], ascending. Kept between
+/// frames; it changes only with the surface's embedding, after cuts.
+struct VerticesByElement {
+  std::vector<std::uint32_t> start;
+  std::vector<std::uint32_t> order;
+  std::size_t cutLinks = 0;    ///< the body's cut links when grouped
+  std::uint64_t revision = 0;  ///< its surface revision then
+  std::size_t slots = 0;       ///< its vertex slots then
+  bool valid = false;
+};
+
 /// One deformable body of a world.
 struct SimBody {
   CutBody cut;                     ///< grid, deformation octree, voxel octree, collision structures
@@ -67,6 +79,7 @@ struct SimBody {
   std::vector<LinkCut> cuts;               ///< every cut so far (for the cut set hash)
   SubdivisionWorkspace subdivision;        ///< the cutting step's buffers, kept between frames
   SelfCandidateCache selfCandidates;       ///< self collision's broad phase, kept between frames
+  VerticesByElement verticesByElement;     ///< for object collision, kept between frames
 };
 
 /// The velocity (m/s) of the point with trilinear weights `weight` in element copy `element`
