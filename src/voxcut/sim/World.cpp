@@ -112,9 +112,11 @@ constexpr std::size_t kVertexChunk = 512;
 /// x its current position from the nodes (not vertexPositions: vertices a cut added this frame
 /// have none yet), over chunks of kVertexChunk list entries in parallel. Per-chunk outputs
 /// joined in chunk order come out in vertex order whatever the thread count.
+/// With `at` (one position per entry of `vertices`), x is taken from it instead.
 template <class Fn>
 void forEachVertexChunked(const SimBody& b, bool threaded,
-                          const std::vector<std::uint32_t>& vertices, Fn&& fn) {
+                          const std::vector<std::uint32_t>& vertices, Fn&& fn,
+                          const std::vector<Vec3d>* at = nullptr) {
   const DeformationOctree& d = b.cut.deformation;
   const std::size_t chunks = (vertices.size() + kVertexChunk - 1) / kVertexChunk;
   parallelFor(
@@ -124,7 +126,7 @@ void forEachVertexChunked(const SimBody& b, bool threaded,
           for (std::size_t k = ch * kVertexChunk;
                k < std::min(vertices.size(), (ch + 1) * kVertexChunk); ++k) {
             const VertexEmbedding& em = b.embedding[vertices[k]];
-            fn(ch, vertices[k], d.pointInElement(em.element, em.local));
+            fn(ch, vertices[k], at != nullptr ? (*at)[k] : d.pointInElement(em.element, em.local));
           }
       },
       threaded);
@@ -211,6 +213,8 @@ struct ContactShapes {
   /// The body's surface vertex slots that some shape may reach during the step (nearShapes),
   /// ascending: the only ones the contact loops look at.
   std::vector<std::uint32_t> vertices;
+  /// Their positions at the step's start (each solve of the step starts there again).
+  std::vector<Vec3d> startPositions;
 
   [[nodiscard]] bool mayTouch(std::uint32_t element, std::size_t s) const {
     return s >= 64 || ((near[element] >> s) & 1u) != 0;
@@ -915,7 +919,8 @@ std::vector<ContactHit> World::Impl::findContacts(const SimBody& b, const Contac
   std::vector<std::vector<PointContact>> chunkContacts(chunks);
   std::vector<std::vector<ContactHit>> chunkHits(chunks);
   forEachVertexChunked(
-      b, settings.threaded, shapes.vertices, [&](std::size_t ch, std::size_t v, const Vec3d& x) {
+      b, settings.threaded, shapes.vertices,
+      [&](std::size_t ch, std::size_t v, const Vec3d& x) {
         const VertexEmbedding& em = b.embedding[v];
         const std::array<double, 8> w = trilinearWeights(em.local);
         const Vec3d vp = pointVelocity(b, em.element, w);
@@ -942,7 +947,8 @@ std::vector<ContactHit> World::Impl::findContacts(const SimBody& b, const Contac
           chunkContacts[ch].push_back(pc);
           chunkHits[ch].push_back({static_cast<std::uint32_t>(v), s, n, x - gap * n});
         }
-      });
+      },
+      &shapes.startPositions);
   for (std::size_t ch = 0; ch < chunks; ++ch) {
     contacts.insert(contacts.end(), chunkContacts[ch].begin(), chunkContacts[ch].end());
     hits.insert(hits.end(), chunkHits[ch].begin(), chunkHits[ch].end());
@@ -1033,6 +1039,7 @@ void World::Impl::nearShapes(const SimBody& b, ContactShapes& shapes) const {
     if (b.embedding[v].element != kNoElement && shapes.mayTouchAny(b.embedding[v].element))
       all.push_back(static_cast<std::uint32_t>(v));
   std::vector<std::vector<std::uint32_t>> chunkNear(vertexChunks(all));
+  std::vector<std::vector<Vec3d>> chunkAt(chunkNear.size());
   forEachVertexChunked(
       b, settings.threaded, all, [&](std::size_t ch, std::size_t v, const Vec3d& x) {
         const std::uint32_t e = b.embedding[v].element;
@@ -1040,13 +1047,18 @@ void World::Impl::nearShapes(const SimBody& b, ContactShapes& shapes) const {
           Vec3d n;
           if (shapes.mayTouch(e, s) && shapes.distance(s, x, n, motion[e]) < motion[e]) {
             chunkNear[ch].push_back(static_cast<std::uint32_t>(v));
+            chunkAt[ch].push_back(x);
             return;
           }
         }
       });
   shapes.vertices.clear();
-  for (const std::vector<std::uint32_t>& c : chunkNear)
-    shapes.vertices.insert(shapes.vertices.end(), c.begin(), c.end());
+  shapes.startPositions.clear();
+  for (std::size_t ch = 0; ch < chunkNear.size(); ++ch) {
+    shapes.vertices.insert(shapes.vertices.end(), chunkNear[ch].begin(), chunkNear[ch].end());
+    shapes.startPositions.insert(shapes.startPositions.end(), chunkAt[ch].begin(),
+                                 chunkAt[ch].end());
+  }
 }
 
 // The deepest any surface vertex of the body lies inside an obstacle or probe (m; 0 when
