@@ -226,6 +226,28 @@ struct ContactShapes {
   [[nodiscard]] std::size_t size() const { return obstacles->size() + probes.size(); }
   /// Shape s's signed distance at x; where it is at least `maxDistance`, only some value
   /// >= maxDistance (a mesh obstacle stops its search early; Obstacle.h).
+  /// A lower bound of shape s's signed distance over the points of `box` (m): exact for a
+  /// plane or a box obstacle, from the box's bounding ball otherwise (where no more than
+  /// `enough` matters: a bound at least that far may be any such value).
+  [[nodiscard]] double lowerBound(std::size_t s, const Eigen::AlignedBox3d& box,
+                                  double enough) const {
+    if (s < obstacles->size()) {
+      const Obstacle& o = (*obstacles)[s];
+      if (o.type == ObstacleType::Plane) {
+        double lowest = std::numeric_limits<double>::infinity();
+        for (int c = 0; c < 8; ++c)
+          lowest = std::min(
+              lowest,
+              o.normal.dot(box.corner(static_cast<Eigen::AlignedBox3d::CornerType>(c)) - o.point));
+        return lowest;
+      }
+      if (o.type == ObstacleType::Box)
+        return (o.lo - box.max()).cwiseMax(box.min() - o.hi).cwiseMax(0.0).norm();
+    }
+    const double radius = 0.5 * box.diagonal().norm();
+    Vec3d n;
+    return distance(s, box.center(), n, enough + radius) - radius;
+  }
   double distance(std::size_t s, const Vec3d& x, Vec3d& n,
                   double maxDistance = std::numeric_limits<double>::infinity()) const {
     return s < obstacles->size() ? signedDistance((*obstacles)[s], x, n, maxDistance)
@@ -283,8 +305,10 @@ struct World::Impl {
     std::vector<std::uint64_t> dropped;  ///< pulled instead of pushing: left out
   };
   /// Which shapes may come near each element's vertices in this step (ContactShapes::near):
-  /// the shape's distance from the element's bounding ball, against how far its nodes can
-  /// move in the step with a voxel to spare. Lets the per-vertex tests skip most vertices.
+  /// a lower bound of the shape's distance over the element's bounding box (exact for planes
+  /// and boxes, from its bounding ball otherwise), against how far its nodes can move in the
+  /// step with a voxel to spare; then which of those elements' vertices a shape can reach
+  /// within that motion (ContactShapes::vertices). The per-vertex tests visit only those.
   void nearShapes(const SimBody& body, ContactShapes& shapes) const;
   std::vector<ContactHit> findContacts(const SimBody& body, const ContactShapes& shapes,
                                        const ActiveSetEdits& edits,
@@ -1022,12 +1046,9 @@ void World::Impl::nearShapes(const SimBody& b, ContactShapes& shapes) const {
             if (!velocity.empty()) speed = std::max(speed, velocity[n].norm());
           }
           motion[e] = 2.0 * dt * speed + spare;
-          const double reach = 0.5 * box.diagonal().norm() + motion[e];
           std::uint64_t bits = 0;
-          for (std::size_t s = 0; s < std::min<std::size_t>(shapes.size(), 64); ++s) {
-            Vec3d n;
-            if (shapes.distance(s, box.center(), n, reach) < reach) bits |= std::uint64_t{1} << s;
-          }
+          for (std::size_t s = 0; s < std::min<std::size_t>(shapes.size(), 64); ++s)
+            if (shapes.lowerBound(s, box, motion[e]) < motion[e]) bits |= std::uint64_t{1} << s;
           shapes.near[e] = bits;
         }
       },
