@@ -142,6 +142,10 @@ std::size_t vertexChunks(const std::vector<std::uint32_t>& vertices) {
 /// time step: frames that run back to back to catch up do not shorten the blend.
 constexpr double kHapticMaxPeriod = 0.05;
 
+/// The fastest the haptic call lets a frame's correction change its force (a fraction of the
+/// force per millisecond), where the correction can take longer than a frame period.
+constexpr double kHapticStepRate = 0.08;
+
 /// A probe's force model between frames (World::hapticForce; docs/algorithms.md, "Forces at
 /// haptic rate"): F(c) = reaction.force + jacobian (c - centre), c the probe's segment midpoint.
 struct HapticModel {
@@ -168,11 +172,12 @@ struct HapticSlot {
   mutable bool wasAsked = false;
   std::chrono::steady_clock::time_point published{};
   double period = 0.0;  ///< seconds, 0 before the second publication
+  double fade = 0.0;    ///< seconds the offset takes to fade out: a period or more
 
-  /// The weight of the newest model at `now`: from 0 when it came to 1 a period later.
+  /// The weight of the newest model at `now`: from 0 when it came to 1 a fade later.
   [[nodiscard]] double blend(std::chrono::steady_clock::time_point now) const {
-    if (!(period > 0.0)) return 1.0;
-    return std::min(1.0, std::chrono::duration<double>(now - published).count() / period);
+    if (!(fade > 0.0)) return 1.0;
+    return std::min(1.0, std::chrono::duration<double>(now - published).count() / fade);
   }
 };
 
@@ -1277,14 +1282,17 @@ namespace {
 /// The force of one model at the probe's midpoint c: the linearisation, used within the last
 /// frame's motion of the model's pose (held at that distance beyond: a device running ahead of
 /// frames that fall behind feels no extrapolated wall or cliff), zero where it would pull, and
-/// zero once the probe is pulled out by more than its radius.
+/// fading to zero as the probe is pulled out from one to two radii.
 Vec3d hapticModelForce(const HapticModel& m, const Vec3d& c) {
   if (!m.contact) return Vec3d::Zero();
   Vec3d offset = c - m.centre;
-  // Pulled out farther than its radius, the probe has left whatever the frames say.
-  if (offset.dot(m.reaction.force) > 0.0 && offset.norm() > m.radius) return Vec3d::Zero();
+  // Pulled out farther than its radius, the probe is leaving whatever the frames say: the
+  // force fades to nothing at twice the radius.
+  double leaving = 1.0;
+  if (offset.dot(m.reaction.force) > 0.0)
+    leaving = std::clamp(2.0 - offset.norm() / m.radius, 0.0, 1.0);
   if (offset.norm() > m.reach) offset *= m.reach / offset.norm();
-  const Vec3d force = m.reaction.force + m.jacobian * offset;
+  const Vec3d force = leaving * (m.reaction.force + m.jacobian * offset);
   // Contact pushes and never pulls: past the point where the extrapolation turns round, the
   // probe has left the surface.
   return force.dot(m.reaction.force) > 0.0 ? force : Vec3d::Zero();
@@ -1319,10 +1327,19 @@ void publishHaptic(WorldTool& t, double timeStep) {
   // faded out over the next period, it makes the force continuous in time.
   const Vec3d at = slot.wasAsked ? slot.asked : next.centre;
   const Vec3d answered = hapticModelForce(slot.model, at) + (1.0 - slot.blend(now)) * slot.offset;
-  slot.offset = answered - hapticModelForce(next, at);
+  const Vec3d fresh = hapticModelForce(next, at);
+  slot.offset = answered - fresh;
   if (slot.published != std::chrono::steady_clock::time_point{})
     slot.period = std::clamp(std::chrono::duration<double>(now - slot.published).count(),
                              std::min(timeStep, kHapticMaxPeriod), kHapticMaxPeriod);
+  // A step larger than the frame period can spread at kHapticStepRate of the force per
+  // millisecond is spread over longer (within the longest period): the force lags the frames
+  // a little where they disagree much, rather than jumping.
+  const double smaller = std::min(answered.norm(), fresh.norm());
+  slot.fade = slot.period;
+  if (smaller > 0.0)
+    slot.fade = std::clamp(1e-3 * slot.offset.norm() / (kHapticStepRate * smaller), slot.period,
+                           std::max(slot.period, kHapticMaxPeriod));
   slot.model = next;
   slot.published = now;
 }

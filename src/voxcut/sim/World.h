@@ -182,13 +182,15 @@ class World {
   /// than the frames (docs/algorithms.md, "Forces at haptic rate"): the last frame's reaction
   /// extrapolated by the probe's force Jacobian, estimated from the frames' reactions and the
   /// probe's motion (a secant update), within the last frame's motion of the probe (at most
-  /// half its radius; held there beyond), never pulling, and nothing once pulled out by more
-  /// than the probe's radius. Each frame's model takes over from the one before it over one
-  /// frame period of wall-clock time (the time between the last two frames, held between the
-  /// time step and 50 ms), so the force does not step when a frame arrives; it is the last
-  /// frame's model alone once that period has passed. Thread-safe: it may be called from any
-  /// thread at any time, also while step() runs (it reads a snapshot published at each frame's
-  /// end, under a lock held only to copy it); not concurrently with adding tools. O(1).
+  /// half its radius; held there beyond), never pulling, and fading to nothing as the probe is
+  /// pulled out from one to two radii. Each frame's model takes over from the one before it
+  /// over one frame period of wall-clock time (the time between the last two frames, held
+  /// between the time step and 50 ms; longer, up to 50 ms, where the step would change the
+  /// force by more than 8 % of itself per millisecond), so the force does not step when a frame
+  /// arrives; it is the last frame's model alone once that time has passed. Thread-safe: it may be
+  /// called from any thread at any time, also while step() runs (it reads a snapshot published at
+  /// each frame's end, under a lock held only to copy it); not concurrently with adding tools.
+  /// O(1).
   [[nodiscard]] ToolReaction hapticForce(std::size_t tool, const BladePose& pose) const;
   /// Starts (clearing what was kept) or stops recording every tool's pose once per frame.
   void setRecording(bool on);
