@@ -319,9 +319,11 @@ struct World::Impl {
                                        const ActiveSetEdits& edits,
                                        std::vector<PointContact>& contacts) const;
   /// After a step with `hits`: the contacts that pulled and the vertices that ended inside a
-  /// shape they had no contact with; false when there are none (the set was right).
+  /// shape they had no contact with; false when there are none (the set was right). `deepest`:
+  /// the deepest any of the vertices ends inside a shape (m; 0 when none).
   bool correctActiveSet(const SimBody& body, const ContactShapes& shapes,
-                        const std::vector<ContactHit>& hits, ActiveSetEdits& edits) const;
+                        const std::vector<ContactHit>& hits, ActiveSetEdits& edits,
+                        double& deepest) const;
   [[nodiscard]] double deepestPenetration(const SimBody& body, const ContactShapes& shapes) const;
   void embedVertices(SimBody& body, const std::vector<std::int32_t>* only) const;
   void updateVertexPositions(SimBody& body) const;
@@ -882,6 +884,9 @@ void World::Impl::solvePhase(SimBody& b, const Motion& motion, ContactShapes& sh
       contacts ? b.cut.deformation.positions() : std::vector<Vec3d>{};
   const std::vector<Vec3d> startVelocities =
       contacts ? b.solver.velocities() : std::vector<Vec3d>{};
+  // The deepest a vertex ends inside a shape, when the last active-set check measured it on the
+  // step's final positions (negative: not measured).
+  double deepestAtEnd = -1.0;
   for (int pass = 1;; ++pass) {
     timer.restart();
     const StepStatus status = b.solver.step(b.model, b.cut.deformation);
@@ -889,7 +894,8 @@ void World::Impl::solvePhase(SimBody& b, const Motion& motion, ContactShapes& sh
     recordSolve(status, report);
     if (!contacts || pass == kContactPasses) break;
     timer.restart();
-    bool changed = shapes.size() > 0 && correctActiveSet(b, shapes, hits, edits);
+    double deepest = 0.0;
+    bool changed = shapes.size() > 0 && correctActiveSet(b, shapes, hits, edits, deepest);
     // Contacts with other bodies (and the body itself) that pulled: left out.
     const std::vector<double>& force = b.solver.contactForces();
     std::vector<PointContact> pushing;
@@ -904,7 +910,10 @@ void World::Impl::solvePhase(SimBody& b, const Motion& motion, ContactShapes& sh
       setContacts();
     }
     ms[kObjectCollision] += timer.ms();
-    if (!changed) break;
+    if (!changed) {
+      if (shapes.size() > 0) deepestAtEnd = deepest;
+      break;
+    }
   }
   const std::vector<double>& force = b.solver.contactForces();
   const std::vector<Vec3d>& friction = b.solver.contactFrictionForces();
@@ -929,7 +938,8 @@ void World::Impl::solvePhase(SimBody& b, const Motion& motion, ContactShapes& sh
   ms[kSurfaceVertices] += timer.ms();
 
   timer.restart();
-  report.maxPenetration = std::max(report.maxPenetration, deepestPenetration(b, shapes));
+  report.maxPenetration = std::max(
+      report.maxPenetration, deepestAtEnd >= 0.0 ? deepestAtEnd : deepestPenetration(b, shapes));
   ms[kObjectCollision] += timer.ms();
 }
 
@@ -986,8 +996,8 @@ std::vector<ContactHit> World::Impl::findContacts(const SimBody& b, const Contac
 }
 
 bool World::Impl::correctActiveSet(const SimBody& b, const ContactShapes& shapes,
-                                   const std::vector<ContactHit>& hits,
-                                   ActiveSetEdits& edits) const {
+                                   const std::vector<ContactHit>& hits, ActiveSetEdits& edits,
+                                   double& deepest) const {
   const std::size_t shapeCount = shapes.size();
   const std::vector<double>& force = b.solver.contactForces();
   bool changed = false;
@@ -1005,17 +1015,22 @@ bool World::Impl::correctActiveSet(const SimBody& b, const ContactShapes& shapes
   // Vertices that end more than a fiftieth of a voxel inside a shape they had no contact with.
   const double tolerance = 0.02 * b.cut.grid.voxelSize();
   std::vector<std::vector<std::uint64_t>> chunkForced(vertexChunks(shapes.vertices));
+  std::vector<double> chunkDeepest(chunkForced.size(), 0.0);
   forEachVertexChunked(b, settings.threaded, shapes.vertices,
                        [&](std::size_t ch, std::size_t v, const Vec3d& x) {
                          for (std::size_t s = 0; s < shapeCount; ++s) {
                            if (!shapes.mayTouch(b.embedding[v].element, s)) continue;
                            Vec3d n;
-                           if (!(shapes.distance(s, x, n, 0.0) < -tolerance)) continue;
+                           const double gap = shapes.distance(s, x, n, 0.0);
+                           chunkDeepest[ch] = std::max(chunkDeepest[ch], -gap);
+                           if (!(gap < -tolerance)) continue;
                            const std::uint64_t key = v * shapeCount + s;
                            if (!std::binary_search(inSet.begin(), inSet.end(), key))
                              chunkForced[ch].push_back(key);
                          }
                        });
+  deepest = 0.0;
+  for (double d : chunkDeepest) deepest = std::max(deepest, d);
   for (const std::vector<std::uint64_t>& f : chunkForced) {
     if (!f.empty()) changed = true;
     edits.forced.insert(edits.forced.end(), f.begin(), f.end());
