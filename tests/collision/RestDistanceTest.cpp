@@ -20,25 +20,34 @@ VoxelGrid block() {
   return g;
 }
 
+// The field gives voxel v's point at offset (from its centre) a depth within 1e-7 m of
+// `depth`, with the normal `normal` when one is given.
+void expectDepth(const RestDistanceField& f, const VoxelGrid& g, std::size_t v, const Vec3d& offset,
+                 double depth, const Vec3d* normal = nullptr) {
+  double d = 0.0;
+  Vec3d n;
+  ASSERT_TRUE(f.depth(g, v, g.position(v) + offset, d, n));
+  EXPECT_NEAR(d, depth, 1e-7);
+  if (normal != nullptr) {
+    EXPECT_TRUE(n.isApprox(*normal, 1e-6));
+  }
+}
+
 TEST(RestDistance, DepthBelowTheNearestFace) {
   const VoxelGrid g = block();
   RestDistanceField f;
   f.build(g, 4);
-  double d = 0.0;
-  Vec3d n;
+  const Vec3d px = Vec3d::UnitX(), mz = -Vec3d::UnitZ(), centre = Vec3d::Zero();
   // Next to the +x face (at x = 10.5 voxels).
-  ASSERT_TRUE(f.depth(g, g.index(10, 4, 3), g.position(g.index(10, 4, 3)), d, n));
-  EXPECT_NEAR(d, 0.005, 1e-7);
-  EXPECT_TRUE(n.isApprox(Vec3d::UnitX(), 1e-6));
+  expectDepth(f, g, g.index(10, 4, 3), centre, 0.005, &px);
   // Three voxels from the -z face (at z = 0.5) and farther from the others.
   const std::size_t v = g.index(5, 4, 3);
-  ASSERT_TRUE(f.depth(g, v, g.position(v), d, n));
-  EXPECT_NEAR(d, 0.025, 1e-7);
-  EXPECT_TRUE(n.isApprox(-Vec3d::UnitZ(), 1e-6));
+  expectDepth(f, g, v, centre, 0.025, &mz);
   // A point off the centre: its own depth below that plane.
-  ASSERT_TRUE(f.depth(g, v, g.position(v) + Vec3d(0.003, 0.002, 0.004), d, n));
-  EXPECT_NEAR(d, 0.029, 1e-7);
+  expectDepth(f, g, v, Vec3d(0.003, 0.002, 0.004), 0.029);
   // Beyond the band (it and its neighbours): unknown. Empty voxels: none.
+  double d = 0.0;
+  Vec3d n;
   RestDistanceField narrow;
   narrow.build(g, 1);
   EXPECT_FALSE(narrow.depth(g, v, g.position(v), d, n));
@@ -58,19 +67,13 @@ TEST(RestDistance, EachSideOfACutSeesItAndUpdateMatchesBuild) {
       cut.push_back(VoxelGrid::linkId(v, 0));
     }
   f.update(g, cut);
-  double d = 0.0;
-  Vec3d n;
   const std::size_t left = g.index(5, 4, 3), right = g.index(6, 4, 3);
-  ASSERT_TRUE(f.depth(g, left, g.position(left), d, n));
-  EXPECT_NEAR(d, 0.005, 1e-7);
-  EXPECT_TRUE(n.isApprox(Vec3d::UnitX(), 1e-6));
-  ASSERT_TRUE(f.depth(g, right, g.position(right), d, n));
-  EXPECT_NEAR(d, 0.005, 1e-7);
-  EXPECT_TRUE(n.isApprox(-Vec3d::UnitX(), 1e-6));
+  const Vec3d px = Vec3d::UnitX(), mx = -Vec3d::UnitX(), centre = Vec3d::Zero();
+  expectDepth(f, g, left, centre, 0.005, &px);
+  expectDepth(f, g, right, centre, 0.005, &mx);
   // A point of the right side pushed past the cut into the left side is below the left
   // side's cut face by as much.
-  ASSERT_TRUE(f.depth(g, left, g.position(left) + Vec3d(0.002, 0, 0), d, n));
-  EXPECT_NEAR(d, 0.003, 1e-7);
+  expectDepth(f, g, left, Vec3d(0.002, 0, 0), 0.003);
   RestDistanceField fresh;
   fresh.build(g, 4);
   ASSERT_EQ(fresh.size(), f.size());

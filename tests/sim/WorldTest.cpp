@@ -289,20 +289,23 @@ double deepestInside(const World& w, std::size_t a, std::size_t b) {
   return deepest;
 }
 
-// A box slit from the top, then its left flap pushed by a probe against the right one: the
-// two sides of the cut meet and stay apart with self collision, and pass into each other
-// without it.
-TEST(World, SelfCollisionKeepsTheSidesOfACutApart) {
-  auto run = [](bool self) {
-    const std::string scene =
-        box(R"("contact": {"self_collision": )" + std::string(self ? "true" : "false") + R"(},
+// A box fixed at its base, slit from the top by a blade (not cut through), then its left flap
+// pushed by a probe against the right one; self collision on or off.
+std::string slitBoxPressed(bool self) {
+  return box(R"("contact": {"self_collision": )" + std::string(self ? "true" : "false") + R"(},
         "tools": [{"type": "blade", "keys": [
           {"t": 0.0, "a": [0.0005, 0.07, -0.06], "b": [0.0005, 0.07, 0.06]},
           {"t": 0.06, "a": [0.0005, 0.02, -0.06], "b": [0.0005, 0.02, 0.06]}]},
           {"type": "probe", "radius": 0.01, "friction": 0, "keys": [
           {"t": 0.08, "p": [-0.062, 0.045, 0]}, {"t": 0.3, "p": [-0.05, 0.045, 0]}]}])",
-            kBaseFixed);
-    World w = worldOf(scene);
+             kBaseFixed);
+}
+
+// The slit box: the two sides of the cut meet and stay apart with self collision, and pass
+// into each other without it.
+TEST(World, SelfCollisionKeepsTheSidesOfACutApart) {
+  auto run = [](bool self) {
+    World w = worldOf(slitBoxPressed(self));
     for (int f = 0; f < 100; ++f) EXPECT_TRUE(w.step().converged);
     EXPECT_EQ(w.pieces(0), 1);  // a slit, not a cut through
     return std::make_pair(deepestInside(w, 0, 0), w.bodyInfo(0).voxelSize);
@@ -317,14 +320,7 @@ TEST(World, SelfCollisionKeepsTheSidesOfACutApart) {
 // fresh query every frame, while the slit box's flap is pushed against its other side; and
 // they are reused, not rebuilt every frame.
 TEST(World, SelfCandidatesKeptBetweenFramesFindTheSameContacts) {
-  const std::string scene = box(R"("contact": {"self_collision": true},
-        "tools": [{"type": "blade", "keys": [
-          {"t": 0.0, "a": [0.0005, 0.07, -0.06], "b": [0.0005, 0.07, 0.06]},
-          {"t": 0.06, "a": [0.0005, 0.02, -0.06], "b": [0.0005, 0.02, 0.06]}]},
-          {"type": "probe", "radius": 0.01, "friction": 0, "keys": [
-          {"t": 0.08, "p": [-0.062, 0.045, 0]}, {"t": 0.3, "p": [-0.05, 0.045, 0]}]}])",
-                                kBaseFixed);
-  World w = worldOf(scene);
+  World w = worldOf(slitBoxPressed(true));
   SelfCandidateCache cache;
   int rebuilt = 0, found = 0;
   for (int f = 0; f < 100; ++f) {

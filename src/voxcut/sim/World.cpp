@@ -161,8 +161,8 @@ struct HapticModel {
 
 /// What a haptic thread reads, published at each frame's end: the newest model; the force the
 /// call answered just before it came minus the newest model's there (at the pose of the latest
-/// call), which the call fades out over one frame period; when it came; and the frames'
-/// wall-clock period.
+/// call), which the call fades out over a frame period or more; when it came; and how long the
+/// fade lasts.
 struct HapticSlot {
   mutable std::mutex mutex;
   HapticModel model;
@@ -171,8 +171,7 @@ struct HapticSlot {
   mutable Vec3d asked = Vec3d::Zero();
   mutable bool wasAsked = false;
   std::chrono::steady_clock::time_point published{};
-  double period = 0.0;  ///< seconds, 0 before the second publication
-  double fade = 0.0;    ///< seconds the offset takes to fade out: a period or more
+  double fade = 0.0;  ///< seconds the offset takes to fade out: a frame period or more; 0 at first
 
   /// The weight of the newest model at `now`: from 0 when it came to 1 a fade later.
   [[nodiscard]] double blend(std::chrono::steady_clock::time_point now) const {
@@ -1344,17 +1343,19 @@ void publishHaptic(WorldTool& t, double timeStep) {
   const Vec3d answered = hapticModelForce(slot.model, at) + (1.0 - slot.blend(now)) * slot.offset;
   const Vec3d fresh = hapticModelForce(next, at);
   slot.offset = answered - fresh;
+  // The frames' wall-clock period (0 at the first publication: nothing to fade from).
+  double period = 0.0;
   if (slot.published != std::chrono::steady_clock::time_point{})
-    slot.period = std::clamp(std::chrono::duration<double>(now - slot.published).count(),
-                             std::min(timeStep, kHapticMaxPeriod), kHapticMaxPeriod);
+    period = std::clamp(std::chrono::duration<double>(now - slot.published).count(),
+                        std::min(timeStep, kHapticMaxPeriod), kHapticMaxPeriod);
   // A step larger than the frame period can spread at kHapticStepRate of the force per
   // millisecond is spread over longer (within the longest period): the force lags the frames
   // a little where they disagree much, rather than jumping.
   const double smaller = std::min(answered.norm(), fresh.norm());
-  slot.fade = slot.period;
+  slot.fade = period;
   if (smaller > 0.0)
-    slot.fade = std::clamp(1e-3 * slot.offset.norm() / (kHapticStepRate * smaller), slot.period,
-                           std::max(slot.period, kHapticMaxPeriod));
+    slot.fade = std::clamp(1e-3 * slot.offset.norm() / (kHapticStepRate * smaller), period,
+                           std::max(period, kHapticMaxPeriod));
   slot.model = next;
   slot.published = now;
 }
