@@ -1312,6 +1312,16 @@ Vec3d hapticModelForce(const HapticModel& m, const Vec3d& c) {
   return force.dot(m.reaction.force) > 0.0 ? force : Vec3d::Zero();
 }
 
+/// What the haptic call answers at the probe midpoint c: the model's force plus what is left
+/// of the step to it, never pulling (along the model's contact force, or along the leftover
+/// where the model has none). The publication uses the same answer, so a step that the call
+/// clamped to nothing is faded from nothing.
+Vec3d hapticAnswer(const HapticModel& m, const Vec3d& leftover, const Vec3d& c) {
+  const Vec3d force = hapticModelForce(m, c) + leftover;
+  const Vec3d along = m.contact ? m.reaction.force : leftover;
+  return force.dot(along) > 0.0 ? force : Vec3d::Zero();
+}
+
 /// The probe's force model after a frame: its reaction there, and the Jacobian estimate
 /// updated by the secant of the last two frames along the probe's motion (Broyden's rank-one
 /// update, which keeps what earlier motions taught in the other directions). A frame without
@@ -1340,7 +1350,7 @@ void publishHaptic(WorldTool& t, double timeStep) {
   // What the call answered at the new pose until now, less what the new model answers there:
   // faded out over the next period, it makes the force continuous in time.
   const Vec3d at = slot.wasAsked ? slot.asked : next.centre;
-  const Vec3d answered = hapticModelForce(slot.model, at) + (1.0 - slot.blend(now)) * slot.offset;
+  const Vec3d answered = hapticAnswer(slot.model, (1.0 - slot.blend(now)) * slot.offset, at);
   const Vec3d fresh = hapticModelForce(next, at);
   slot.offset = answered - fresh;
   // The frames' wall-clock period (0 at the first publication: nothing to fade from).
@@ -1377,9 +1387,7 @@ ToolReaction World::hapticForce(std::size_t tool, const BladePose& pose) const {
   // The newest frame's model, plus what is left of the step to it (docs/algorithms.md,
   // "Forces at haptic rate"); still never pulling.
   ToolReaction r;
-  r.force = hapticModelForce(m, 0.5 * (pose.a + pose.b)) + offset;
-  const Vec3d along = m.contact ? m.reaction.force : offset;
-  if (!(r.force.dot(along) > 0.0)) r.force = Vec3d::Zero();
+  r.force = hapticAnswer(m, offset, 0.5 * (pose.a + pose.b));
   if (r.force != Vec3d::Zero()) r.torque = m.reaction.torque;
   return r;
 }
