@@ -520,7 +520,16 @@ TEST(SceneReaderErrors, BadTools) {
                 {"t": 0, "a": [0,0,0], "b": [1,0,0]},
                 {"t": 0.1, "a": [0,0,0], "b": [1,0,0]},
                 {"t": 0.1, "a": [0,0,0], "b": [1,0,0]}]}])"),
-              "tools[0].keys[2].t: key times must increase strictly: must be > 0.1");
+              "tools[0].keys[2].t: key times must increase strictly (a jump key may repeat "
+              "the previous key's time): must be > 0.1");
+  expectError(withTop(R"("tools": [{"type": "blade", "keys": [
+                {"t": 0.1, "a": [0,0,0], "b": [1,0,0]},
+                {"t": 0.05, "a": [0,0,0], "b": [1,0,0], "jump": true}]}])"),
+              "tools[0].keys[1].t: key times must increase strictly (a jump key may repeat "
+              "the previous key's time): must be >= 0.1");
+  expectError(withTop(R"("tools": [{"type": "blade", "keys": [
+                {"t": 0.1, "a": [0,0,0], "b": [1,0,0], "jump": 1}]}])"),
+              "tools[0].keys[0].jump: must be true or false, got 1");
   expectError(
       withTop(R"("tools": [{"type": "blade", "keys": [{"t": 0, "a": [1,2,3], "b": [1,2,3]}]}])"),
       "tools[0].keys[0]: the blade's ends a and b must differ");

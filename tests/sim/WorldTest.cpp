@@ -6,11 +6,14 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <tuple>
 #include <string>
 #include <thread>
 
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
+#include "voxcut/io/Recording.h"
 #include "voxcut/io/SceneBodies.h"
 #include "voxcut/io/SceneReader.h"
 #include "voxcut/sim/BodyContacts.h"
@@ -178,6 +181,80 @@ TEST(World, RecordedPosesReplayToTheSameCuts) {
   for (int f = 0; f < 40; ++f) (void)again.step();
   EXPECT_GT(w.bodyInfo(0).cutLinks, 0u);
   EXPECT_EQ(again.cutSetHash(), w.cutSetHash());
+}
+
+// A blade put down inside the box (placeTool) cuts nothing until it moves, where one moved
+// there from far away cuts along the way; the recording keeps the jump, and its text replays
+// to the same cuts.
+TEST(World, PlacedToolsMoveWithoutCuttingAndReplay) {
+  const BladePose far{Vec3d(0.3, 0.2, 0), Vec3d(0.3, 0.1, 0)};
+  const BladePose inside{Vec3d(0, 0.08, -0.02), Vec3d(0, 0.03, -0.02)};
+  const BladePose across{Vec3d(0, 0.08, 0.02), Vec3d(0, 0.03, 0.02)};
+  auto run = [&](bool place) {
+    World w = worldOf(box("", kBaseFixed));
+    const std::size_t blade = w.addBlade(far);
+    w.setRecording(true);
+    for (int f = 0; f < 3; ++f) (void)w.step();
+    if (place)
+      w.placeTool(blade, inside);
+    else
+      w.setToolPose(blade, inside);
+    (void)w.step();
+    const std::size_t afterPlacing = w.bodyInfo(0).cutLinks;
+    for (int f = 1; f <= 10; ++f) {
+      const double s = f / 10.0;
+      w.setToolPose(blade, {(1 - s) * inside.a + s * across.a, (1 - s) * inside.b + s * across.b});
+      (void)w.step();
+    }
+    w.placeTool(blade, far);
+    for (int f = 0; f < 3; ++f) (void)w.step();
+    return std::make_tuple(std::move(w), afterPlacing);
+  };
+  auto [placed, placedFirst] = run(true);
+  auto [swept, sweptFirst] = run(false);
+  EXPECT_EQ(placedFirst, 0u);
+  EXPECT_GT(sweptFirst, 0u);
+  EXPECT_GT(placed.bodyInfo(0).cutLinks, 0u);
+  EXPECT_LT(placed.bodyInfo(0).cutLinks, swept.bodyInfo(0).cutLinks);
+  const std::vector<ToolKey>& keys = placed.recording(0);
+  EXPECT_EQ(std::count_if(keys.begin(), keys.end(), [](const ToolKey& k) { return k.jump; }), 2);
+  // The recording as a file, played back as the scene's blade.
+  const std::filesystem::path file =
+      std::filesystem::temp_directory_path() / "voxcut-world-placed-recording.json";
+  {
+    std::ofstream out(file);
+    out << recordingText(placed);
+  }
+  World replay = worldOf(box(R"("tools": [{"type": "blade", "trajectory": ")" + file.string() +
+                             R"("}])",
+                             kBaseFixed));
+  for (int f = 0; f < placed.frame(); ++f) (void)replay.step();
+  std::filesystem::remove(file);
+  EXPECT_EQ(replay.cutSetHash(), placed.cutSetHash());
+  EXPECT_EQ(replay.bodyInfo(0).cutLinks, placed.bodyInfo(0).cutLinks);
+}
+
+// Poses along keys with jumps: held towards a jump, the jump's pose from its time on, the pose
+// before it when reached from below.
+TEST(World, JumpKeysHoldThenJump) {
+  const BladePose p0{Vec3d(0, 0, 0), Vec3d(1, 0, 0)}, p1{Vec3d(0, 1, 0), Vec3d(1, 1, 0)},
+      p2{Vec3d(5, 5, 5), Vec3d(6, 5, 5)}, p3{Vec3d(5, 6, 5), Vec3d(6, 6, 5)};
+  const std::vector<ToolKey> keys{{0.0, p0}, {1.0, p1}, {1.0, p2, true}, {2.0, p3}};
+  EXPECT_TRUE(keysInOrder(keys));
+  EXPECT_EQ(bladePoseAt(keys, 0.5).a, Vec3d(0, 0.5, 0));
+  EXPECT_EQ(bladePoseAt(keys, 1.0).a, p2.a);
+  EXPECT_EQ(bladePoseBefore(keys, 1.0).a, p1.a);
+  EXPECT_EQ(bladePoseBefore(keys, 0.5).a, Vec3d(0, 0.5, 0));
+  EXPECT_EQ(bladePoseAt(keys, 1.5).a, Vec3d(5, 5.5, 5));
+  EXPECT_EQ(jumpIn(keys, 0.996, 1.0), nullptr);
+  EXPECT_EQ(jumpIn(keys, 1.0, 1.004), &keys[2]);
+  // A jump from a held pose: towards it the pose stays.
+  const std::vector<ToolKey> held{{0.0, p0}, {1.0, p2, true}};
+  EXPECT_EQ(bladePoseAt(held, 0.999).a, p0.a);
+  EXPECT_EQ(bladePoseBefore(held, 1.0).a, p0.a);
+  EXPECT_EQ(bladePoseAt(held, 1.0).a, p2.a);
+  EXPECT_FALSE(keysInOrder({{1.0, p0}, {1.0, p1}}));
+  EXPECT_FALSE(keysInOrder({{1.0, p0}, {0.5, p1, true}}));
 }
 
 TEST(World, ProbeResultsSameForAnyThreadCount) {

@@ -30,6 +30,7 @@ std::string recordingText(const World& world) {
     for (const ToolKey& k : keys) {
       nlohmann::ordered_json key;
       key["t"] = k.t;
+      if (k.jump) key["jump"] = true;
       if (sphere) {
         key["p"] = vec(k.pose.a);
       } else {

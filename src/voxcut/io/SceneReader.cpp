@@ -347,17 +347,25 @@ std::vector<ToolKey> readKeys(const Reader& r, const Json& keys, const std::stri
              "a probe's keys all give \"p\" (a sphere) or all give \"a\" and \"b\" (a "
              "capsule)");
     if (hasP)
-      checkKeys(r, k, kp, {"t", "p"});
+      checkKeys(r, k, kp, {"t", "p", "jump"});
     else
-      checkKeys(r, k, kp, {"t", "a", "b"});
+      checkKeys(r, k, kp, {"t", "a", "b", "jump"});
     ToolKey key;
+    if (k.contains("jump")) {
+      if (!k["jump"].is_boolean())
+        r.fail(child(kp, "jump"), "must be true or false, got " + shown(k["jump"]));
+      key.jump = k["jump"].get<bool>();
+    }
     const Json& t = required(r, k, kp, "t");
     key.t = number(r, t, child(kp, "t"));
     if (!(std::abs(key.t) <= kMaxKeyTime))
       r.fail(child(kp, "t"), "must be in [-1e9, 1e9] s, got " + shown(t));
-    if (i > 0 && !(key.t > out.back().t))
-      r.fail(child(kp, "t"), "key times must increase strictly: must be > " + shown(out.back().t) +
-                                 " (the previous key's), got " + shown(key.t));
+    if (i > 0 && !(key.t > out.back().t || (key.jump && key.t == out.back().t)))
+      r.fail(child(kp, "t"),
+             std::string("key times must increase strictly (a jump key may repeat the previous "
+                         "key's time): must be ") +
+                 (key.jump ? ">= " : "> ") + shown(out.back().t) + " (the previous key's), got " +
+                 shown(key.t));
     if (hasP) {
       key.pose.a = key.pose.b = point(r, k["p"], child(kp, "p"));
     } else {

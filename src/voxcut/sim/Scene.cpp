@@ -24,9 +24,39 @@ BladePose bladePoseAt(const std::vector<ToolKey>& keys, double t) {
                                      [](double time, const ToolKey& key) { return time < key.t; });
   const ToolKey& k1 = checked(*next);
   const ToolKey& k0 = checked(*(next - 1));
-  if (t == k0.t) return k0.pose;
+  if (t == k0.t || k1.jump) return k0.pose;
   const double s = (t - k0.t) / (k1.t - k0.t);
   return {k0.pose.a + s * (k1.pose.a - k0.pose.a), k0.pose.b + s * (k1.pose.b - k0.pose.b)};
+}
+
+BladePose bladePoseBefore(const std::vector<ToolKey>& keys, double t) {
+  VOXCUT_ASSERT(!keys.empty(), "a tool needs at least one key");
+  // The first key at t or after: a jump at exactly t is not reached yet.
+  const auto at = std::lower_bound(keys.begin(), keys.end(), t,
+                                   [](const ToolKey& key, double time) { return key.t < time; });
+  // Keys sharing a time are a key and the jumps after it: before them, the key's pose (or,
+  // where a jump comes first, the pose it jumps from).
+  if (at != keys.end() && at->t == t) return at->jump && at != keys.begin() ? (at - 1)->pose : at->pose;
+  return bladePoseAt(keys, t);
+}
+
+const ToolKey* jumpIn(const std::vector<ToolKey>& keys, double t0, double t1) {
+  const auto end = std::lower_bound(keys.begin(), keys.end(), t1,
+                                    [](const ToolKey& key, double time) { return key.t < time; });
+  for (auto k = end; k != keys.begin();) {
+    --k;
+    if (k->t < t0) break;
+    if (k->jump) return &*k;
+  }
+  return nullptr;
+}
+
+bool keysInOrder(const std::vector<ToolKey>& keys) {
+  if (keys.empty()) return false;
+  for (std::size_t k = 1; k < keys.size(); ++k)
+    if (!(keys[k - 1].t < keys[k].t || (keys[k].jump && keys[k - 1].t == keys[k].t)))
+      return false;
+  return true;
 }
 
 SceneMaterial sceneMaterial(const std::vector<SceneMaterial>& materials, const std::string& name) {

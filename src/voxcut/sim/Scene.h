@@ -74,12 +74,18 @@ enum class ToolKind {
 };
 
 /// One key frame of a tool: at time t (s) its segment runs from a to b (world frame, metres).
+/// A jump key places the tool there at time t without moving it from the key before: the tool
+/// holds the previous key's pose until t, and sweeps or pushes nothing on the way (a hand
+/// lifting the tool away and setting it down elsewhere; World::placeTool).
 struct ToolKey {
   double t = 0.0;
   BladePose pose;
+  bool jump = false;
 };
 
-/// A key-framed tool. Keys have strictly increasing times; there is at least one.
+/// A key-framed tool. Keys' times increase strictly, except that a jump key may share the
+/// time of the key before it (the pose before the jump and the pose after it); there is at
+/// least one key.
 struct SceneTool {
   ToolKind kind = ToolKind::Blade;
   double radius = 0.0;     ///< a probe's radius (m), > 0; 0 for a blade
@@ -117,10 +123,19 @@ struct Scene {
 /// The pose of `tool` at time `t` (s): the linear interpolation of the two keys around t,
 /// i.e. for t_k <= t <= t_{k+1}, a = a_k + s (a_{k+1} - a_k) with s = (t - t_k) /
 /// (t_{k+1} - t_k), b likewise; the first key's pose before the first key and the last key's
-/// after the last key. A key's time gives its pose exactly. Asserts that there are keys and
-/// that the keys the pose comes from have finite times and ends within the coordinate range
-/// (core/CoordinateRange.h). O(log keys).
+/// after the last key. A key's time gives its pose exactly. Towards a jump key the pose holds
+/// the key before it; at the jump's time it is the jump's pose (of keys sharing a time, the
+/// last). Asserts that there are keys and that the keys the pose comes from have finite times
+/// and ends within the coordinate range (core/CoordinateRange.h). O(log keys).
 [[nodiscard]] BladePose bladePoseAt(const std::vector<ToolKey>& keys, double t);
+/// The pose the tool reaches as time rises to `t`: bladePoseAt, except at the time of a jump
+/// key, where it is the pose before the jump.
+[[nodiscard]] BladePose bladePoseBefore(const std::vector<ToolKey>& keys, double t);
+/// The last jump key with a time in [t0, t1), or nullptr.
+[[nodiscard]] const ToolKey* jumpIn(const std::vector<ToolKey>& keys, double t0, double t1);
+/// Whether `keys` are in order: at least one, times increasing strictly except that a jump
+/// key may share the time of the key before it.
+[[nodiscard]] bool keysInOrder(const std::vector<ToolKey>& keys);
 [[nodiscard]] inline BladePose bladePoseAt(const SceneTool& tool, double t) {
   return bladePoseAt(tool.keys, t);
 }

@@ -337,6 +337,8 @@ struct World::Impl {
     return tools[t];
   }
   std::size_t addTool(WorldTool t);
+  /// Puts tool `ti` at `pose` now without moving it there (World::placeTool).
+  void place(std::size_t ti, const BladePose& pose);
 };
 
 const SimBody& WorldInternals::body(const World& world, std::size_t b) {
@@ -667,10 +669,46 @@ void World::setToolPose(std::size_t tool, const BladePose& pose) {
   t.longest = std::max(t.longest, (pose.b - pose.a).norm());
 }
 
+void World::Impl::place(std::size_t ti, const BladePose& pose) {
+  VOXCUT_ASSERT(isCoordinate(pose.a) && isCoordinate(pose.b),
+                "a tool's pose has coordinates in range");
+  WorldTool& t = tools[ti];
+  t.pose = pose;
+  t.longest = std::max(t.longest, (pose.b - pose.a).norm());
+  t.reaction = ToolReaction{};
+  // A blade's cut fronts start afresh from here, as for a new blade.
+  for (SimBody& b : bodies) b.fronts[ti] = BladeFront{};
+  // A probe's force model forgets the contact it had; the haptic call starts from nothing.
+  t.haptic = HapticModel{};
+  t.haptic.centre = 0.5 * (pose.a + pose.b);
+  t.haptic.radius = t.radius;
+  {
+    const std::lock_guard<std::mutex> lock(t.slot->mutex);
+    t.slot->model = t.haptic;
+    t.slot->offset = Vec3d::Zero();
+    t.slot->fade = 0.0;
+    t.slot->wasAsked = false;
+  }
+  if (recording) {
+    ToolKey& last = t.recorded.back();
+    if (last.jump && last.t == time())
+      last.pose = pose;
+    else
+      t.recorded.push_back({time(), pose, true});
+  }
+}
+
+void World::placeTool(std::size_t tool, const BladePose& pose) {
+  WorldTool& t = impl_->tool(tool);
+  t.keys.clear();
+  t.target.reset();
+  impl_->place(tool, pose);
+}
+
 void World::setToolTrajectory(std::size_t tool, std::vector<ToolKey> keys) {
-  VOXCUT_ASSERT(!keys.empty(), "a trajectory has at least one key");
-  for (std::size_t k = 1; k < keys.size(); ++k)
-    VOXCUT_ASSERT(keys[k - 1].t < keys[k].t, "a trajectory's times increase strictly");
+  VOXCUT_ASSERT(keysInOrder(keys),
+                "a trajectory has keys with increasing times (a jump may share the time of "
+                "the key before it)");
   WorldTool& t = impl_->tool(tool);
   for (const ToolKey& k : keys) t.longest = std::max(t.longest, (k.pose.b - k.pose.a).norm());
   t.keys = std::move(keys);
@@ -1412,9 +1450,14 @@ FrameReport World::step() {
     shapes.velocity.push_back(Vec3d::Zero());
   }
   for (std::size_t ti = 0; ti < w.tools.size(); ++ti) {
+    // A trajectory's jump in this frame's span places the tool at its start.
+    if (const ToolKey* jump = w.tools[ti].keys.empty() ? nullptr
+                                                       : jumpIn(w.tools[ti].keys, w.time(), t1))
+      w.place(ti, jump->pose);
     const WorldTool& t = w.tools[ti];
     motion.from.push_back(t.pose);
-    motion.to.push_back(!t.keys.empty() ? bladePoseAt(t.keys, t1) : t.target.value_or(t.pose));
+    motion.to.push_back(!t.keys.empty() ? bladePoseBefore(t.keys, t1)
+                                        : t.target.value_or(t.pose));
     if (t.kind == ToolKind::Probe) {
       shapes.probes.push_back({motion.to.back().a, motion.to.back().b, t.radius});
       shapes.probeTool.push_back(ti);

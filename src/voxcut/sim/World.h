@@ -172,9 +172,15 @@ class World {
   /// The pose the tool reaches at the end of the next frame, moving linearly from its current
   /// pose over the frame; stops a trajectory. Asserts finite coordinates.
   void setToolPose(std::size_t tool, const BladePose& pose);
-  /// Drives the tool by key frames (times on the world's clock, strictly increasing, at
-  /// least one): each frame it moves to the trajectory's pose at the frame's end
-  /// (bladePoseAt). Its current pose jumps to the trajectory's pose now.
+  /// Puts the tool at `pose` now, without moving it there: a blade cuts nothing and a probe
+  /// pushes nothing on the way (a hand that lifts the tool off and sets it down elsewhere).
+  /// A blade's cut fronts and a probe's force model start afresh, as for a new tool. Stops a
+  /// trajectory; recorded as a jump key (ToolKey::jump). Asserts finite coordinates.
+  void placeTool(std::size_t tool, const BladePose& pose);
+  /// Drives the tool by key frames (times on the world's clock, in order as keysInOrder
+  /// checks, at least one): each frame it moves to the trajectory's pose at the frame's end
+  /// (bladePoseBefore), after a jump key in the frame's span has placed it (placeTool). Its
+  /// current pose jumps to the trajectory's pose now.
   void setToolTrajectory(std::size_t tool, std::vector<ToolKey> keys);
   /// The bodies' reaction on the tool at the end of the last frame.
   [[nodiscard]] ToolReaction toolReaction(std::size_t tool) const;
