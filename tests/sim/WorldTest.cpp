@@ -7,9 +7,9 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <tuple>
 #include <string>
 #include <thread>
+#include <tuple>
 
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
@@ -225,13 +225,61 @@ TEST(World, PlacedToolsMoveWithoutCuttingAndReplay) {
     std::ofstream out(file);
     out << recordingText(placed);
   }
-  World replay = worldOf(box(R"("tools": [{"type": "blade", "trajectory": ")" + file.string() +
-                             R"("}])",
-                             kBaseFixed));
+  World replay = worldOf(
+      box(R"("tools": [{"type": "blade", "trajectory": ")" + file.string() + R"("}])", kBaseFixed));
   for (int f = 0; f < placed.frame(); ++f) (void)replay.step();
   std::filesystem::remove(file);
   EXPECT_EQ(replay.cutSetHash(), placed.cutSetHash());
   EXPECT_EQ(replay.bodyInfo(0).cutLinks, placed.bodyInfo(0).cutLinks);
+}
+
+// The voxel octree switched off and on while a blade cuts: the same cuts as with it on
+// throughout; off, every link is active, on again, the octree is back with fewer.
+TEST(World, OctreeSwitchedWhileCuttingGivesTheSameCuts) {
+  World on = worldOf(box(kBlade, kBaseFixed));
+  World toggled = worldOf(box(kBlade, kBaseFixed));
+  for (const TriangleTag& tag : on.surface(0).triangleTags) EXPECT_EQ(tag.cut, 0);
+  const ActivityView start = toggled.activity(0);
+  EXPECT_GT(start.cubes.size(), 0u);
+  EXPECT_EQ(start.links.size(), start.activeLinks);
+  EXPECT_EQ(start.cubes.size(), start.cubeLevels.size());
+  std::size_t allLinks = 0;
+  for (int f = 0; f < 40; ++f) {
+    if (f == 10) toggled.setUseOctree(false);
+    if (f == 25) toggled.setUseOctree(true);
+    if (f == 15) {
+      const ActivityView all = toggled.activity(0, 1000);
+      EXPECT_TRUE(all.cubes.empty());
+      EXPECT_GT(all.activeLinks, 2 * start.activeLinks);
+      EXPECT_LE(all.links.size(), 1000u);
+      EXPECT_GE(all.links.size(), 500u);
+      allLinks = all.activeLinks;
+    }
+    (void)on.step();
+    (void)toggled.step();
+  }
+  EXPECT_GT(on.bodyInfo(0).cutLinks, 0u);
+  EXPECT_EQ(toggled.cutSetHash(), on.cutSetHash());
+  // The cut shows on the surface as triangles tagged as cut, of the box's one material.
+  const SurfaceView surface = on.surface(0);
+  std::size_t cutTriangles = 0, live = 0;
+  for (std::size_t t = 0; t < surface.triangles.size(); ++t) {
+    if (surface.triangles[t][0] < 0) continue;
+    ++live;
+    EXPECT_EQ(surface.triangleTags[t].material, 1);
+    cutTriangles += surface.triangleTags[t].cut;
+  }
+  EXPECT_GT(cutTriangles, 0u);
+  EXPECT_LT(cutTriangles, live / 2);
+  EXPECT_EQ(on.bodyInfo(0).materialNames.size(), 1u);
+  // Built afresh after the cut, the octree may keep larger cubes than the one subdivided
+  // along the cut did.
+  EXPECT_LE(toggled.activity(0).activeLinks, on.activity(0).activeLinks);
+  EXPECT_LT(2 * toggled.activity(0).activeLinks, allLinks);
+  EXPECT_FALSE(toggled.activity(0).cubes.empty());
+  // The cubes' corners are where the material is: inside the box, which barely moves.
+  for (const auto& cube : start.cubes)
+    for (const Vec3d& c : cube) EXPECT_TRUE(c.y() > -0.001 && c.y() < 0.061);
 }
 
 // Poses along keys with jumps: held towards a jump, the jump's pose from its time on, the pose

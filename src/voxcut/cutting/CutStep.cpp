@@ -206,21 +206,26 @@ CutBody makeCutBody(VoxelGrid grid, const CutBodyParams& params, bool threaded) 
   DeformationOctreeParams dp = params.deformation;
   dp.threaded = threaded;
   b.deformation = buildDeformationOctree(b.grid, dp);
-  b.useOctree = params.useOctree;
-  if (params.useOctree) {
-    OctreeParams op = params.octree;
+  setActivity(b, params.useOctree, params.octree, threaded);
+  // Room for the Hermite data of future cuts, so that a frame does not pay for a rehash.
+  b.grid.hermite().reserve(2 * b.grid.hermite().size() + 4096);
+  b.obbMargin = params.obbMargin > 0 ? params.obbMargin : 0.5 * b.grid.voxelSize();
+  return b;
+}
+
+void setActivity(CutBody& b, bool useOctree, const OctreeParams& octree, bool threaded) {
+  b.useOctree = useOctree;
+  if (useOctree) {
+    OctreeParams op = octree;
     const std::size_t n = b.grid.materialNames().size();
     if (op.maxInternalLevel.empty()) op = OctreeParams::uniform(n, 4, 0);
     b.activity = buildVoxelOctree(b.grid, op, threaded);
   } else {
     b.activity = allActive(b.grid, threaded);
   }
-  // Room for the Hermite data of future cuts, so that a frame does not pay for a rehash.
-  b.grid.hermite().reserve(2 * b.grid.hermite().size() + 4096);
-  b.obbMargin = params.obbMargin > 0 ? params.obbMargin : 0.5 * b.grid.voxelSize();
   b.activePositions.assign(b.activity.activeVoxels.size(), Vec3d::Zero());
+  b.activeMarked.clear();
   refreshActiveEmbeddings(b, threaded);
-  return b;
 }
 
 void refreshActiveEmbeddings(CutBody& b, bool threaded) {

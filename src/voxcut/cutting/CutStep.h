@@ -54,6 +54,11 @@ struct CutBody {
 [[nodiscard]] CutBody makeCutBody(VoxelGrid grid, const CutBodyParams& params,
                                   bool threaded = true);
 
+/// Builds the body's activity marks afresh from its grid as it is now (cut links are not
+/// connected, so no cube spans a cut): the voxel octree with `octree`'s levels (the defaults
+/// when empty), or, without it, every link active (the baseline). Either gives the same cuts.
+void setActivity(CutBody& body, bool useOctree, const OctreeParams& octree, bool threaded = true);
+
 /// Gathers body.activeEmbeddings again unless it is current (see CutBody). cutStep calls it
 /// first, and again after its deferred updates; a caller that edits the deformation octree's
 /// topology can call it afterwards, so that the next step does not wait for it.

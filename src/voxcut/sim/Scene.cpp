@@ -36,7 +36,8 @@ BladePose bladePoseBefore(const std::vector<ToolKey>& keys, double t) {
                                    [](const ToolKey& key, double time) { return key.t < time; });
   // Keys sharing a time are a key and the jumps after it: before them, the key's pose (or,
   // where a jump comes first, the pose it jumps from).
-  if (at != keys.end() && at->t == t) return at->jump && at != keys.begin() ? (at - 1)->pose : at->pose;
+  if (at != keys.end() && at->t == t)
+    return at->jump && at != keys.begin() ? (at - 1)->pose : at->pose;
   return bladePoseAt(keys, t);
 }
 
@@ -54,8 +55,7 @@ const ToolKey* jumpIn(const std::vector<ToolKey>& keys, double t0, double t1) {
 bool keysInOrder(const std::vector<ToolKey>& keys) {
   if (keys.empty()) return false;
   for (std::size_t k = 1; k < keys.size(); ++k)
-    if (!(keys[k - 1].t < keys[k].t || (keys[k].jump && keys[k - 1].t == keys[k].t)))
-      return false;
+    if (!(keys[k - 1].t < keys[k].t || (keys[k].jump && keys[k - 1].t == keys[k].t))) return false;
   return true;
 }
 

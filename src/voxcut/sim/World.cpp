@@ -485,7 +485,46 @@ BodyInfo World::bodyInfo(std::size_t body) const {
   info.surfaceVertices = b.surface.vertexCount();
   info.surfaceTriangles = b.surface.triangleCount();
   info.voxelSize = b.cut.grid.voxelSize();
+  info.materialNames = b.cut.grid.materialNames();
   return info;
+}
+
+ActivityView World::activity(std::size_t body, std::size_t maxLinks) const {
+  const SimBody& b = impl_->bodies.at(body);
+  const VoxelGrid& grid = b.cut.grid;
+  const VoxelOctree& act = b.cut.activity;
+  const DeformationOctree& def = b.cut.deformation;
+  ActivityView view;
+  view.activeLinks = act.activeLinkCount();
+  const std::size_t every =
+      maxLinks == 0 ? view.activeLinks + 1
+                    : std::max<std::size_t>(1, (view.activeLinks + maxLinks - 1) / maxLinks);
+  std::size_t seen = 0;
+  for (const std::uint32_t v : act.activeVoxels)
+    for (int a = 0; a < 3; ++a) {
+      if (!act.linkActive(v, a)) continue;
+      if (seen++ % every != 0) continue;
+      view.links.push_back({def.voxelPosition(v), def.voxelPosition(v + grid.stride(a))});
+    }
+  for (const OctreeCube& c : act.cubes) {
+    if (c.deleted) continue;
+    const int side = 1 << c.level;
+    std::array<Vec3d, 8> corners;
+    for (int k = 0; k < 8; ++k) {
+      const Index3 at{c.origin[0] + side * (k & 1), c.origin[1] + side * ((k >> 1) & 1),
+                      c.origin[2] + side * (k >> 2)};
+      corners[static_cast<std::size_t>(k)] = def.voxelPosition(grid.index(at));
+    }
+    view.cubes.push_back(corners);
+    view.cubeLevels.push_back(c.level);
+  }
+  return view;
+}
+
+void World::setUseOctree(bool on) {
+  impl_->settings.useOctree = on;
+  for (SimBody& b : impl_->bodies)
+    setActivity(b.cut, on, voxelOctreeParams(b.settings, b.cut.grid), impl_->settings.threaded);
 }
 
 int World::pieces(std::size_t body) const {
@@ -514,6 +553,7 @@ SurfaceView World::surface(std::size_t body) {
   v.positions = b.vertexPositions;
   v.normals = b.vertexNormals;
   v.triangles = b.surface.triangles();
+  v.triangleTags = b.surface.triangleTags();
   v.revision = b.surfaceRevision;
   return v;
 }
@@ -1451,13 +1491,12 @@ FrameReport World::step() {
   }
   for (std::size_t ti = 0; ti < w.tools.size(); ++ti) {
     // A trajectory's jump in this frame's span places the tool at its start.
-    if (const ToolKey* jump = w.tools[ti].keys.empty() ? nullptr
-                                                       : jumpIn(w.tools[ti].keys, w.time(), t1))
+    if (const ToolKey* jump =
+            w.tools[ti].keys.empty() ? nullptr : jumpIn(w.tools[ti].keys, w.time(), t1))
       w.place(ti, jump->pose);
     const WorldTool& t = w.tools[ti];
     motion.from.push_back(t.pose);
-    motion.to.push_back(!t.keys.empty() ? bladePoseBefore(t.keys, t1)
-                                        : t.target.value_or(t.pose));
+    motion.to.push_back(!t.keys.empty() ? bladePoseBefore(t.keys, t1) : t.target.value_or(t.pose));
     if (t.kind == ToolKind::Probe) {
       shapes.probes.push_back({motion.to.back().a, motion.to.back().b, t.radius});
       shapes.probeTool.push_back(ti);

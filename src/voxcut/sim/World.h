@@ -20,6 +20,7 @@
 
 #include "voxcut/core/Types.h"
 #include "voxcut/sim/Scene.h"
+#include "voxcut/surface/ContouredSurface.h"
 #include "voxcut/surface/SurfaceMesh.h"
 #include "voxcut/voxel/VoxelGrid.h"
 
@@ -60,7 +61,8 @@ struct BodyInfo {
   std::size_t cutLinks = 0;  ///< links cut so far
   std::size_t surfaceVertices = 0;
   std::size_t surfaceTriangles = 0;
-  double voxelSize = 0.0;  ///< m
+  double voxelSize = 0.0;                  ///< m
+  std::vector<std::string> materialNames;  ///< of materials 1..N (element 0 is material 1)
 };
 
 /// A body's deformed surface, read in place: arrays indexed by slot, where a removed vertex
@@ -71,6 +73,9 @@ struct SurfaceView {
   std::span<const Vec3d> normals;    ///< per vertex slot, unit, area-weighted; dead: zero
   /// Per triangle slot, vertex slots, counter-clockwise seen from outside; dead: {-1, -1, -1}.
   std::span<const std::array<int, 3>> triangles;
+  /// Per triangle slot, the material on its side (an index into BodyInfo::materialNames,
+  /// from 1) and whether it lies on a cut; dead slots: stale.
+  std::span<const TriangleTag> triangleTags;
   std::uint64_t revision = 0;  ///< of the topology (slots); positions change every frame
 };
 
@@ -82,6 +87,20 @@ struct SurfaceChanges {
   bool full = false;  ///< the changes since `from` are no longer kept: read everything again
   std::vector<std::int32_t> addedVertices, removedVertices;
   std::vector<std::int32_t> addedTriangles, removedTriangles;
+};
+
+/// The pseudo voxel octree of a body made visible, at the deformed positions of its voxels:
+/// the links that take part in the cutting tool's collision (all of them without the octree),
+/// and the octree's cubes by their corners.
+struct ActivityView {
+  std::size_t activeLinks = 0;  ///< all of the body's active links
+  /// Segments between the voxels of active links: all of them, or every k-th in voxel order
+  /// when there are more than asked for.
+  std::vector<std::array<Vec3d, 2>> links;
+  /// Per cube its 8 corner voxels' positions, corner c at offset ((c & 1), (c >> 1 & 1),
+  /// (c >> 2)) times the cube's side; with its level (side 2^level voxels).
+  std::vector<std::array<Vec3d, 8>> cubes;
+  std::vector<std::uint8_t> cubeLevels;
 };
 
 /// The force and torque the bodies exert on a tool at the end of the last frame (N, N m; the
@@ -142,6 +161,14 @@ class World {
   /// recomputes its element matrices; the voxel octree's levels do not change after the start.
   void setMaterial(std::size_t body, const SceneMaterial& material);
   [[nodiscard]] BodyInfo bodyInfo(std::size_t body) const;
+  /// The body's active links (at most `maxLinks` of them drawn) and octree cubes, where they
+  /// are now. O(voxels).
+  [[nodiscard]] ActivityView activity(std::size_t body,
+                                      std::size_t maxLinks = static_cast<std::size_t>(-1)) const;
+  /// Switches every body's voxel octree on (built afresh from the body as it is now, cuts
+  /// included) or off (every link active: the baseline). Cuts are the same either way; only
+  /// the cutting tool collision's cost changes. O(voxels).
+  void setUseOctree(bool on);
   /// Connected voxel pieces of the body (through connected links). O(voxels).
   [[nodiscard]] int pieces(std::size_t body) const;
   /// The body's deformed surface in place, with normals of the current positions (computed

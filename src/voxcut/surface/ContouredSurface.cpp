@@ -111,6 +111,7 @@ ContouredSurface ContouredSurface::build(const VoxelGrid& grid, const DualContou
   s.voxel_.reserve(2 * vertices);
   s.alive_.reserve(2 * vertices);
   s.triangles_.reserve(4 * vertices);
+  s.tags_.reserve(4 * vertices);
   for (const SliceCells& sc : slices)
     for (std::size_t i = 0, first = 0; i < sc.cell.size(); first += sc.count[i], ++i) {
       DualCellVertices cv;
@@ -390,6 +391,11 @@ void ContouredSurface::refreshLink(const VoxelGrid& grid, std::uint64_t v, int a
       continue;
     }
     const LinkSheet& sh = sheets[side];
+    // What the sheet's triangles show: the material of the voxel on their side, and whether
+    // the link was cut (material on both sides) rather than a boundary of the material.
+    const std::size_t own = side == 0 ? vi : vi + grid.stride(a);
+    const TriangleTag tag{grid.material(own),
+                          static_cast<std::uint8_t>(ring.sheet[0] && ring.sheet[1] ? 1 : 0)};
     if (old) {
       bool same = true;
       if (sh.polygonSize > 0) {
@@ -401,7 +407,11 @@ void ContouredSurface::refreshLink(const VoxelGrid& grid, std::uint64_t v, int a
         for (int i = 0; same && i < sh.triangleCount; ++i)
           same = triangles_[static_cast<std::size_t>(old->triangle[i])] == sh.triangles[i];
       }
-      if (same) continue;
+      if (same) {
+        for (int i = 0; i < old->count; ++i)
+          tags_[static_cast<std::size_t>(old->triangle[i])] = tag;
+        continue;
+      }
       dropSheet(*old, delta);
     }
     SheetRecord rec;
@@ -418,6 +428,7 @@ void ContouredSurface::refreshLink(const VoxelGrid& grid, std::uint64_t v, int a
       for (int i = 0; i < sh.triangleCount; ++i)
         rec.triangle[i] = newTriangle(sh.triangles[i], delta);
     }
+    for (int i = 0; i < rec.count; ++i) tags_[static_cast<std::size_t>(rec.triangle[i])] = tag;
     sheets_[key] = rec;
   }
 }
@@ -458,6 +469,7 @@ std::int32_t ContouredSurface::newTriangle(const std::array<int, 3>& t, SurfaceD
   } else {
     id = static_cast<std::int32_t>(triangles_.size());
     triangles_.push_back(t);
+    tags_.emplace_back();
   }
   ++triangleCount_;
   delta.addedTriangles.push_back(id);

@@ -45,6 +45,14 @@ struct SurfaceDelta {
   std::size_t solvedCells = 0;  ///< dual cells whose vertices were solved again (work done)
 };
 
+/// What a surface triangle shows: the material on its side (the voxel whose link made it) and
+/// whether it lies on a cut (a link cut between two voxels of material) rather than on the
+/// material's original boundary.
+struct TriangleTag {
+  std::uint8_t material = 0;
+  std::uint8_t cut = 0;  ///< 1 on a cut surface
+};
+
 /// An incrementally updated dual-contoured surface. Movable, not copyable (it is large and a
 /// copy is never what a caller wants). Not thread-safe: one update at a time, and no reads
 /// while an update runs; concurrent const reads are fine.
@@ -83,6 +91,8 @@ class ContouredSurface {
   /// Triangles by id (vertex ids, counter-clockwise seen from outside the material); a dead id
   /// holds {-1, -1, -1}.
   [[nodiscard]] const std::vector<std::array<int, 3>>& triangles() const { return triangles_; }
+  /// By triangle id: its material and whether it is on a cut (stale for a dead id).
+  [[nodiscard]] const std::vector<TriangleTag>& triangleTags() const { return tags_; }
   /// Alive vertices and triangles.
   [[nodiscard]] std::size_t vertexCount() const { return vertexCount_; }
   [[nodiscard]] std::size_t triangleCount() const { return triangleCount_; }
@@ -138,6 +148,7 @@ class ContouredSurface {
   std::vector<std::uint8_t> alive_;
   std::vector<std::int32_t> freeVertices_;
   std::vector<std::array<int, 3>> triangles_;
+  std::vector<TriangleTag> tags_;  // per triangle id
   std::vector<std::int32_t> freeTriangles_;
   std::size_t vertexCount_ = 0;
   std::size_t triangleCount_ = 0;
