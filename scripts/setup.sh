@@ -7,8 +7,13 @@ packages=(
   build-essential cmake pkg-config
   libeigen3-dev libtbb-dev libcli11-dev nlohmann-json3-dev libspdlog-dev libassimp-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  # voxcut-view: window, OpenGL 3.3, Dear ImGui (with its GLFW and OpenGL 3 backends), PNG;
+  # its tests run under Xvfb with Mesa's software renderer
+  libglfw3-dev libgl-dev libimgui-dev libstb-dev xvfb xauth libgl1-mesa-dri
   # the fuzz preset: clang and its sanitizer + libFuzzer runtimes (only recommended by clang)
   clang libfuzzer-14-dev libclang-rt-14-dev
+  # the figures of `voxcut bench complex` (scripts/plot_complex.py)
+  python3-matplotlib
 )
 
 missing=()

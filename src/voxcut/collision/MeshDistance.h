@@ -58,6 +58,8 @@ class MeshDistance {
 
   /// Triangles after repair.
   [[nodiscard]] std::size_t triangleCount() const { return a_.size(); }
+  /// Corners of triangle i (0 <= i < triangleCount(), after the repair; for drawing).
+  [[nodiscard]] std::array<Vec3d, 3> triangle(std::size_t i) const { return {a_[i], b_[i], c_[i]}; }
   /// Axis-aligned bounds of the repaired mesh, {min, max}; {+inf, -inf} when empty.
   [[nodiscard]] const std::array<Vec3d, 2>& bounds() const { return bounds_; }
   /// Whether the repaired mesh is watertight (RepairReport::watertight).

@@ -497,15 +497,15 @@ ActivityView World::activity(std::size_t body, std::size_t maxLinks) const {
   ActivityView view;
   view.activeLinks = act.activeLinkCount();
   const std::size_t every =
-      maxLinks == 0 ? view.activeLinks + 1
-                    : std::max<std::size_t>(1, (view.activeLinks + maxLinks - 1) / maxLinks);
+      maxLinks == 0 ? 1 : std::max<std::size_t>(1, (view.activeLinks + maxLinks - 1) / maxLinks);
   std::size_t seen = 0;
-  for (const std::uint32_t v : act.activeVoxels)
-    for (int a = 0; a < 3; ++a) {
-      if (!act.linkActive(v, a)) continue;
-      if (seen++ % every != 0) continue;
-      view.links.push_back({def.voxelPosition(v), def.voxelPosition(v + grid.stride(a))});
-    }
+  if (maxLinks > 0)
+    for (const std::uint32_t v : act.activeVoxels)
+      for (int a = 0; a < 3; ++a) {
+        if (!act.linkActive(v, a)) continue;
+        if (seen++ % every != 0) continue;
+        view.links.push_back({def.voxelPosition(v), def.voxelPosition(v + grid.stride(a))});
+      }
   for (const OctreeCube& c : act.cubes) {
     if (c.deleted) continue;
     const int side = 1 << c.level;
