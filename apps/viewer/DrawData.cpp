@@ -121,22 +121,29 @@ Colour backgroundColour() {
 DrawData buildDrawData(World& world, const std::vector<Obstacle>& obstacles,
                        const DrawOptions& options) {
   DrawData d;
-  // The bodies' surfaces: smooth normals, a colour per triangle.
+  // The bodies' surfaces, indexed (a renderer then shades each vertex once): smooth normals;
+  // each vertex slot twice, in its material's colour and its cut colour, so that a cut's
+  // triangles keep their colour up to their edges.
   for (std::size_t b = 0; b < world.bodyCount(); ++b) {
     const SurfaceView s = world.surface(b);
+    const auto base = static_cast<std::uint32_t>(d.bodyVertices.size() / kTriangleStride);
+    std::vector<std::uint8_t> material(s.positions.size(), 0);
     for (std::size_t t = 0; t < s.triangles.size(); ++t) {
       const std::array<int, 3>& tri = s.triangles[t];
       if (tri[0] < 0) continue;
       const TriangleTag tag = s.triangleTags[t];
-      const Colour c = tag.cut ? cutColour(tag.material) : materialColour(tag.material);
       for (const int v : tri) {
-        const auto i = static_cast<std::size_t>(v);
-        pushVertex(d.triangles, s.positions[i], s.normals[i], c);
-        d.bodyBounds.extend(s.positions[i]);
+        material[static_cast<std::size_t>(v)] = tag.material;
+        d.bodyIndices.push_back(base + 2 * static_cast<std::uint32_t>(v) + tag.cut);
       }
     }
+    for (std::size_t v = 0; v < s.positions.size(); ++v) {
+      // Dead slots (material 0 here) are never indexed; they keep the arrays aligned.
+      pushVertex(d.bodyVertices, s.positions[v], s.normals[v], materialColour(material[v]));
+      pushVertex(d.bodyVertices, s.positions[v], s.normals[v], cutColour(material[v]));
+      if (material[v] != 0) d.bodyBounds.extend(s.positions[v]);
+    }
   }
-  d.bodyVertices = d.triangles.size() / kTriangleStride;
   const Eigen::AlignedBox3d bounds =
       d.bodyBounds.isEmpty() ? Eigen::AlignedBox3d(Vec3d::Zero(), Vec3d::Zero()) : d.bodyBounds;
   const double size = std::max(bounds.diagonal().norm(), 1e-3);
@@ -226,12 +233,12 @@ DrawData buildDrawData(World& world, const std::vector<Obstacle>& obstacles,
 std::optional<Vec3d> pick(const DrawData& data, const Ray& ray) {
   // Möller-Trumbore against every body triangle: run once per mouse press.
   double best = std::numeric_limits<double>::infinity();
-  const float* f = data.triangles.data();
+  const float* f = data.bodyVertices.data();
   auto vertex = [&](std::size_t i) {
-    const float* p = f + i * kTriangleStride;
+    const float* p = f + data.bodyIndices[i] * kTriangleStride;
     return Vec3d(p[0], p[1], p[2]);
   };
-  for (std::size_t i = 0; i + 2 < data.bodyVertices; i += 3) {
+  for (std::size_t i = 0; i + 2 < data.bodyIndices.size(); i += 3) {
     const Vec3d a = vertex(i), b = vertex(i + 1), c = vertex(i + 2);
     const Vec3d e1 = b - a, e2 = c - a, p = ray.direction.cross(e2);
     const double det = e1.dot(p);

@@ -49,8 +49,11 @@ struct FrameFigures {
 
 /// A frame made drawable.
 struct DrawData {
-  std::vector<float> triangles;    ///< kTriangleStride floats per vertex, 3 vertices a triangle
-  std::size_t bodyVertices = 0;    ///< the first this many vertices are the bodies' surfaces
+  /// The bodies' surfaces, indexed: kTriangleStride floats per vertex (two per surface vertex
+  /// slot: in its material's colour and in its cut colour), 3 indices a triangle.
+  std::vector<float> bodyVertices;
+  std::vector<std::uint32_t> bodyIndices;
+  std::vector<float> triangles;    ///< tools and obstacles: kTriangleStride floats, 3 a triangle
   std::vector<float> lines;        ///< kLineStride floats per vertex, 2 vertices a line
   std::size_t linkSegments = 0;    ///< active links among the lines
   std::size_t cubeCount = 0;       ///< octree cubes among the lines

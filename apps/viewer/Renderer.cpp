@@ -140,6 +140,11 @@ Renderer::Renderer() {
   meshProgram_ = link(kMeshVertex, kMeshFragment);
   lineProgram_ = link(kLineVertex, kLineFragment);
   makeArray(meshVao_, meshVbo_, {3, 3, 3});
+  makeArray(bodyVao_, bodyVbo_, {3, 3, 3});
+  glGenBuffers(1, &bodyEbo_);
+  glBindVertexArray(bodyVao_);
+  glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, bodyEbo_);
+  glBindVertexArray(0);
   makeArray(lineVao_, lineVbo_, {3, 3});
 }
 
@@ -147,6 +152,9 @@ Renderer::~Renderer() {
   glDeleteProgram(meshProgram_);
   glDeleteProgram(lineProgram_);
   glDeleteVertexArrays(1, &meshVao_);
+  glDeleteVertexArrays(1, &bodyVao_);
+  glDeleteBuffers(1, &bodyVbo_);
+  glDeleteBuffers(1, &bodyEbo_);
   glDeleteVertexArrays(1, &lineVao_);
   glDeleteBuffers(1, &meshVbo_);
   glDeleteBuffers(1, &lineVbo_);
@@ -167,31 +175,52 @@ void Renderer::draw(const DrawData& data, const Camera& camera, bool wireframe) 
   glUseProgram(meshProgram_);
   setMatrices(meshProgram_, camera);
   glUniform1i(glGetUniformLocation(meshProgram_, "flatShade"), 0);
-  glBindVertexArray(meshVao_);
-  glBindBuffer(GL_ARRAY_BUFFER, meshVbo_);
-  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(data.triangles.size() * sizeof(float)),
-               data.triangles.data(), GL_STREAM_DRAW);
-  const auto vertices = static_cast<GLsizei>(data.triangles.size() / kTriangleStride);
+  // A frame drawn again (the window redraws faster than frames come) is not uploaded again.
+  const bool upload = uploaded_ != &data || uploadedCount_ != data.bodyIndices.size();
+  uploaded_ = &data;
+  uploadedCount_ = data.bodyIndices.size();
+  const auto bodyIndices = static_cast<GLsizei>(data.bodyIndices.size());
+  glBindVertexArray(bodyVao_);
+  if (upload) {
+    glBindBuffer(GL_ARRAY_BUFFER, bodyVbo_);
+    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(data.bodyVertices.size() * sizeof(float)),
+                 data.bodyVertices.data(), GL_STREAM_DRAW);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER,
+                 static_cast<GLsizeiptr>(data.bodyIndices.size() * sizeof(std::uint32_t)),
+                 data.bodyIndices.data(), GL_STREAM_DRAW);
+  }
   if (wireframe) {
-    // Surfaces dimmed, their edges on top.
+    // Surfaces, their edges on top.
     glEnable(GL_POLYGON_OFFSET_FILL);
     glPolygonOffset(1.0f, 1.0f);
-    glDrawArrays(GL_TRIANGLES, 0, vertices);
+    glDrawElements(GL_TRIANGLES, bodyIndices, GL_UNSIGNED_INT, nullptr);
     glDisable(GL_POLYGON_OFFSET_FILL);
     glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
     glUniform1i(glGetUniformLocation(meshProgram_, "flatShade"), 1);
-    glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(data.bodyVertices));
+    glDrawElements(GL_TRIANGLES, bodyIndices, GL_UNSIGNED_INT, nullptr);
     glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+    glUniform1i(glGetUniformLocation(meshProgram_, "flatShade"), 0);
   } else {
-    glDrawArrays(GL_TRIANGLES, 0, vertices);
+    // Bodies' surfaces are closed and wound counter-clockwise seen from outside: their back
+    // faces are hidden anyway (half the rasterising saved).
+    glEnable(GL_CULL_FACE);
+    glDrawElements(GL_TRIANGLES, bodyIndices, GL_UNSIGNED_INT, nullptr);
+    glDisable(GL_CULL_FACE);
   }
+  glBindVertexArray(meshVao_);
+  glBindBuffer(GL_ARRAY_BUFFER, meshVbo_);
+  if (upload)
+    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(data.triangles.size() * sizeof(float)),
+                 data.triangles.data(), GL_STREAM_DRAW);
+  glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(data.triangles.size() / kTriangleStride));
   if (!data.lines.empty()) {
     glUseProgram(lineProgram_);
     setMatrices(lineProgram_, camera);
     glBindVertexArray(lineVao_);
     glBindBuffer(GL_ARRAY_BUFFER, lineVbo_);
-    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(data.lines.size() * sizeof(float)),
-                 data.lines.data(), GL_STREAM_DRAW);
+    if (upload)
+      glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(data.lines.size() * sizeof(float)),
+                   data.lines.data(), GL_STREAM_DRAW);
     // Lines through the surface stay visible: drawn over it.
     glDisable(GL_DEPTH_TEST);
     glDrawArrays(GL_LINES, 0, static_cast<GLsizei>(data.lines.size() / kLineStride));

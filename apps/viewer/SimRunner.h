@@ -51,11 +51,15 @@ class SimRunner {
  private:
   void loop();
   void publish(const FrameReport* report);
+  void record(const FrameReport& report);
 
   Session& session_;
   mutable std::mutex mutex_;
   std::condition_variable wake_;
   std::shared_ptr<const DrawData> latest_;
+  /// Whether latest_ has been taken since it was published: frames that run faster than the
+  /// window draws are not made drawable (only their figures are kept).
+  mutable bool taken_ = true;
   std::vector<ToolCommand> commands_;
   std::deque<std::function<void(Session&)>> tasks_;
   DrawOptions options_;

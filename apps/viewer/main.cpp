@@ -46,6 +46,8 @@ struct Options {
   std::string fit = "now";
   std::vector<double> view;  // yaw and pitch (degrees)
   int threads = 0;
+  double measure = 0.0;
+  bool noVsync = false;  // window: play for this many seconds, then report the drawing rate
   int width = 960, height = 720;
 };
 
@@ -328,7 +330,7 @@ int runWindow(const Options& o) {
   glfwSetCursorPosCallback(v.window, onCursor);
   glfwSetScrollCallback(v.window, onScroll);
   glfwSetKeyCallback(v.window, onKey);
-  glfwSwapInterval(1);
+  glfwSwapInterval(o.noVsync ? 0 : 1);
   IMGUI_CHECKVERSION();
   ImGui::CreateContext();
   ImGui::GetIO().IniFilename = nullptr;
@@ -336,9 +338,17 @@ int runWindow(const Options& o) {
   // Installed after ours: ImGui's callbacks chain to them.
   ImGui_ImplGlfw_InitForOpenGL(v.window, true);
   ImGui_ImplOpenGL3_Init("#version 330 core");
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point started = Clock::now();
+  long drawn = 0;
+  if (o.measure > 0.0) v.runner->setPlaying(true);
   {
     Renderer renderer;
     while (!glfwWindowShouldClose(v.window)) {
+      if (o.measure > 0.0 &&
+          std::chrono::duration<double>(Clock::now() - started).count() >= o.measure)
+        break;
+      ++drawn;
       glfwPollEvents();
       v.shown = v.runner->latest();
       int w = 0, h = 0;
@@ -365,6 +375,19 @@ int runWindow(const Options& o) {
       ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
       glfwSwapBuffers(v.window);
     }
+  }
+  if (o.measure > 0.0) {
+    // The drawing rate beside the simulation's: they run on their own threads.
+    const double seconds = std::chrono::duration<double>(Clock::now() - started).count();
+    const FrameFigures& f = v.runner->latest()->figures;
+    double simMs = 0.0;
+    for (float fps : v.runner->latest()->fps) simMs += 1000.0 / fps;
+    const std::size_t n = v.runner->latest()->fps.size();
+    std::printf(
+        "drawn %ld frames in %.2f s: %.1f fps; simulated %d frames (%.3f s of time), frame "
+        "mean %.2f ms\n",
+        drawn, seconds, static_cast<double>(drawn) / seconds, f.frame, f.time,
+        n > 0 ? simMs / static_cast<double>(n) : 0.0);
   }
   v.runner.reset();
   ImGui_ImplOpenGL3_Shutdown();
@@ -407,6 +430,11 @@ int main(int argc, char** argv) {
   app.add_flag("--slice", o.slice,
                "draw the links and cubes of one layer of voxels through the middle only");
   app.add_flag("--wireframe", o.wireframe, "draw the surfaces' edges");
+  app.add_option("--measure", o.measure,
+                 "window: play for S seconds, then print the drawing and simulation rates")
+      ->check(CLI::Range(0.1, 3600.0));
+  app.add_flag("--no-vsync", o.noVsync,
+               "window: draw as fast as possible instead of at the display's refresh rate");
   app.add_option("--threads", o.threads, "worker threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
   try {

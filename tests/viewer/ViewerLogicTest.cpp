@@ -192,8 +192,9 @@ TEST(Draw, OctreeToggleChangesTheDrawnActiveLinks) {
   EXPECT_EQ(again.linkSegments, on.linkSegments);
   EXPECT_EQ(on.lines.size(), (on.linkSegments + 12 * on.cubeCount) * 2 * kLineStride);
   // Surfaces: three vertices a triangle, all inside the bounds.
-  EXPECT_EQ(on.bodyVertices % 3, 0u);
-  EXPECT_GT(on.bodyVertices, 1000u);
+  EXPECT_EQ(on.bodyIndices.size() % 3, 0u);
+  EXPECT_GT(on.bodyIndices.size(), 3000u);
+  EXPECT_EQ(on.bodyVertices.size() % (2 * kTriangleStride), 0u);
 }
 
 // The simulation's thread: it runs frames while the window's thread holds the frame it draws,
