@@ -179,6 +179,7 @@ void addBenchCommand(CLI::App& app, BenchOptions& opt, CLI::App*& cmd) {
   cmd->add_option("--csv", opt.csv, "CSV output file (default single-frame.csv)");
   cmd->add_option("--deform", opt.deform, "Prescribed deformation: none, rigid, bend, twist");
   addMaxMemoryOption(*cmd, opt.maxMemory);
+  addComplexBenchCommand(*bench, opt.complex);
 }
 
 int runBench(const BenchOptions& opt) {

@@ -1,11 +1,13 @@
 #pragma once
 // `voxcut cut`: the paper's single-frame cutting test. `voxcut bench single-frame`: its
-// Tables 3 and 4, with and without the octree at 1, 2 and 3 threads.
+// Tables 3 and 4, with and without the octree at 1, 2 and 3 threads; `voxcut bench complex`
+// (ComplexBench.h) is registered beside it.
 
 #include <CLI/CLI.hpp>
 #include <string>
 #include <vector>
 
+#include "ComplexBench.h"
 #include "ModelOptions.h"
 
 namespace voxcut::app {
@@ -28,7 +30,8 @@ struct BenchOptions {
   int repeat = 10;
   std::string csv = "single-frame.csv";
   std::string deform = "none";
-  std::string maxMemory;  // --max-memory SIZE; empty: the available memory
+  std::string maxMemory;        // --max-memory SIZE; empty: the available memory
+  ComplexBenchOptions complex;  // `bench complex` (ComplexBench.h)
 };
 
 void addBenchCommand(CLI::App& app, BenchOptions& opt, CLI::App*& cmd);

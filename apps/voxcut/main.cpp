@@ -133,6 +133,7 @@ int run(int argc, char** argv) {
   }
   if (cut->parsed()) return runCut(cutOpt);
   if (bench->parsed()) return runBench(benchOpt);
+  if (benchOpt.complex.selected) return runComplexBench(benchOpt.complex);
   if (runCmd->parsed()) return runRun(runOpt);
   ModelOptions& opt = info->parsed() ? infoOpt : surfOpt;
   ThreadLimit limit(opt.threads);
