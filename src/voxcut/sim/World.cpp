@@ -495,14 +495,16 @@ ActivityView World::activity(std::size_t body, std::size_t maxLinks) const {
   const VoxelOctree& act = b.cut.activity;
   const DeformationOctree& def = b.cut.deformation;
   ActivityView view;
-  view.activeLinks = act.activeLinkCount();
+  // Of the active links, those still connected: a cut link takes no part any more.
+  for (const std::uint32_t v : act.activeVoxels)
+    for (int a = 0; a < 3; ++a) view.activeLinks += act.linkActive(v, a) && grid.connected(v, a);
   const std::size_t every =
       maxLinks == 0 ? 1 : std::max<std::size_t>(1, (view.activeLinks + maxLinks - 1) / maxLinks);
   std::size_t seen = 0;
   if (maxLinks > 0)
     for (const std::uint32_t v : act.activeVoxels)
       for (int a = 0; a < 3; ++a) {
-        if (!act.linkActive(v, a)) continue;
+        if (!act.linkActive(v, a) || !grid.connected(v, a)) continue;
         if (seen++ % every != 0) continue;
         view.links.push_back({def.voxelPosition(v), def.voxelPosition(v + grid.stride(a))});
       }

@@ -90,10 +90,10 @@ struct SurfaceChanges {
 };
 
 /// The pseudo voxel octree of a body made visible, at the deformed positions of its voxels:
-/// the links that take part in the cutting tool's collision (all of them without the octree),
-/// and the octree's cubes by their corners.
+/// the links that take part in the cutting tool's collision (active and connected; all
+/// connected links without the octree), and the octree's cubes by their corners.
 struct ActivityView {
-  std::size_t activeLinks = 0;  ///< all of the body's active links
+  std::size_t activeLinks = 0;  ///< all of the body's active links that are still connected
   /// Segments between the voxels of active links: all of them, or every k-th in voxel order
   /// when there are more than asked for.
   std::vector<std::array<Vec3d, 2>> links;
