@@ -22,6 +22,11 @@
 #include "voxcut/io/SceneReader.h"
 #include "voxcut/io/SurfaceWriter.h"
 #include "voxcut/sim/World.h"
+// The viewer's renderer, for --screenshots.
+#include "Camera.h"
+#include "DrawData.h"
+#include "GlContext.h"
+#include "Renderer.h"
 
 namespace voxcut::app {
 namespace {
@@ -110,6 +115,64 @@ class Exporter {
 
  private:
   std::string dir_;
+  std::vector<std::string> written_;
+  bool created_ = false, keep_ = false;
+};
+
+/// The pictures of --screenshots: drawn by the viewer's renderer in a hidden window (so a
+/// display is needed: xvfb-run on a machine without one), the camera fitted to the bodies at
+/// the start and kept, each file written whole; the ones this run wrote are removed again
+/// unless keep() is called.
+class Pictures {
+ public:
+  Pictures(std::string dir, const std::string& size) : dir_(std::move(dir)) {
+    if (dir_.empty()) return;
+    int w = 0, h = 0;
+    char x = 0;
+    if (std::sscanf(size.c_str(), "%d%c%d", &w, &x, &h) != 3 || x != 'x' || w < 16 || h < 16 ||
+        w > 8192 || h > 8192)
+      throw InputError("--size: must be WxH with 16 <= W, H <= 8192, got '" + size + "'");
+    camera_.width = w;
+    camera_.height = h;
+    context_.emplace(w, h, false, "voxcut run");
+    renderer_.emplace();
+  }
+  ~Pictures() {
+    if (keep_) return;
+    std::error_code ec;
+    for (const std::string& f : written_) std::filesystem::remove(f, ec);
+  }
+  Pictures(const Pictures&) = delete;
+  Pictures& operator=(const Pictures&) = delete;
+
+  void write(World& sim, const std::vector<Obstacle>& obstacles) {
+    if (dir_.empty()) return;
+    if (!created_) {
+      std::error_code ec;
+      std::filesystem::create_directories(dir_, ec);
+      if (ec)
+        throw InputError("--screenshots: cannot create folder '" + dir_ + "': " + ec.message());
+      created_ = true;
+    }
+    const view::DrawData data = view::buildDrawData(sim, obstacles, {});
+    if (!fitted_) {
+      camera_.fit(data.bodyBounds);
+      fitted_ = true;
+    }
+    char name[64];
+    std::snprintf(name, sizeof name, "frame_%05d.png", sim.frame());
+    const std::string path = (std::filesystem::path(dir_) / name).string();
+    view::writePng(renderer_->capture(data, camera_, false), path);
+    written_.push_back(path);
+  }
+  void keep() { keep_ = true; }
+
+ private:
+  std::string dir_;
+  std::optional<view::GlContext> context_;
+  std::optional<view::Renderer> renderer_;
+  view::Camera camera_;
+  bool fitted_ = false;
   std::vector<std::string> written_;
   bool created_ = false, keep_ = false;
 };
@@ -235,6 +298,8 @@ void printText(const RunFacts& f, const Summary& sum) {
     std::printf("  %-22s %8.3f / %8.3f\n", stages[s].c_str(), sum.stageMean(s),
                 sum.stageMaximum(s));
   if (!f.opt.exportDir.empty()) std::printf("surfaces written to %s\n", f.opt.exportDir.c_str());
+  if (!f.opt.screenshotDir.empty())
+    std::printf("pictures written to %s\n", f.opt.screenshotDir.c_str());
 }
 
 }  // namespace
@@ -256,7 +321,13 @@ void addRunCommand(CLI::App& app, RunOptions& opt, CLI::App*& cmd) {
       "--export", opt.exportDir,
       "Write the deformed surfaces to this folder as numbered OBJ files (frame_00000.obj "
       "is the start; bodyN_ prefixes with several bodies; created when missing)");
-  cmd->add_option("--every", opt.every, "With --export: write every K-th frame (default 1)")
+  cmd->add_option("--screenshots", opt.screenshotDir,
+                  "Draw the start and every K-th frame (--every) to this folder as PNG "
+                  "(frame_00000.png, ...) with the viewer's renderer; needs a display (on a "
+                  "machine without one: xvfb-run -a voxcut run ...)");
+  cmd->add_option("--size", opt.size, "With --screenshots: picture size WxH (default 640x480)");
+  cmd->add_option("--every", opt.every,
+                  "With --export or --screenshots: every K-th frame (default 1)")
       ->check(CLI::Range(1, 10000000));
   cmd->add_option(
       "--csv", opt.csv,
@@ -274,6 +345,9 @@ int runRun(const RunOptions& opt) {
   if (!opt.csv.empty()) checkOutputFile(opt.csv, "--csv");
   if (!opt.record.empty()) checkOutputFile(opt.record, "--record");
   if (!opt.exportDir.empty()) checkOutputFolder(opt.exportDir, "--export");
+  if (!opt.screenshotDir.empty()) checkOutputFolder(opt.screenshotDir, "--screenshots");
+  // The window for pictures first: without a display, the run stops before any work.
+  Pictures pictures(opt.screenshotDir, opt.size);
   const InterruptGuard interruptGuard;
   const Scene scene = readScene(opt.scene);
   const int frames = opt.frames > 0 ? opt.frames : scene.frames.value_or(kDefaultFrames);
@@ -297,14 +371,20 @@ int runRun(const RunOptions& opt) {
     csv.emplace(opt.csv, "--csv");
     csv->writeLine(csvHeader());
   }
-  if (!interruptRequested()) exporter.write(sim);
+  if (!interruptRequested()) {
+    exporter.write(sim);
+    pictures.write(sim, scene.obstacles);
+  }
 
   Summary sum;
   for (int f = 0; f < frames && !interruptRequested(); ++f) {
     const FrameReport r = sim.step();
     sum.add(r);
     if (csv) csv->writeLine(csvRow(r));
-    if ((f + 1) % opt.every == 0) exporter.write(sim);
+    if ((f + 1) % opt.every == 0) {
+      exporter.write(sim);
+      pictures.write(sim, scene.obstacles);
+    }
     if (terminal) {
       std::fprintf(stderr, "\rframe %d/%d  %.1f ms  %zu links cut", f + 1, frames, r.totalMs,
                    sum.cutLinks);
@@ -323,6 +403,7 @@ int runRun(const RunOptions& opt) {
     record.commit();
   }
   exporter.keep();
+  pictures.keep();
   if (opt.json)
     printJson(facts, sum);
   else

@@ -13,6 +13,8 @@ struct RunOptions {
   int threads = 0;  // 0: all cores
   bool noOctree = false;
   std::string exportDir;
+  std::string screenshotDir;  // --screenshots DIR: pictures drawn by the viewer's renderer
+  std::string size = "640x480";
   int every = 1;
   std::string csv;
   std::string record;  // --record FILE: the tools' poses, one key per frame

@@ -201,4 +201,25 @@ TEST_F(Screenshot, SequencesAndErrors) {
   EXPECT_NE(out.find("--size"), std::string::npos) << out;
 }
 
+// `voxcut run --screenshots`: the same renderer leaves a batch run's pictures; without a
+// display it stops before any work with one line.
+TEST_F(Screenshot, RunLeavesPictures) {
+  std::string out;
+  const std::string pics = (dir / "run").string();
+  const std::string run = std::string(VOXCUT_EXE) + " run " + kEar +
+                          " --frames 4 --every 2 --size 64x48 --screenshots " + pics;
+  auto status = [](int s) { return WIFEXITED(s) ? WEXITSTATUS(s) : -1; };
+  ASSERT_EQ(status(std::system(("ASAN_OPTIONS=detect_leaks=0 " + run + " > /dev/null").c_str())),
+            0);
+  for (const char* name : {"frame_00000.png", "frame_00002.png", "frame_00004.png"})
+    EXPECT_EQ(load((fs::path(pics) / name).string()).width, 64) << name;
+  const std::string err = (dir / "err.txt").string();
+  EXPECT_EQ(status(std::system(("env -u DISPLAY " + run + "-none 2> " + err).c_str())), 2);
+  std::ifstream in(err);
+  std::string line;
+  std::getline(in, line);
+  EXPECT_NE(line.find("no display"), std::string::npos) << line;
+  EXPECT_FALSE(fs::exists(pics + "-none"));
+}
+
 }  // namespace
