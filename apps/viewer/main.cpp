@@ -139,6 +139,7 @@ struct Viewer {
   bool wantShot = false;
 
   Camera start;
+  int resolution = 64;  ///< of a model or mesh opened alone
 
   void open(const std::string& what, int resolution) {
     runner.reset();
@@ -235,7 +236,7 @@ void panel(Viewer& v) {
   ImGui::SameLine();
   if (ImGui::Button("Open")) {
     try {
-      v.open(v.openPath, 64);
+      v.open(v.openPath, v.resolution);
       v.status = std::string("opened ") + v.openPath;
     } catch (const std::exception& e) {
       v.status = e.what();
@@ -324,6 +325,7 @@ int runWindow(const Options& o) {
   v.wireframe = o.wireframe;
   v.options = drawOptions(o);
   v.start = startCamera(o);
+  v.resolution = o.resolution;
   v.open(o.what, o.resolution);
   glfwSetWindowUserPointer(v.window, &v);
   glfwSetMouseButtonCallback(v.window, onMouseButton);

@@ -201,6 +201,21 @@ TEST_F(Screenshot, SequencesAndErrors) {
   EXPECT_NE(out.find("--size"), std::string::npos) << out;
 }
 
+// The window itself, with its panel, playing a scene for a moment: it draws frames while the
+// simulation's thread runs its own.
+TEST_F(Screenshot, WindowDrawsWhileTheSimulationRuns) {
+  std::string out;
+  ASSERT_EQ(view("bunny --resolution 24 --size 320x240 --measure 1.5", out), 0) << out;
+  long drawn = 0;
+  int simulated = 0;
+  ASSERT_EQ(std::sscanf(out.c_str(), "drawn %ld frames in %*f s: %*f fps; simulated %d", &drawn,
+                        &simulated),
+            2)
+      << out;
+  EXPECT_GT(drawn, 5);
+  EXPECT_GT(simulated, 5);
+}
+
 // `voxcut run --screenshots`: the same renderer leaves a batch run's pictures; without a
 // display it stops before any work with one line.
 TEST_F(Screenshot, RunLeavesPictures) {

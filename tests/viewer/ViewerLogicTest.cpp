@@ -207,8 +207,9 @@ TEST(SimRunner, RunsBesideTheDrawingThread) {
   EXPECT_EQ(first->figures.frame, 0);
   runner.setRealTime(false);
   runner.setPlaying(true);
+  // Waits for `done` (up to a minute: sanitizer builds on a busy machine are slow).
   const auto until = [&](auto done) {
-    for (int k = 0; k < 2000 && !done(); ++k)
+    for (int k = 0; k < 12000 && !done(); ++k)
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     return done();
   };
