@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <stb_image.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -50,7 +51,9 @@ const std::string kDrawingChild =
 
 /// Runs voxcut-view with `args`; returns its exit status, its output in `out`.
 int view(const std::string& args, std::string& out) {
-  const fs::path file = fs::temp_directory_path() / "voxcut-view-test-out.txt";
+  // Named by the process: CTest runs the tests of this file side by side.
+  const fs::path file =
+      fs::temp_directory_path() / ("voxcut-view-test-out-" + std::to_string(::getpid()) + ".txt");
   const int status = std::system(
       (kDrawingChild + std::string(VOXCUT_VIEW_EXE) + " " + args + " > " + file.string() + " 2>&1")
           .c_str());

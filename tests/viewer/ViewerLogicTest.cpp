@@ -2,6 +2,7 @@
 // driving the blade and the probe through mouse events, the recording saved as a scene that
 // `voxcut run` replays, the octree toggle in what is drawn, and the simulation's thread.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cinttypes>
@@ -92,7 +93,9 @@ std::string hex(std::uint64_t h) {
 
 /// Runs a command, returning its exit status and standard output.
 int run(const std::string& command, std::string& out) {
-  const fs::path file = fs::temp_directory_path() / "voxcut-viewer-test-out.txt";
+  // Named by the process: CTest runs the tests of this file side by side.
+  const fs::path file =
+      fs::temp_directory_path() / ("voxcut-viewer-test-out-" + std::to_string(::getpid()) + ".txt");
   const int status = std::system((command + " > " + file.string() + " 2>&1").c_str());
   std::ifstream in(file);
   std::stringstream s;
@@ -135,7 +138,8 @@ TEST(Input, MouseDragCutsAndPressesTheBunnyAndReplays) {
   EXPECT_EQ(w.toolReaction(d.session.probe()).force, Vec3d::Zero());
 
   // Saved and replayed by the command line.
-  const fs::path scene = fs::temp_directory_path() / "voxcut-viewer-recorded.json";
+  const fs::path scene = fs::temp_directory_path() /
+                         ("voxcut-viewer-recorded-" + std::to_string(::getpid()) + ".json");
   d.session.saveRecordedScene(scene.string());
   std::string out;
   const int status = run(std::string(VOXCUT_EXE) + " run " + scene.string() + " --json", out);
