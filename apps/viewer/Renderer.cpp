@@ -251,19 +251,24 @@ Image Renderer::capture(const DrawData& data, const Camera& camera, bool wirefra
   }
   glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
   draw(data, camera, wireframe);
-  Image image;
-  image.width = camera.width;
-  image.height = camera.height;
-  image.rgb.resize(static_cast<std::size_t>(image.width) * image.height * 3);
-  glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  glReadPixels(0, 0, image.width, image.height, GL_RGB, GL_UNSIGNED_BYTE, image.rgb.data());
+  Image image = readPixels(camera.width, camera.height);
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  return image;
+}
+
+Image readPixels(int width, int height) {
+  Image image;
+  image.width = width;
+  image.height = height;
+  image.rgb.resize(static_cast<std::size_t>(width) * height * 3);
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glReadPixels(0, 0, width, height, GL_RGB, GL_UNSIGNED_BYTE, image.rgb.data());
   // OpenGL's rows run from the bottom.
-  const std::size_t row = static_cast<std::size_t>(image.width) * 3;
-  for (int y = 0; y < image.height / 2; ++y)
+  const std::size_t row = static_cast<std::size_t>(width) * 3;
+  for (int y = 0; y < height / 2; ++y)
     std::swap_ranges(image.rgb.begin() + static_cast<std::ptrdiff_t>(y * row),
                      image.rgb.begin() + static_cast<std::ptrdiff_t>((y + 1) * row),
-                     image.rgb.begin() + static_cast<std::ptrdiff_t>((image.height - 1 - y) * row));
+                     image.rgb.begin() + static_cast<std::ptrdiff_t>((height - 1 - y) * row));
   return image;
 }
 

@@ -24,6 +24,9 @@ struct Image {
 /// file). Throws InputError when it cannot.
 void writePng(const Image& image, const std::string& path);
 
+/// Reads the bound framebuffer's read buffer (width x height from its lower left corner).
+[[nodiscard]] Image readPixels(int width, int height);
+
 class Renderer {
  public:
   Renderer();

@@ -90,7 +90,8 @@ Session Session::open(const std::string& what, const OpenOptions& options) {
   s.bladeLength_ = 0.6 * size;
   s.probeRadius_ = 0.04 * size;
   const Vec3d c = s.bounds_.center();
-  const double above = s.bounds_.max().y() + 2.0 * size;
+  // Far enough above that a view of the bodies does not show them.
+  const double above = s.bounds_.max().y() + 20.0 * size;
   s.bladePark_ = {Vec3d(c.x() - 0.5 * s.bladeLength_, above, c.z()),
                   Vec3d(c.x() + 0.5 * s.bladeLength_, above, c.z())};
   s.probePark_.a = s.probePark_.b = Vec3d(c.x() + size, above, c.z());

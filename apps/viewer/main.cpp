@@ -4,6 +4,7 @@
 // --screenshot or --screenshots it runs headless: no window shown, no user, pictures out.
 
 #define GLFW_INCLUDE_NONE
+#include <GL/gl.h>
 #include <GLFW/glfw3.h>
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_opengl3.h>
@@ -230,8 +231,7 @@ void onKey(GLFWwindow* w, int key, int, int action, int) {
 void panel(Viewer& v) {
   const FrameFigures& f = v.shown->figures;
   ImGui::SetNextWindowPos(ImVec2(8, 8), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(340, 0), ImGuiCond_FirstUseEver);
-  ImGui::Begin("voxcut");
+  ImGui::Begin("voxcut", nullptr, ImGuiWindowFlags_AlwaysAutoResize);
   ImGui::InputText("##open", v.openPath, sizeof v.openPath);
   ImGui::SameLine();
   if (ImGui::Button("Open")) {
@@ -290,7 +290,7 @@ void panel(Viewer& v) {
                               std::to_string(v.shown->fpsTime.front()).substr(0, 5) + "-" +
                               std::to_string(v.shown->fpsTime.back()).substr(0, 5) + " s";
     ImGui::PlotLines("##fps", v.shown->fps.data(), static_cast<int>(v.shown->fps.size()), 0,
-                     label.c_str(), 0.0f, FLT_MAX, ImVec2(0, 80));
+                     label.c_str(), 0.0f, FLT_MAX, ImVec2(320, 80));
   }
   const std::vector<std::string>& names = frameStageNames();
   if (ImGui::BeginTable("stages", 2)) {
@@ -347,9 +347,10 @@ int runWindow(const Options& o) {
   {
     Renderer renderer;
     while (!glfwWindowShouldClose(v.window)) {
-      if (o.measure > 0.0 &&
-          std::chrono::duration<double>(Clock::now() - started).count() >= o.measure)
-        break;
+      // The last frame of --measure: with --screenshot it is still drawn, and captured.
+      const bool last = o.measure > 0.0 &&
+                        std::chrono::duration<double>(Clock::now() - started).count() >= o.measure;
+      if (last && o.screenshot.empty()) break;
       ++drawn;
       glfwPollEvents();
       v.shown = v.runner->latest();
@@ -375,6 +376,13 @@ int runWindow(const Options& o) {
       panel(v);
       ImGui::Render();
       ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+      // --measure with --screenshot: the whole window, panel included, at the end.
+      if (last) {
+        glReadBuffer(GL_BACK);
+        writePng(readPixels(w, h), o.screenshot);
+        glfwSwapBuffers(v.window);
+        break;
+      }
       glfwSwapBuffers(v.window);
     }
   }
@@ -414,7 +422,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(3, 1024));
   app.add_option("--frames", o.frames, "headless: run N frames, then take --screenshot")
       ->check(CLI::Range(0, 100000000));
-  app.add_option("--screenshot", o.screenshot, "headless: PNG of the last frame");
+  app.add_option("--screenshot", o.screenshot,
+                 "headless: PNG of the last frame; with --measure: of the whole window at the end");
   app.add_option("--screenshots", o.screenshots, "headless: a PNG every --every frames into DIR");
   app.add_option("--every", o.every, "with --screenshots: frames between pictures (default 1)")
       ->check(CLI::Range(1, 100000000));
@@ -456,7 +465,8 @@ int main(int argc, char** argv) {
       throw voxcut::InputError("--view: the pitch must be within [-89, 89] degrees");
     std::optional<voxcut::ThreadLimit> limit;
     if (o.threads > 0) limit.emplace(o.threads);
-    const bool headless = o.frames >= 0 || !o.screenshot.empty() || !o.screenshots.empty();
+    const bool headless =
+        o.measure == 0.0 && (o.frames >= 0 || !o.screenshot.empty() || !o.screenshots.empty());
     if (!headless && !o.saveScene.empty())
       throw voxcut::InputError(
           "--save-scene: only with --frames (the window saves from its panel)");
