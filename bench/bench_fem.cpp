@@ -7,6 +7,10 @@
 //    base (elements there refined to level 0, so 1-voxel elements meet level-3 ones);
 //  - Cantilever: scenes/cantilever.json (6,427 nodes of level-1 elements, E 1e7 Pa,
 //    tolerance 1e-4, 400 iterations).
+//  - BunnyScaling: the bunny at resolutions 173, 241 and 301 (about 3.1k, 6.3k and 10.3k
+//    nodes), E 1e5 Pa, nu 0.3, dt 10 ms, relative tolerance 1e-6, one thread, with Jacobi,
+//    TwoLevel and Cholesky (arguments: resolution, preconditioner): how the step grows with
+//    the size of the body;
 //  - Constraints: BunnyCut's reduced-system structure rebuilt in full (ElasticModel::setFixed,
 //    as for new fixed nodes; after a cut, updateTopology copies the rows away from it:
 //    bench_topology ModelUpdate).
@@ -22,6 +26,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -115,12 +120,12 @@ FemCase cantileverCase() {
   return c;
 }
 
-void runSteps(benchmark::State& state, const FemCase& base) {
-  const int threads = static_cast<int>(state.range(0));
+void runSteps(benchmark::State& state, const FemCase& base, long threadsArg, long preconditioner) {
+  const int threads = static_cast<int>(threadsArg);
   const ThreadLimit limit(threads);
   DeformationOctree octree = base.octree;
   ImplicitEulerParams params = base.params;
-  params.preconditioner = static_cast<Preconditioner>(state.range(1));
+  params.preconditioner = static_cast<Preconditioner>(preconditioner);
   ImplicitEuler solver(params);
   for (int s = 0; s < 20; ++s) (void)solver.step(base.model, octree);
   double iterations = 0, assembly = 0, solve = 0, failed = 0, steps = 0;
@@ -147,17 +152,44 @@ void runSteps(benchmark::State& state, const FemCase& base) {
 
 void Bunny(benchmark::State& state) {
   static const FemCase c = bunnyCase(false);
-  runSteps(state, c);
+  runSteps(state, c, state.range(0), state.range(1));
 }
 
 void BunnyCut(benchmark::State& state) {
   static const FemCase c = bunnyCase(true);
-  runSteps(state, c);
+  runSteps(state, c, state.range(0), state.range(1));
 }
 
 void Cantilever(benchmark::State& state) {
   static const FemCase c = cantileverCase();
-  runSteps(state, c);
+  runSteps(state, c, state.range(0), state.range(1));
+}
+
+/// The scaling case of docs/performance.md, "Deformation solver at scale": the bunny at
+/// `resolution`, base fixed, E 1e5 Pa, nu 0.3, rho 1000, Rayleigh damping [0.1, 0.01], dt
+/// 10 ms, relative tolerance 1e-6; element level 3 (the deformation octree's defaults).
+FemCase scalingCase(int resolution) {
+  FemCase c;
+  c.grid = voxelGrid("bunny", resolution);
+  c.octree = buildDeformationOctree(c.grid);
+  std::vector<ElasticMaterial> mats(2);
+  mats[1] = {1e5, 0.3, 1000.0, 0.1, 0.01};
+  c.model = ElasticModel(c.octree, c.grid, mats);
+  fixBox(c, Vec3d(-0.1, -0.02, -0.1), Vec3d(0.1, 0.004, 0.1));
+  c.params.timeStep = 0.01;
+  c.params.gravity = Vec3d(0, -9.81, 0);
+  c.params.tolerance = 1e-6;
+  c.params.maxIterations = 2000;
+  return c;
+}
+
+/// Arguments: resolution, preconditioner; one thread.
+void BunnyScaling(benchmark::State& state) {
+  static std::map<int, FemCase> cases;
+  const int resolution = static_cast<int>(state.range(0));
+  if (!cases.contains(resolution)) cases.emplace(resolution, scalingCase(resolution));
+  state.counters["nodes"] = static_cast<double>(cases.at(resolution).octree.nodeCount());
+  runSteps(state, cases.at(resolution), 1, state.range(1));
 }
 
 void allSettings(benchmark::internal::Benchmark* b) {
@@ -183,6 +215,11 @@ void Constraints(benchmark::State& state) {
   state.counters["sources"] = static_cast<double>(c.model.sparsity().source.size());
 }
 
+BENCHMARK(BunnyScaling)
+    ->ArgsProduct({{173, 241, 301}, {0, 4, 5}})
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(0.3);
 BENCHMARK(Bunny)->Apply(allSettings);
 BENCHMARK(BunnyCut)->Apply(allSettings);
 BENCHMARK(Cantilever)->Apply(allSettings);
