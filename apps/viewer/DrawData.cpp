@@ -6,6 +6,8 @@
 #include <limits>
 #include <numbers>
 
+#include "voxcut/core/Stamp.h"
+
 namespace voxcut::view {
 namespace {
 
@@ -121,6 +123,7 @@ Colour backgroundColour() {
 DrawData buildDrawData(World& world, const std::vector<Obstacle>& obstacles,
                        const DrawOptions& options) {
   DrawData d;
+  d.stamp = newStamp();
   // The bodies' surfaces, indexed (a renderer then shades each vertex once): smooth normals;
   // each vertex slot twice, in its material's colour and its cut colour, so that a cut's
   // triangles keep their colour up to their edges.

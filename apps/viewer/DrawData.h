@@ -49,6 +49,9 @@ struct FrameFigures {
 
 /// A frame made drawable.
 struct DrawData {
+  /// Unique to each DrawData buildDrawData made in this process (0: none); a copy keeps it. A
+  /// renderer uploads the arrays again only when it changes.
+  std::uint64_t stamp = 0;
   /// The bodies' surfaces, indexed: kTriangleStride floats per vertex (two per surface vertex
   /// slot: in its material's colour and in its cut colour), 3 indices a triangle.
   std::vector<float> bodyVertices;

@@ -176,9 +176,8 @@ void Renderer::draw(const DrawData& data, const Camera& camera, bool wireframe) 
   setMatrices(meshProgram_, camera);
   glUniform1i(glGetUniformLocation(meshProgram_, "flatShade"), 0);
   // A frame drawn again (the window redraws faster than frames come) is not uploaded again.
-  const bool upload = uploaded_ != &data || uploadedCount_ != data.bodyIndices.size();
-  uploaded_ = &data;
-  uploadedCount_ = data.bodyIndices.size();
+  const bool upload = data.stamp == 0 || data.stamp != uploaded_;
+  uploaded_ = data.stamp;
   const auto bodyIndices = static_cast<GLsizei>(data.bodyIndices.size());
   glBindVertexArray(bodyVao_);
   if (upload) {

@@ -43,9 +43,9 @@ class Renderer {
   unsigned meshProgram_ = 0, lineProgram_ = 0;
   unsigned meshVao_ = 0, meshVbo_ = 0, lineVao_ = 0, lineVbo_ = 0;
   unsigned bodyVao_ = 0, bodyVbo_ = 0, bodyEbo_ = 0;
-  /// The frame whose arrays the buffers hold: a frame drawn again is not uploaded again.
-  const DrawData* uploaded_ = nullptr;
-  std::size_t uploadedCount_ = 0;
+  /// The stamp of the frame whose arrays the buffers hold: a frame drawn again is not
+  /// uploaded again.
+  std::uint64_t uploaded_ = 0;
   unsigned fbo_ = 0, colour_ = 0, depth_ = 0;
   int fboWidth_ = 0, fboHeight_ = 0;
 };

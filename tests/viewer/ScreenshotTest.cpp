@@ -202,6 +202,22 @@ TEST_F(Screenshot, SequencesAndErrors) {
   for (const char* name : {"frame-000000.png", "frame-000002.png", "frame-000004.png"})
     EXPECT_EQ(load((dir / "seq" / name).string()).width, 64) << name;
   EXPECT_FALSE(fs::exists(dir / "seq" / "frame-000001.png"));
+  // A sequence shows the motion: the probe of bunny-poke.json has come down onto the back by
+  // frame 100 (same camera, same topology, so only new positions tell the pictures apart).
+  ASSERT_EQ(view(std::string(VOXCUT_SOURCE_DIR) +
+                     "/scenes/bunny-poke.json --frames 100 --every 100 --fit start --size "
+                     "160x120 --screenshots " +
+                     (dir / "poke").string(),
+                 out),
+            0)
+      << out;
+  const Picture before = load((dir / "poke" / "frame-000000.png").string());
+  const Picture after = load((dir / "poke" / "frame-000100.png").string());
+  ASSERT_EQ(before.rgb.size(), after.rgb.size());
+  std::size_t changed = 0;
+  for (std::size_t i = 0; i < before.rgb.size(); i += 3)
+    changed += before.rgb[i] != after.rgb[i] || before.rgb[i + 1] != after.rgb[i + 1];
+  EXPECT_GT(changed, 50u);
   EXPECT_EQ(view((dir / "missing.json").string() + " --frames 1", out), 1);
   EXPECT_EQ(out.rfind("voxcut-view: error: ", 0), 0u) << out;
   EXPECT_EQ(std::count(out.begin(), out.end(), '\n'), 1) << out;
