@@ -192,17 +192,14 @@ DrawData buildDrawData(World& world, const std::vector<Obstacle>& obstacles,
   // The pseudo voxel octree made visible.
   if (options.activeLinks || options.octreeCubes) {
     for (std::size_t b = 0; b < world.bodyCount(); ++b) {
-      // The section's layer: within half a voxel of the plane through the middle.
+      // The section's layer: within half a voxel of the plane across z through the middle.
       const double half = 0.5 * world.bodyInfo(b).voxelSize, mid = bounds.center().z();
-      const auto inLayer = [&](const Vec3d& x) { return std::abs(x.z() - mid) < half; };
-      const std::size_t most = options.slice ? static_cast<std::size_t>(-1) : options.maxLinks;
-      const ActivityView a = world.activity(b, options.activeLinks ? most : 0);
-      if (options.activeLinks)
-        for (const auto& l : a.links) {
-          if (options.slice && !(inLayer(l[0]) && inLayer(l[1]))) continue;
-          pushLine(d.lines, l[0], l[1], kLink);
-          ++d.linkSegments;
-        }
+      const double far = 1e6;  // the coordinate range (core/CoordinateRange.h)
+      const Eigen::AlignedBox3d layer(Vec3d(-far, -far, mid - half), Vec3d(far, far, mid + half));
+      const ActivityView a = world.activity(b, options.activeLinks ? options.maxLinks : 0,
+                                            options.slice ? &layer : nullptr);
+      for (const auto& l : a.links) pushLine(d.lines, l[0], l[1], kLink);
+      d.linkSegments += a.links.size();
       if (options.octreeCubes) {
         static const std::array<std::array<int, 2>, 12> kEdges{{{0, 1},
                                                                 {2, 3},
@@ -216,10 +213,8 @@ DrawData buildDrawData(World& world, const std::vector<Obstacle>& obstacles,
                                                                 {1, 5},
                                                                 {2, 6},
                                                                 {3, 7}}};
+        d.cubeCount += a.cubes.size();
         for (std::size_t c = 0; c < a.cubes.size(); ++c) {
-          if (options.slice && !((a.cubes[c][0].z() - mid) * (a.cubes[c][7].z() - mid) <= 0.0))
-            continue;
-          ++d.cubeCount;
           // Larger cubes in cooler colours.
           const float s = std::min(1.0f, static_cast<float>(a.cubeLevels[c]) / 4.0f);
           const Colour colour(0.2f + 0.6f * (1.0f - s), 0.85f, 0.3f + 0.6f * s);

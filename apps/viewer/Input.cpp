@@ -47,7 +47,8 @@ std::vector<ToolCommand> InputController::button(MouseButton b, bool pressed, do
   lastY_ = py;
   if (!pressed) {
     orbiting_ = panning_ = false;
-    if (!dragging_) return {};
+    // Only the left button's release ends a drag (it started with the left button).
+    if (!dragging_ || b != MouseButton::Left) return {};
     dragging_ = false;
     // Lifted off: back to where it waits, without sweeping through anything on the way.
     const bool blade = dragMode_ == ToolMode::Blade;

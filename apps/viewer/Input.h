@@ -51,6 +51,8 @@ class InputController {
   /// The wheel turned by `steps` (> 0 away from the user).
   std::vector<ToolCommand> wheel(double steps);
 
+  /// Ends a drag without a command (the world was reset: the tool is back where it waits).
+  void cancel() { dragging_ = orbiting_ = panning_ = false; }
   /// Whether a tool follows the cursor now.
   [[nodiscard]] bool dragging() const { return dragging_; }
   /// The tool the drag drives.

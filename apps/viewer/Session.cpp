@@ -88,6 +88,16 @@ Session Session::open(const std::string& what, const OpenOptions& options) {
   if (s.bounds_.isEmpty()) throw InputError(what + ": no material to simulate");
   const double size = std::max(s.bounds_.diagonal().norm(), 1e-3);
   s.bladeLength_ = 0.6 * size;
+  // Driving the scene's own blade, the mouse keeps its length: a blade's cut front is sampled
+  // by the longest its trajectory makes it, and a replay of the recording must sample the
+  // same way.
+  for (const SceneTool& t : s.scene_.tools)
+    if (t.kind == ToolKind::Blade) {
+      double longest = 0.0;
+      for (const ToolKey& k : t.keys) longest = std::max(longest, (k.pose.b - k.pose.a).norm());
+      s.bladeLength_ = longest;
+      break;
+    }
   s.probeRadius_ = 0.04 * size;
   const Vec3d c = s.bounds_.center();
   // Far enough above that a view of the bodies does not show them.
@@ -174,7 +184,11 @@ void Session::saveRecordedScene(const std::string& path) const {
   }
   std::error_code ec;
   fs::rename(temp, path, ec);
-  if (ec) throw InputError(path + ": cannot write (" + ec.message() + ")");
+  if (ec) {
+    std::error_code ignored;
+    fs::remove(temp, ignored);
+    throw InputError(path + ": cannot write (" + ec.message() + ")");
+  }
 }
 
 }  // namespace voxcut::view

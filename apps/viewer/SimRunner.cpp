@@ -26,7 +26,14 @@ SimRunner::~SimRunner() {
 }
 
 void SimRunner::setPlaying(bool on) {
-  playing_ = on;
+  {
+    // Under the mutex, so that the thread cannot miss the change between its check and its
+    // wait.
+    const std::lock_guard<std::mutex> lock(mutex_);
+    playing_ = on;
+    // Paused: the frame run last is shown, also when it was not made drawable while playing.
+    if (!on) optionsChanged_ = true;
+  }
   wake_.notify_all();
 }
 
@@ -98,12 +105,23 @@ void SimRunner::runBetweenFrames(const std::function<void(Session&)>& fn) {
 
 std::shared_ptr<const DrawData> SimRunner::latest() const {
   const std::lock_guard<std::mutex> lock(mutex_);
+  taken_ = true;
   return latest_;
 }
 
 std::string SimRunner::error() const {
   const std::lock_guard<std::mutex> lock(mutex_);
   return error_;
+}
+
+void SimRunner::record(const FrameReport& report) {
+  fpsTime_.push_back(static_cast<float>(report.time));
+  fps_.push_back(static_cast<float>(1000.0 / std::max(report.totalMs, 1e-3)));
+  if (fps_.size() > kHistory) {
+    const auto drop = static_cast<std::ptrdiff_t>(kHistory / 4);
+    fpsTime_.erase(fpsTime_.begin(), fpsTime_.begin() + drop);
+    fps_.erase(fps_.begin(), fps_.begin() + drop);
+  }
 }
 
 void SimRunner::publish(const FrameReport* report) {
@@ -138,18 +156,18 @@ void SimRunner::publish(const FrameReport* report) {
     f.totalMs = report->totalMs;
     f.cutLinksFrame = report->cutLinks;
     f.contacts = report->contacts;
-    fpsTime_.push_back(static_cast<float>(report->time));
-    fps_.push_back(static_cast<float>(1000.0 / std::max(report->totalMs, 1e-3)));
-    if (fps_.size() > kHistory) {
-      fpsTime_.erase(fpsTime_.begin(),
-                     fpsTime_.begin() + static_cast<std::ptrdiff_t>(kHistory / 4));
-      fps_.erase(fps_.begin(), fps_.begin() + static_cast<std::ptrdiff_t>(kHistory / 4));
-    }
   }
   data->fpsTime = fpsTime_;
   data->fps = fps_;
   const std::lock_guard<std::mutex> lock(mutex_);
   latest_ = std::move(data);
+  taken_ = false;
+}
+
+void SimRunner::fail(const char* what) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  playing_ = false;
+  error_ = what;
 }
 
 void SimRunner::loop() {
@@ -180,34 +198,53 @@ void SimRunner::loop() {
       if (steps_ > 0) --steps_;
     }
     for (auto& task : tasks) task(session_);
-    if (doReset) {
-      session_.reset();
-      fpsTime_.clear();
-      fps_.clear();
-      cutLinks_ = static_cast<std::size_t>(-1);
-      redraw = true;
-      paceStart = Clock::now();
-      paceTime = session_.world().time();
-    }
-    if (octree >= 0) {
-      session_.setUseOctree(octree == 1);
-      redraw = true;
-    }
-    session_.apply(commands);
-    if (!doStep) {
-      // Tools put down while paused, a reset or new options: shown at once.
-      if (redraw || !commands.empty()) publish(nullptr);
-      paceStart = Clock::now();
-      paceTime = session_.world().time();
-      continue;
-    }
+    // Anything a frame or a rebuild throws pauses the run with its message; nothing leaves
+    // the thread.
     try {
-      const FrameReport report = session_.step();
-      publish(&report);
+      if (doReset) {
+        {
+          const std::lock_guard<std::mutex> lock(mutex_);
+          error_.clear();
+        }
+        session_.reset();
+        fpsTime_.clear();
+        fps_.clear();
+        cutLinks_ = static_cast<std::size_t>(-1);
+        last_.reset();
+        redraw = true;
+        paceStart = Clock::now();
+        paceTime = session_.world().time();
+      }
+      if (octree >= 0) {
+        session_.setUseOctree(octree == 1);
+        redraw = true;
+      }
+      session_.apply(commands);
+      if (!doStep) {
+        // Tools put down while paused, a reset or new options: shown at once.
+        if (redraw || !commands.empty()) publish(last_ ? &*last_ : nullptr);
+        paceStart = Clock::now();
+        paceTime = session_.world().time();
+        continue;
+      }
+      last_ = session_.step();
+      const FrameReport& report = *last_;
+      record(report);
+      bool taken = false;
+      {
+        const std::lock_guard<std::mutex> lock(mutex_);
+        taken = taken_;
+      }
+      // Made drawable when the window has taken the last one, when not playing on, or at
+      // least every 25th frame: frames that run faster than the window draws are not turned
+      // into arrays nobody draws.
+      if (taken || !playing_.load() || report.frame % 25 == 0 || redraw || !commands.empty())
+        publish(&report);
     } catch (const std::exception& e) {
-      playing_ = false;
-      const std::lock_guard<std::mutex> lock(mutex_);
-      error_ = e.what();
+      fail(e.what());
+      continue;
+    } catch (...) {
+      fail("unknown error");
       continue;
     }
     // Real time: a frame is not run before the wall clock reaches its start.

@@ -13,6 +13,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -52,6 +53,7 @@ class SimRunner {
   void loop();
   void publish(const FrameReport* report);
   void record(const FrameReport& report);
+  void fail(const char* what);
 
   Session& session_;
   mutable std::mutex mutex_;
@@ -73,6 +75,7 @@ class SimRunner {
   // Kept by the thread: FPS history and the figures that are costly to recount.
   std::vector<float> fpsTime_, fps_;
   int pieces_ = 0;
+  std::optional<FrameReport> last_;  ///< the report of the frame run last (none after reset)
   std::size_t cutLinks_ = static_cast<std::size_t>(-1);
   std::thread thread_;
 };

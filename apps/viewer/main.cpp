@@ -90,18 +90,25 @@ int runHeadless(const Options& o) {
   open.resolution = o.resolution;
   open.useOctree = !o.noOctree;
   open.progress = terminalProgress();
+  // The window for pictures first: without a display, the run stops before any work. A run
+  // that only saves its scene needs none.
+  const bool pictures = !o.screenshot.empty() || !o.screenshots.empty();
+  std::optional<GlContext> context;
+  std::optional<Renderer> renderer;
+  if (pictures) {
+    context.emplace(o.width, o.height, false, "voxcut-view");
+    renderer.emplace();
+  }
   Session session = Session::open(o.what, open);
   const int frames = o.frames >= 0 ? o.frames : 0;
   if (!o.screenshots.empty()) std::filesystem::create_directories(o.screenshots);
-  GlContext context(o.width, o.height, false, "voxcut-view");
-  Renderer renderer;
   Camera camera = startCamera(o);
   camera.fit(session.startBounds());
   const DrawOptions options = drawOptions(o);
   auto shoot = [&](const std::string& path) {
     const DrawData data = buildDrawData(session.world(), session.scene().obstacles, options);
     if (o.fit == "now") camera.fit(data.bodyBounds);
-    writePng(renderer.capture(data, camera, o.wireframe), path);
+    writePng(renderer->capture(data, camera, o.wireframe), path);
   };
   const bool tty = isatty(2) != 0;
   for (int f = 0; f <= frames; ++f) {
@@ -142,14 +149,16 @@ struct Viewer {
   Camera start;
   int resolution = 64;  ///< of a model or mesh opened alone
 
+  /// Opens `what`; on an error the viewer keeps what it had (and the error propagates).
   void open(const std::string& what, int resolution) {
-    runner.reset();
     OpenOptions o;
     o.resolution = resolution;
     o.useOctree = octree;
     o.progress = terminalProgress();
-    session = std::make_unique<Session>(Session::open(what, o));
+    auto next = std::make_unique<Session>(Session::open(what, o));
     const Camera camera = input ? input->camera : start;
+    runner.reset();  // the old session's thread stops before its session goes
+    session = std::move(next);
     input = std::make_unique<InputController>(drivenTools(*session));
     input->camera = camera;
     input->camera.fit(session->startBounds());
@@ -157,6 +166,21 @@ struct Viewer {
     runner->setRealTime(realTime);
     shown = runner->latest();
     std::snprintf(openPath, sizeof openPath, "%s", what.c_str());
+  }
+  /// The cursor in the framebuffer's pixels (the camera's), from GLFW's window coordinates
+  /// (they differ on screens with a content scale).
+  void cursor(double& x, double& y) const {
+    int ww = 0, wh = 0, fw = 0, fh = 0;
+    glfwGetWindowSize(window, &ww, &wh);
+    glfwGetFramebufferSize(window, &fw, &fh);
+    if (ww > 0 && wh > 0) {
+      x *= static_cast<double>(fw) / ww;
+      y *= static_cast<double>(fh) / wh;
+    }
+  }
+  void reset() {
+    input->cancel();
+    runner->reset();
   }
 };
 
@@ -169,6 +193,7 @@ void onMouseButton(GLFWwindow* w, int button, int action, int mods) {
   if (ImGui::GetIO().WantCaptureMouse && action == GLFW_PRESS) return;
   double x = 0, y = 0;
   glfwGetCursorPos(w, &x, &y);
+  v.cursor(x, y);
   const MouseButton b = button == GLFW_MOUSE_BUTTON_LEFT    ? MouseButton::Left
                         : button == GLFW_MOUSE_BUTTON_RIGHT ? MouseButton::Right
                                                             : MouseButton::Middle;
@@ -179,6 +204,7 @@ void onMouseButton(GLFWwindow* w, int button, int action, int mods) {
 
 void onCursor(GLFWwindow* w, double x, double y) {
   Viewer& v = *viewerOf(w);
+  v.cursor(x, y);
   v.runner->send(v.input->move(x, y));
 }
 
@@ -199,7 +225,7 @@ void onKey(GLFWwindow* w, int key, int, int action, int) {
       v.runner->stepOnce();
       break;
     case GLFW_KEY_R:
-      v.runner->reset();
+      v.reset();
       break;
     case GLFW_KEY_C:
       v.toolMode = 0;
@@ -229,7 +255,9 @@ void onKey(GLFWwindow* w, int key, int, int action, int) {
 }
 
 void panel(Viewer& v) {
-  const FrameFigures& f = v.shown->figures;
+  // Held here: opening another scene from this panel replaces v.shown.
+  const std::shared_ptr<const DrawData> shown = v.shown;
+  const FrameFigures& f = shown->figures;
   ImGui::SetNextWindowPos(ImVec2(8, 8), ImGuiCond_FirstUseEver);
   ImGui::Begin("voxcut", nullptr, ImGuiWindowFlags_AlwaysAutoResize);
   ImGui::InputText("##open", v.openPath, sizeof v.openPath);
@@ -247,7 +275,7 @@ void panel(Viewer& v) {
   ImGui::SameLine();
   if (ImGui::Button("Step")) v.runner->stepOnce();
   ImGui::SameLine();
-  if (ImGui::Button("Reset")) v.runner->reset();
+  if (ImGui::Button("Reset")) v.reset();
   ImGui::SameLine();
   if (ImGui::Checkbox("real time", &v.realTime)) v.runner->setRealTime(v.realTime);
   ImGui::Text("tool:");
@@ -266,7 +294,7 @@ void panel(Viewer& v) {
   ImGui::SameLine();
   changed |= ImGui::Checkbox("slice", &v.options.slice);
   if (changed) v.runner->setDrawOptions(v.options);
-  if (ImGui::Button("Fit camera")) v.input->camera.fit(v.shown->bodyBounds);
+  if (ImGui::Button("Fit camera")) v.input->camera.fit(shown->bodyBounds);
   ImGui::SameLine();
   if (ImGui::Button("Screenshot")) v.wantShot = true;
   ImGui::InputText("##save", v.savePath, sizeof v.savePath);
@@ -285,11 +313,11 @@ void panel(Viewer& v) {
   ImGui::Text("frame %.2f ms (%.0f FPS), drawing %.0f FPS", f.totalMs,
               f.totalMs > 0 ? 1000.0 / f.totalMs : 0.0,
               static_cast<double>(ImGui::GetIO().Framerate));
-  if (!v.shown->fps.empty()) {
+  if (!shown->fps.empty()) {
     const std::string label = "FPS over simulated time, " +
-                              std::to_string(v.shown->fpsTime.front()).substr(0, 5) + "-" +
-                              std::to_string(v.shown->fpsTime.back()).substr(0, 5) + " s";
-    ImGui::PlotLines("##fps", v.shown->fps.data(), static_cast<int>(v.shown->fps.size()), 0,
+                              std::to_string(shown->fpsTime.front()).substr(0, 5) + "-" +
+                              std::to_string(shown->fpsTime.back()).substr(0, 5) + " s";
+    ImGui::PlotLines("##fps", shown->fps.data(), static_cast<int>(shown->fps.size()), 0,
                      label.c_str(), 0.0f, FLT_MAX, ImVec2(320, 80));
   }
   const std::vector<std::string>& names = frameStageNames();
@@ -389,10 +417,14 @@ int runWindow(const Options& o) {
   if (o.measure > 0.0) {
     // The drawing rate beside the simulation's: they run on their own threads.
     const double seconds = std::chrono::duration<double>(Clock::now() - started).count();
-    const FrameFigures& f = v.runner->latest()->figures;
+    // Paused and between frames, the newest frame is the last one run.
+    v.runner->setPlaying(false);
+    v.runner->runBetweenFrames([](Session&) {});
+    const std::shared_ptr<const DrawData> last = v.runner->latest();
+    const FrameFigures& f = last->figures;
     double simMs = 0.0;
-    for (float fps : v.runner->latest()->fps) simMs += 1000.0 / fps;
-    const std::size_t n = v.runner->latest()->fps.size();
+    for (float fps : last->fps) simMs += 1000.0 / fps;
+    const std::size_t n = last->fps.size();
     std::printf(
         "drawn %ld frames in %.2f s: %.1f fps; simulated %d frames (%.3f s of time), frame "
         "mean %.2f ms\n",
@@ -469,7 +501,8 @@ int main(int argc, char** argv) {
         o.measure == 0.0 && (o.frames >= 0 || !o.screenshot.empty() || !o.screenshots.empty());
     if (!headless && !o.saveScene.empty())
       throw voxcut::InputError(
-          "--save-scene: only with --frames (the window saves from its panel)");
+          "--save-scene: only headless, with --frames, --screenshot or --screenshots (the "
+          "window saves from its panel)");
     return headless ? runHeadless(o) : runWindow(o);
   } catch (const voxcut::Interrupted&) {
     std::fprintf(stderr, "voxcut-view: interrupted\n");

@@ -301,6 +301,10 @@ TEST(World, JumpKeysHoldThenJump) {
   EXPECT_EQ(bladePoseAt(held, 0.999).a, p0.a);
   EXPECT_EQ(bladePoseBefore(held, 1.0).a, p0.a);
   EXPECT_EQ(bladePoseAt(held, 1.0).a, p2.a);
+  // A jump sharing the first key's time: from that time on, the jump's pose.
+  const std::vector<ToolKey> first{{0.0, p0}, {0.0, p2, true}, {1.0, p3}};
+  EXPECT_EQ(bladePoseAt(first, 0.0).a, p2.a);
+  EXPECT_EQ(bladePoseBefore(first, 0.0).a, p0.a);
   EXPECT_FALSE(keysInOrder({{1.0, p0}, {1.0, p1}}));
   EXPECT_FALSE(keysInOrder({{1.0, p0}, {0.5, p1, true}}));
 }

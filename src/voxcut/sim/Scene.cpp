@@ -17,9 +17,10 @@ BladePose bladePoseAt(const std::vector<ToolKey>& keys, double t) {
                   "a tool key with a non-finite time or an end outside the coordinate range");
     return key;
   };
-  if (!(t > keys.front().t)) return checked(keys.front()).pose;  // also NaN: the first pose
+  if (!(t >= keys.front().t)) return checked(keys.front()).pose;  // also NaN: the first pose
   if (t >= keys.back().t) return checked(keys.back()).pose;
-  // First key strictly after t; keys.front().t < t < keys.back().t, so 1 <= k < size.
+  // First key strictly after t; keys.front().t <= t < keys.back().t, so 1 <= k < size (of
+  // keys sharing a time, the one before `next` is the last: a jump's pose from its time on).
   const auto next = std::upper_bound(keys.begin(), keys.end(), t,
                                      [](double time, const ToolKey& key) { return time < key.t; });
   const ToolKey& k1 = checked(*next);

@@ -489,34 +489,44 @@ BodyInfo World::bodyInfo(std::size_t body) const {
   return info;
 }
 
-ActivityView World::activity(std::size_t body, std::size_t maxLinks) const {
+ActivityView World::activity(std::size_t body, std::size_t maxLinks,
+                             const Eigen::AlignedBox3d* within) const {
   const SimBody& b = impl_->bodies.at(body);
   const VoxelGrid& grid = b.cut.grid;
   const VoxelOctree& act = b.cut.activity;
   const DeformationOctree& def = b.cut.deformation;
+  const auto in = [&](const Vec3d& x) { return within == nullptr || within->contains(x); };
+  // The links that count: active, still connected (a cut link takes no part any more), and
+  // within the box.
+  const auto counts = [&](std::uint32_t v, int a) {
+    return act.linkActive(v, a) && grid.connected(v, a) &&
+           (within == nullptr ||
+            (in(def.voxelPosition(v)) && in(def.voxelPosition(v + grid.stride(a)))));
+  };
   ActivityView view;
-  // Of the active links, those still connected: a cut link takes no part any more.
   for (const std::uint32_t v : act.activeVoxels)
-    for (int a = 0; a < 3; ++a) view.activeLinks += act.linkActive(v, a) && grid.connected(v, a);
+    for (int a = 0; a < 3; ++a) view.activeLinks += counts(v, a);
   const std::size_t every =
       maxLinks == 0 ? 1 : std::max<std::size_t>(1, (view.activeLinks + maxLinks - 1) / maxLinks);
   std::size_t seen = 0;
   if (maxLinks > 0)
     for (const std::uint32_t v : act.activeVoxels)
       for (int a = 0; a < 3; ++a) {
-        if (!act.linkActive(v, a) || !grid.connected(v, a)) continue;
-        if (seen++ % every != 0) continue;
+        if (!counts(v, a) || seen++ % every != 0) continue;
         view.links.push_back({def.voxelPosition(v), def.voxelPosition(v + grid.stride(a))});
       }
   for (const OctreeCube& c : act.cubes) {
     if (c.deleted) continue;
     const int side = 1 << c.level;
     std::array<Vec3d, 8> corners;
+    Eigen::AlignedBox3d box;
     for (int k = 0; k < 8; ++k) {
       const Index3 at{c.origin[0] + side * (k & 1), c.origin[1] + side * ((k >> 1) & 1),
                       c.origin[2] + side * (k >> 2)};
       corners[static_cast<std::size_t>(k)] = def.voxelPosition(grid.index(at));
+      box.extend(corners[static_cast<std::size_t>(k)]);
     }
+    if (within != nullptr && !within->intersects(box)) continue;
     view.cubes.push_back(corners);
     view.cubeLevels.push_back(c.level);
   }

@@ -162,9 +162,11 @@ class World {
   void setMaterial(std::size_t body, const SceneMaterial& material);
   [[nodiscard]] BodyInfo bodyInfo(std::size_t body) const;
   /// The body's active links (at most `maxLinks` of them drawn) and octree cubes, where they
-  /// are now. O(voxels).
+  /// are now; with `within`, only the links with both ends in that box and the cubes that
+  /// overlap it (counted and drawn). O(voxels).
   [[nodiscard]] ActivityView activity(std::size_t body,
-                                      std::size_t maxLinks = static_cast<std::size_t>(-1)) const;
+                                      std::size_t maxLinks = static_cast<std::size_t>(-1),
+                                      const Eigen::AlignedBox3d* within = nullptr) const;
   /// Switches every body's voxel octree on (built afresh from the body as it is now, cuts
   /// included) or off (every link active: the baseline). Cuts are the same either way; only
   /// the cutting tool collision's cost changes. O(voxels).
