@@ -81,9 +81,11 @@ std::vector<std::uint64_t> earCutLinks(const VoxelGrid& g) {
   return links;
 }
 
-FemCase bunnyCase(bool cut) {
+/// The bunny at `resolution` of `material` (the deformation octree's default levels), its
+/// ear cut off first when `cut`, base fixed, under gravity; the caller sets the step.
+FemCase bunnyBody(int resolution, const ElasticMaterial& material, bool cut) {
   FemCase c;
-  c.grid = voxelGrid("bunny", 101);
+  c.grid = voxelGrid("bunny", resolution);
   c.octree = buildDeformationOctree(c.grid);
   if (cut) {
     const std::vector<std::uint64_t> links = earCutLinks(c.grid);
@@ -92,11 +94,16 @@ FemCase bunnyCase(bool cut) {
     (void)updateCutTopology(c.octree, c.grid, links);
   }
   std::vector<ElasticMaterial> mats(2);
-  mats[1] = {1e5, 0.4, 1000.0, 1.0, 0.01};
+  mats[1] = material;
   c.model = ElasticModel(c.octree, c.grid, mats);
   fixBox(c, Vec3d(-0.1, -0.02, -0.1), Vec3d(0.1, 0.004, 0.1));
-  c.params.timeStep = 0.004;
   c.params.gravity = Vec3d(0, -9.81, 0);
+  return c;
+}
+
+FemCase bunnyCase(bool cut) {
+  FemCase c = bunnyBody(101, {1e5, 0.4, 1000.0, 1.0, 0.01}, cut);
+  c.params.timeStep = 0.004;
   c.params.tolerance = 1e-3;
   c.params.maxIterations = 100;
   return c;
@@ -169,15 +176,8 @@ void Cantilever(benchmark::State& state) {
 /// `resolution`, base fixed, E 1e5 Pa, nu 0.3, rho 1000, Rayleigh damping [0.1, 0.01], dt
 /// 10 ms, relative tolerance 1e-6; element level 3 (the deformation octree's defaults).
 FemCase scalingCase(int resolution) {
-  FemCase c;
-  c.grid = voxelGrid("bunny", resolution);
-  c.octree = buildDeformationOctree(c.grid);
-  std::vector<ElasticMaterial> mats(2);
-  mats[1] = {1e5, 0.3, 1000.0, 0.1, 0.01};
-  c.model = ElasticModel(c.octree, c.grid, mats);
-  fixBox(c, Vec3d(-0.1, -0.02, -0.1), Vec3d(0.1, 0.004, 0.1));
+  FemCase c = bunnyBody(resolution, {1e5, 0.3, 1000.0, 0.1, 0.01}, false);
   c.params.timeStep = 0.01;
-  c.params.gravity = Vec3d(0, -9.81, 0);
   c.params.tolerance = 1e-6;
   c.params.maxIterations = 2000;
   return c;

@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+
+#include "voxcut/core/Error.h"
 
 namespace voxcut::view {
 
@@ -84,6 +87,16 @@ void Camera::fit(const Eigen::AlignedBox3d& box) {
   const double aspect = static_cast<double>(std::max(width, 1)) / std::max(height, 1);
   const double half = 0.5 * fovY * std::min(1.0, aspect);
   distance = 1.1 * radius / std::sin(half);
+}
+
+void parseViewSize(const std::string& text, const std::string& option, int& width, int& height) {
+  int w = 0, h = 0;
+  char x = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d", &w, &x, &h) != 3 || x != 'x' || w < 16 || h < 16 ||
+      w > 8192 || h > 8192)
+    throw InputError(option + ": must be WxH with 16 <= W, H <= 8192, got '" + text + "'");
+  width = w;
+  height = h;
 }
 
 }  // namespace voxcut::view

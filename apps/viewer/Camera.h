@@ -5,6 +5,7 @@
 /// Plain maths, no window: the viewer's tests drive it directly.
 
 #include <Eigen/Geometry>
+#include <string>
 
 #include "voxcut/core/Types.h"
 
@@ -51,5 +52,9 @@ struct Camera {
   /// Looks at the middle of `box` from far enough to see all of it; keeps the angles.
   void fit(const Eigen::AlignedBox3d& box);
 };
+
+/// Parses a view's size "WxH" (16 <= W, H <= 8192) into width and height. Throws InputError
+/// naming `option` otherwise.
+void parseViewSize(const std::string& text, const std::string& option, int& width, int& height);
 
 }  // namespace voxcut::view

@@ -486,13 +486,7 @@ int main(int argc, char** argv) {
     return app.exit(e);
   }
   try {
-    int w = 0, h = 0;
-    char x = 0;
-    if (std::sscanf(o.size.c_str(), "%d%c%d", &w, &x, &h) != 3 || x != 'x' || w < 16 || h < 16 ||
-        w > 8192 || h > 8192)
-      throw voxcut::InputError("--size: must be WxH with 16 <= W, H <= 8192, got '" + o.size + "'");
-    o.width = w;
-    o.height = h;
+    parseViewSize(o.size, "--size", o.width, o.height);
     if (o.view.size() == 2 && std::abs(o.view[1]) > 89.0)
       throw voxcut::InputError("--view: the pitch must be within [-89, 89] degrees");
     std::optional<voxcut::ThreadLimit> limit;

@@ -75,85 +75,76 @@ struct Summary {
   }
 };
 
-std::string exportPath(const std::string& dir, std::size_t body, std::size_t bodies, int frame) {
-  char name[64];
-  if (bodies == 1)
-    std::snprintf(name, sizeof name, "frame_%05d.obj", frame);
-  else
-    std::snprintf(name, sizeof name, "body%zu_frame_%05d.obj", body, frame);
-  return (std::filesystem::path(dir) / name).string();
-}
-
-/// The surfaces of --export: each file written whole (writeSurface); the ones this run wrote
-/// are removed again unless keep() is called (a run that fails leaves none).
-class Exporter {
+/// A folder of the files a run writes frame by frame (--export, --screenshots): created at the
+/// first file; the files this run wrote are removed again unless keep() is called (a run that
+/// fails leaves none). Each file is written whole by its writer.
+class OutputFolder {
  public:
-  explicit Exporter(std::string dir) : dir_(std::move(dir)) {}
-  ~Exporter() {
+  OutputFolder(std::string dir, std::string option)
+      : dir_(std::move(dir)), option_(std::move(option)) {}
+  ~OutputFolder() {
     if (keep_) return;
     std::error_code ec;
     for (const std::string& f : written_) std::filesystem::remove(f, ec);
   }
-  Exporter(const Exporter&) = delete;
-  Exporter& operator=(const Exporter&) = delete;
+  OutputFolder(const OutputFolder&) = delete;
+  OutputFolder& operator=(const OutputFolder&) = delete;
 
-  void write(const World& sim) {
-    if (dir_.empty()) return;
+  [[nodiscard]] bool used() const { return !dir_.empty(); }
+  /// The path of file `name` in the folder (created now if need be), counted as this run's.
+  std::string file(const std::string& name) {
     if (!created_) {
       std::error_code ec;
       std::filesystem::create_directories(dir_, ec);
-      if (ec) throw InputError("--export: cannot create folder '" + dir_ + "': " + ec.message());
+      if (ec) throw InputError(option_ + ": cannot create folder '" + dir_ + "': " + ec.message());
       created_ = true;
     }
-    for (std::size_t b = 0; b < sim.bodyCount(); ++b) {
-      const std::string path = exportPath(dir_, b, sim.bodyCount(), sim.frame());
-      writeSurface(sim.surfaceMesh(b), path);
-      written_.push_back(path);
-    }
+    written_.push_back((std::filesystem::path(dir_) / name).string());
+    return written_.back();
   }
   void keep() { keep_ = true; }
 
  private:
-  std::string dir_;
+  std::string dir_, option_;
   std::vector<std::string> written_;
   bool created_ = false, keep_ = false;
 };
 
-/// The pictures of --screenshots: drawn by the viewer's renderer in a hidden window (so a
-/// display is needed: xvfb-run on a machine without one), the camera fitted to the bodies at
-/// the start and kept, each file written whole; the ones this run wrote are removed again
-/// unless keep() is called.
+/// The surfaces of --export: frame_NNNNN.obj, or bodyB_frame_NNNNN.obj with several bodies.
+class Exporter {
+ public:
+  explicit Exporter(std::string dir) : folder_(std::move(dir), "--export") {}
+  void write(const World& sim) {
+    if (!folder_.used()) return;
+    for (std::size_t b = 0; b < sim.bodyCount(); ++b) {
+      char name[64];
+      if (sim.bodyCount() == 1)
+        std::snprintf(name, sizeof name, "frame_%05d.obj", sim.frame());
+      else
+        std::snprintf(name, sizeof name, "body%zu_frame_%05d.obj", b, sim.frame());
+      writeSurface(sim.surfaceMesh(b), folder_.file(name));
+    }
+  }
+  void keep() { folder_.keep(); }
+
+ private:
+  OutputFolder folder_;
+};
+
+/// The pictures of --screenshots, frame_NNNNN.png: drawn by the viewer's renderer in a hidden
+/// window (so a display is needed: xvfb-run on a machine without one), the camera fitted to
+/// the bodies at the start and kept.
 class Pictures {
  public:
-  Pictures(std::string dir, const std::string& size) : dir_(std::move(dir)) {
-    if (dir_.empty()) return;
-    int w = 0, h = 0;
-    char x = 0;
-    if (std::sscanf(size.c_str(), "%d%c%d", &w, &x, &h) != 3 || x != 'x' || w < 16 || h < 16 ||
-        w > 8192 || h > 8192)
-      throw InputError("--size: must be WxH with 16 <= W, H <= 8192, got '" + size + "'");
-    camera_.width = w;
-    camera_.height = h;
-    context_.emplace(w, h, false, "voxcut run");
+  Pictures(std::string dir, const std::string& size) : folder_(std::move(dir), "--screenshots") {
+    if (!folder_.used()) return;
+    view::parseViewSize(size, "--size", camera_.width, camera_.height);
+    context_.emplace(camera_.width, camera_.height, false, "voxcut run");
     renderer_.emplace();
   }
-  ~Pictures() {
-    if (keep_) return;
-    std::error_code ec;
-    for (const std::string& f : written_) std::filesystem::remove(f, ec);
-  }
-  Pictures(const Pictures&) = delete;
-  Pictures& operator=(const Pictures&) = delete;
 
   void write(World& sim, const std::vector<Obstacle>& obstacles) {
-    if (dir_.empty()) return;
-    if (!created_) {
-      std::error_code ec;
-      std::filesystem::create_directories(dir_, ec);
-      if (ec)
-        throw InputError("--screenshots: cannot create folder '" + dir_ + "': " + ec.message());
-      created_ = true;
-    }
+    if (!folder_.used()) return;
     const view::DrawData data = view::buildDrawData(sim, obstacles, {});
     if (!fitted_) {
       camera_.fit(data.bodyBounds);
@@ -161,20 +152,16 @@ class Pictures {
     }
     char name[64];
     std::snprintf(name, sizeof name, "frame_%05d.png", sim.frame());
-    const std::string path = (std::filesystem::path(dir_) / name).string();
-    view::writePng(renderer_->capture(data, camera_, false), path);
-    written_.push_back(path);
+    view::writePng(renderer_->capture(data, camera_, false), folder_.file(name));
   }
-  void keep() { keep_ = true; }
+  void keep() { folder_.keep(); }
 
  private:
-  std::string dir_;
+  OutputFolder folder_;
   std::optional<view::GlContext> context_;
   std::optional<view::Renderer> renderer_;
   view::Camera camera_;
   bool fitted_ = false;
-  std::vector<std::string> written_;
-  bool created_ = false, keep_ = false;
 };
 
 std::string csvHeader() {

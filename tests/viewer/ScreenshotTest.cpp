@@ -3,15 +3,15 @@
 // without one these tests are skipped.
 #include <gtest/gtest.h>
 #include <stb_image.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
-#include <cstdlib>
+#include <algorithm>
+#include <cstdio>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 #include <vector>
+
+#include "Command.h"
 
 namespace {
 
@@ -51,18 +51,7 @@ const std::string kDrawingChild =
 
 /// Runs voxcut-view with `args`; returns its exit status, its output in `out`.
 int view(const std::string& args, std::string& out) {
-  // Named by the process: CTest runs the tests of this file side by side.
-  const fs::path file =
-      fs::temp_directory_path() / ("voxcut-view-test-out-" + std::to_string(::getpid()) + ".txt");
-  const int status = std::system(
-      (kDrawingChild + std::string(VOXCUT_VIEW_EXE) + " " + args + " > " + file.string() + " 2>&1")
-          .c_str());
-  std::ifstream in(file);
-  std::stringstream s;
-  s << in.rdbuf();
-  out = s.str();
-  fs::remove(file);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return voxcut::view::runCommand(kDrawingChild + std::string(VOXCUT_VIEW_EXE) + " " + args, out);
 }
 
 const std::string kEar = std::string(VOXCUT_SOURCE_DIR) + "/scenes/bunny-ear.json";
@@ -247,16 +236,12 @@ TEST_F(Screenshot, RunLeavesPictures) {
   const std::string pics = (dir / "run").string();
   const std::string run = std::string(VOXCUT_EXE) + " run " + kEar +
                           " --frames 4 --every 2 --size 64x48 --screenshots " + pics;
-  auto status = [](int s) { return WIFEXITED(s) ? WEXITSTATUS(s) : -1; };
-  ASSERT_EQ(status(std::system((kDrawingChild + run + " > /dev/null").c_str())), 0);
+  ASSERT_EQ(voxcut::view::runCommand(kDrawingChild + run, out), 0) << out;
   for (const char* name : {"frame_00000.png", "frame_00002.png", "frame_00004.png"})
     EXPECT_EQ(load((fs::path(pics) / name).string()).width, 64) << name;
-  const std::string err = (dir / "err.txt").string();
-  EXPECT_EQ(status(std::system(("env -u DISPLAY " + run + "-none 2> " + err).c_str())), 2);
-  std::ifstream in(err);
-  std::string line;
-  std::getline(in, line);
-  EXPECT_NE(line.find("no display"), std::string::npos) << line;
+  EXPECT_EQ(voxcut::view::runCommand("env -u DISPLAY " + run + "-none", out), 2);
+  const std::string line = out.substr(0, out.find('\n'));
+  EXPECT_NE(line.find("no display"), std::string::npos) << out;
   EXPECT_FALSE(fs::exists(pics + "-none"));
 }
 

@@ -8,12 +8,11 @@
 #include <cinttypes>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <thread>
 
 #include "Camera.h"
+#include "Command.h"
 #include "DrawData.h"
 #include "Input.h"
 #include "Session.h"
@@ -91,20 +90,6 @@ std::string hex(std::uint64_t h) {
   return s;
 }
 
-/// Runs a command, returning its exit status and standard output.
-int run(const std::string& command, std::string& out) {
-  // Named by the process: CTest runs the tests of this file side by side.
-  const fs::path file =
-      fs::temp_directory_path() / ("voxcut-viewer-test-out-" + std::to_string(::getpid()) + ".txt");
-  const int status = std::system((command + " > " + file.string() + " 2>&1").c_str());
-  std::ifstream in(file);
-  std::stringstream s;
-  s << in.rdbuf();
-  out = s.str();
-  fs::remove(file);
-  return status;
-}
-
 // The mouse, through the input layer: a drag with the blade across the bunny cuts it; a press
 // with the probe pushes on it; let go, the tools go back out of the way and push nothing. The
 // run, saved as a scene, replays with `voxcut run` to the same cuts.
@@ -142,7 +127,8 @@ TEST(Input, MouseDragCutsAndPressesTheBunnyAndReplays) {
                          ("voxcut-viewer-recorded-" + std::to_string(::getpid()) + ".json");
   d.session.saveRecordedScene(scene.string());
   std::string out;
-  const int status = run(std::string(VOXCUT_EXE) + " run " + scene.string() + " --json", out);
+  const int status =
+      runCommand(std::string(VOXCUT_EXE) + " run " + scene.string() + " --json", out);
   fs::remove(scene);
   ASSERT_EQ(status, 0) << out;
   const auto start = out.find('{');
