@@ -193,7 +193,7 @@ void BunnyScaling(benchmark::State& state) {
 }
 
 void allSettings(benchmark::internal::Benchmark* b) {
-  for (int p = 0; p < 6; ++p)
+  for (int p = 0; p < 7; ++p)
     for (int t : {1, 2}) b->Args({t, p});
   b->UseManualTime()->Unit(benchmark::kMillisecond)->MinTime(0.3);
 }
@@ -216,7 +216,7 @@ void Constraints(benchmark::State& state) {
 }
 
 BENCHMARK(BunnyScaling)
-    ->ArgsProduct({{173, 241, 301}, {0, 4, 5}})
+    ->ArgsProduct({{173, 241, 301}, {0, 4, 5, 6}})
     ->UseManualTime()
     ->Unit(benchmark::kMillisecond)
     ->MinTime(0.3);

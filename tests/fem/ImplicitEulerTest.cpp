@@ -371,7 +371,8 @@ std::vector<Vec3d> runSteps(int threads, int steps, std::vector<StepStatus>& sta
 }
 
 TEST(ImplicitEulerDynamics, BitIdenticalAtOneAndTwoThreads) {
-  for (Preconditioner kind : {Preconditioner::TwoLevel, Preconditioner::Cholesky}) {
+  for (Preconditioner kind :
+       {Preconditioner::TwoLevel, Preconditioner::Cholesky, Preconditioner::Multigrid}) {
     std::vector<StepStatus> one, two;
     const auto a = runSteps(1, 25, one, kind);
     const auto b = runSteps(2, 25, two, kind);
@@ -492,7 +493,7 @@ TEST(ImplicitEulerDynamics, CoupledPreconditionersAgreeWithBlockJacobi) {
   for (int s = 0; s < 5; ++s) ASSERT_TRUE(sr.step(reference.model, reference.octree).converged);
   for (Preconditioner kind :
        {Preconditioner::SymmetricGaussSeidel, Preconditioner::IncompleteCholesky,
-        Preconditioner::TwoLevel, Preconditioner::Cholesky}) {
+        Preconditioner::TwoLevel, Preconditioner::Cholesky, Preconditioner::Multigrid}) {
     Body b = base;
     p.preconditioner = kind;
     ImplicitEuler solver(p);
@@ -543,10 +544,13 @@ TEST(ImplicitEulerDynamics, CoupledPreconditionersConvergeOnAMixedLevelMesh) {
   // lift them, to compare the preconditioners themselves.
   p.maxFactorUpdates = 1e12;
   p.maxFactorUpdatesPerBlock = 1e12;
-  constexpr int kKinds = 5;
-  const Preconditioner kinds[kKinds] = {
-      Preconditioner::BlockJacobi, Preconditioner::IncompleteCholesky,
-      Preconditioner::SymmetricGaussSeidel, Preconditioner::TwoLevel, Preconditioner::Cholesky};
+  constexpr int kKinds = 6;
+  const Preconditioner kinds[kKinds] = {Preconditioner::BlockJacobi,
+                                        Preconditioner::IncompleteCholesky,
+                                        Preconditioner::SymmetricGaussSeidel,
+                                        Preconditioner::TwoLevel,
+                                        Preconditioner::Cholesky,
+                                        Preconditioner::Multigrid};
   std::vector<Vec3d> result[kKinds];
   int iterations[kKinds] = {};
   for (int k = 0; k < kKinds; ++k) {
@@ -564,6 +568,9 @@ TEST(ImplicitEulerDynamics, CoupledPreconditionersConvergeOnAMixedLevelMesh) {
   EXPECT_GE(iterations[0], 3 * iterations[1]);
   EXPECT_GE(iterations[2], 2 * iterations[3]);
   EXPECT_LE(2 * iterations[4], iterations[3]);
+  // The multigrid's coarse levels follow the refined cut: it needs fewer iterations than
+  // the two-level aggregates.
+  EXPECT_LT(iterations[5], iterations[3]);
   double moved = 0;
   for (std::size_t n = 0; n < oc.nodeCount(); ++n)
     moved = std::max(moved, (result[0][n] - oc.restPositions()[n]).norm());

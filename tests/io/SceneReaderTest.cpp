@@ -427,8 +427,8 @@ TEST(SceneReaderErrors, OutOfRangeNamesTheKeyPathAndTheValue) {
   expectError(withTop(R"("solver": {"max_iterations": 0})"),
               "solver.max_iterations: must be an integer in 1..");
   expectError(
-      withTop(R"("solver": {"preconditioner": "multigrid"})"),
-      R"(solver.preconditioner: unknown preconditioner "multigrid" (expected one of: "jacobi", "block_jacobi", "symmetric_gauss_seidel", "incomplete_cholesky", "two_level", "cholesky"))");
+      withTop(R"("solver": {"preconditioner": "amg"})"),
+      R"(solver.preconditioner: unknown preconditioner "amg" (expected one of: "jacobi", "block_jacobi", "symmetric_gauss_seidel", "incomplete_cholesky", "two_level", "cholesky", "multigrid"))");
   expectError(withTop(R"("solver": {"preconditioner": 3})"),
               "solver.preconditioner: unknown preconditioner 3");
 }

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "voxcut/core/Types.h"
+#include "voxcut/linalg/BlockMatrix.h"
 
 namespace voxcut {
 
@@ -40,21 +41,6 @@ struct IncompleteCholeskyPattern {
 
   [[nodiscard]] std::size_t pairCount() const { return pair.size() / 2; }
 };
-
-/// sum over slots [begin, end) of blocks[slot] * x[column[slot]] (3x3 column-major blocks): one
-/// row's share of a block product, written out because the solver spends most of its time here.
-inline Vec3d blockRowProduct(const Eigen::Matrix3d* blocks, const std::uint32_t* column,
-                             const Vec3d* x, std::uint32_t begin, std::uint32_t end) {
-  double s0 = 0.0, s1 = 0.0, s2 = 0.0;
-  for (std::uint32_t slot = begin; slot < end; ++slot) {
-    const double* a = blocks[slot].data();
-    const double* v = x[column[slot]].data();
-    s0 += a[0] * v[0] + a[3] * v[1] + a[6] * v[2];
-    s1 += a[1] * v[0] + a[4] * v[1] + a[7] * v[2];
-    s2 += a[2] * v[0] + a[5] * v[1] + a[8] * v[2];
-  }
-  return Vec3d(s0, s1, s2);
-}
 
 /// Per block slot (i, k) of `sparsity`, the slot (k, i) (the pattern is symmetric): what
 /// BlockSparsity::mirror holds.

@@ -138,6 +138,8 @@ const char* preconditionerName(Preconditioner p) {
       return "two_level";
     case Preconditioner::Cholesky:
       return "cholesky";
+    case Preconditioner::Multigrid:
+      return "multigrid";
   }
   return "unknown";
 }
@@ -364,6 +366,7 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
   const Eigen::Matrix3d* blocks = blocks_.data();
   const std::uint32_t* column = sp.column.data();
   const std::uint32_t* rowStart = sp.rowStart.data();
+  const BlockMatrixView view{rows, rowStart, column, sp.diagonal.data(), blocks};
   // Row i of A x: most of the solve.
   auto multiply = [&](const std::vector<Vec3d>& in, std::size_t i) {
     return blockRowProduct(blocks, column, in.data(), rowStart[i], rowStart[i + 1]);
@@ -380,6 +383,8 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
       cholesky_.solve(r_, z_);
     else if (kind == Preconditioner::IncompleteCholesky)
       applyIncompleteCholesky(sp, factor_, r_, z_);
+    else if (kind == Preconditioner::Multigrid)
+      multigrid_.apply(view, r_, z_, threaded);
     else if (kind == Preconditioner::TwoLevel)
       twoLevel_.apply(sp, model.aggregation(), blocks_, preconditioner_, r_, z_, threaded);
     else
@@ -519,6 +524,25 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
         }
       }
     }
+    if (kind == Preconditioner::Multigrid) {
+      // The hierarchy follows the sparsity; its coarse levels are remade when the last step
+      // showed them stale, else only the fine smoother follows the new matrix.
+      if (multigridRefreshed_) multigridBaseIterations_ = lastIterations_;
+      multigridRefreshed_ = false;
+      bool ok = false;
+      if (multigridRevision_ != model.sparsityRevision() || !multigrid_.built()) {
+        multigrid_.build(view, freeCoords_, params_.multigrid, threaded);
+        multigridRevision_ = model.sparsityRevision();
+        ok = multigridRefreshed_ = multigrid_.setup(view, threaded);
+      } else if (!multigrid_.valid() ||
+                 lastIterations_ > multigridBaseIterations_ + params_.multigridRefreshIterations) {
+        ok = multigridRefreshed_ = multigrid_.setup(view, threaded);
+      } else {
+        ok = multigrid_.updateFine(view);
+        if (!ok) ok = multigridRefreshed_ = multigrid_.setup(view, threaded);
+      }
+      if (!ok) kind = Preconditioner::TwoLevel;
+    }
     if (kind == Preconditioner::TwoLevel)
       (void)twoLevel_.setup(sp, model.aggregation(), blocks_, &freePositions_, threaded);
     rz = precondition();
@@ -595,6 +619,12 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
     for (std::size_t i = 0; i < freeNodes.size(); ++i) {
       freePositions_[i] = octree.positions()[freeNodes[i]];
       freeMasses_[i] = model.nodeMass()[freeNodes[i]];
+    }
+    if (params_.preconditioner == Preconditioner::Multigrid &&
+        multigridRevision_ != model.sparsityRevision()) {
+      freeCoords_.resize(freeNodes.size());
+      for (std::size_t i = 0; i < freeNodes.size(); ++i)
+        freeCoords_[i] = octree.nodeCoord(freeNodes[i]);
     }
   }
   // A cut since the factor: map the factor onto the new rows (FactorBridge.h), once per

@@ -40,6 +40,7 @@
 #include "voxcut/fem/RigidModes.h"
 #include "voxcut/fem/TopologyChange.h"
 #include "voxcut/fem/TwoLevelPreconditioner.h"
+#include "voxcut/linalg/Multigrid.h"
 
 namespace voxcut {
 
@@ -76,8 +77,9 @@ enum class Preconditioner {
   BlockJacobi,           ///< inverse of each node's 3x3 diagonal block
   SymmetricGaussSeidel,  ///< one forward and one backward block Gauss-Seidel sweep
   IncompleteCholesky,    ///< block IC(0), refactorised every step (BlockPreconditioner.h)
-  TwoLevel,  ///< Gauss-Seidel around a coarse correction on aggregates (TwoLevelPreconditioner.h)
-  Cholesky,  ///< sparse Cholesky factor of an earlier step's matrix (BlockCholesky.h)
+  TwoLevel,   ///< Gauss-Seidel around a coarse correction on aggregates (TwoLevelPreconditioner.h)
+  Cholesky,   ///< sparse Cholesky factor of an earlier step's matrix (BlockCholesky.h)
+  Multigrid,  ///< geometric multigrid V-cycle on the node grid (linalg/Multigrid.h)
 };
 
 /// Every preconditioner, in declaration order.
@@ -86,10 +88,11 @@ inline constexpr Preconditioner kPreconditioners[] = {Preconditioner::Jacobi,
                                                       Preconditioner::SymmetricGaussSeidel,
                                                       Preconditioner::IncompleteCholesky,
                                                       Preconditioner::TwoLevel,
-                                                      Preconditioner::Cholesky};
+                                                      Preconditioner::Cholesky,
+                                                      Preconditioner::Multigrid};
 
 /// Name of a preconditioner ("jacobi", "block_jacobi", "symmetric_gauss_seidel",
-/// "incomplete_cholesky", "two_level", "cholesky"), for reports and scene files.
+/// "incomplete_cholesky", "two_level", "cholesky", "multigrid"), for reports and scene files.
 [[nodiscard]] const char* preconditionerName(Preconditioner p);
 
 /// Settings of a time step.
@@ -126,6 +129,13 @@ struct ImplicitEulerParams {
   /// a thin beam does not: docs/performance.md, "Deformation solver").
   double maxFactorUpdates = 1e7;
   double maxFactorUpdatesPerBlock = 50.0;
+  /// Multigrid only: the coarse levels (Galerkin products of the fine matrix) are made anew
+  /// on a new sparsity and when the previous step took more than this many iterations
+  /// beyond the first step on them; in between they stay those of an earlier step's matrix,
+  /// which the rotations change little (the V-cycle stays symmetric positive definite:
+  /// linalg/Multigrid.h), and only the fine level's smoother follows the matrix.
+  int multigridRefreshIterations = 3;
+  MultigridParams multigrid;  ///< Multigrid only: the hierarchy's settings
 };
 
 /// What one step did. The counts and the residual are the conjugate gradients'; the rigid-mode
@@ -236,9 +246,14 @@ class ImplicitEuler {
   std::uint64_t icRevision_ = 0;
   IncompleteCholeskyFactor factor_;
   TwoLevelPreconditioner twoLevel_;
-  BlockCholesky cholesky_;            ///< analysed for the sparsity with choleskyRevision_
-  FactorBridge bridge_;               ///< from cholesky_'s model to the current one
-  std::uint64_t bridgeRevision_ = 0;  ///< sparsity the bridge was last prepared for
+  Multigrid multigrid_;
+  std::uint64_t multigridRevision_ = 0;  ///< sparsity the hierarchy was built for
+  bool multigridRefreshed_ = false;      ///< the last step made the coarse levels anew
+  int multigridBaseIterations_ = 0;      ///< iterations of the first step on them
+  std::vector<Index3> freeCoords_;       ///< node-grid coordinates of the free nodes
+  BlockCholesky cholesky_;               ///< analysed for the sparsity with choleskyRevision_
+  FactorBridge bridge_;                  ///< from cholesky_'s model to the current one
+  std::uint64_t bridgeRevision_ = 0;     ///< sparsity the bridge was last prepared for
   std::uint64_t choleskyRevision_ = 0;
   std::uint64_t costlyRevision_ = 0;  ///< a sparsity whose factor would cost too much
   std::size_t costlyRows_ = 0;        ///< its rows (0: none so far)

@@ -1,0 +1,641 @@
+#include "voxcut/linalg/Multigrid.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Sparse>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include "voxcut/core/Error.h"
+#include "voxcut/core/FlatHashMap.h"
+#include "voxcut/core/Parallel.h"
+#include "voxcut/core/UnionFind.h"
+
+namespace voxcut {
+
+namespace {
+
+constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+constexpr std::size_t kGrain = 256;
+/// Relative lift of the coarse matrices' diagonals (Multigrid::galerkin).
+constexpr double kDiagonalLift = 1e-9;
+
+/// Key of a cell (coordinates shifted by one: a row on the grid's low planes also lies in the
+/// cell below them).
+std::uint64_t cellKey(const Index3& c) {
+  return (static_cast<std::uint64_t>(c.x + 1) << 42) | (static_cast<std::uint64_t>(c.y + 1) << 21) |
+         static_cast<std::uint64_t>(c.z + 1);
+}
+
+/// The slot of column `col` in row `row` of `a`, kNone when absent.
+std::uint32_t findSlot(const BlockMatrixView& a, std::size_t row, std::uint32_t col) {
+  const std::uint32_t* first = a.column + a.rowStart[row];
+  const std::uint32_t* last = a.column + a.rowStart[row + 1];
+  const std::uint32_t* it = std::lower_bound(first, last, col);
+  return it != last && *it == col ? static_cast<std::uint32_t>(it - a.column) : kNone;
+}
+
+/// Row i of A x as blockRowProduct, with two independent sums over alternate slots: in a
+/// Gauss-Seidel sweep each row waits for the row before it, so the length of the chain of
+/// additions, not the throughput, sets the pace.
+inline Vec3d sweepRowProduct(const BlockMatrixView& a, const Vec3d* x, std::size_t i) {
+  const std::uint32_t begin = a.rowStart[i], end = a.rowStart[i + 1];
+  double s[2][3] = {{0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}};
+  std::uint32_t slot = begin;
+  for (; slot + 1 < end; slot += 2)
+    for (int h = 0; h < 2; ++h) {
+      const double* m = a.blocks[slot + h].data();
+      const double* v = x[a.column[slot + h]].data();
+      s[h][0] += m[0] * v[0] + m[3] * v[1] + m[6] * v[2];
+      s[h][1] += m[1] * v[0] + m[4] * v[1] + m[7] * v[2];
+      s[h][2] += m[2] * v[0] + m[5] * v[1] + m[8] * v[2];
+    }
+  if (slot < end) {
+    const double* m = a.blocks[slot].data();
+    const double* v = x[a.column[slot]].data();
+    s[0][0] += m[0] * v[0] + m[3] * v[1] + m[6] * v[2];
+    s[0][1] += m[1] * v[0] + m[4] * v[1] + m[7] * v[2];
+    s[0][2] += m[2] * v[0] + m[5] * v[1] + m[8] * v[2];
+  }
+  return Vec3d(s[0][0] + s[1][0], s[0][1] + s[1][1], s[0][2] + s[1][2]);
+}
+
+/// In-place Cholesky factor (lower, column-major n x n); false when not positive definite.
+bool choleskyInPlace(double* a, int n) {
+  for (int j = 0; j < n; ++j) {
+    double d = a[j * n + j];
+    for (int k = 0; k < j; ++k) d -= a[k * n + j] * a[k * n + j];
+    if (!(d > 0.0) || !std::isfinite(d)) return false;
+    const double l = std::sqrt(d);
+    a[j * n + j] = l;
+    for (int i = j + 1; i < n; ++i) {
+      double s = a[j * n + i];
+      for (int k = 0; k < j; ++k) s -= a[k * n + i] * a[k * n + j];
+      a[j * n + i] = s / l;
+    }
+  }
+  return true;
+}
+
+/// Solves L L^T x = b in place with the factor of choleskyInPlace.
+void choleskySolve(const double* l, int n, double* x) {
+  for (int i = 0; i < n; ++i) {
+    double s = x[i];
+    for (int k = 0; k < i; ++k) s -= l[k * n + i] * x[k];
+    x[i] = s / l[i * n + i];
+  }
+  for (int i = n - 1; i >= 0; --i) {
+    double s = x[i];
+    for (int k = i + 1; k < n; ++k) s -= l[i * n + k] * x[k];
+    x[i] = s / l[i * n + i];
+  }
+}
+
+/// The transpose of an interpolation's rows (fine rows ascending per coarse row).
+void transpose(Interpolation& p, std::size_t coarseRows) {
+  p.tStart.assign(coarseRows + 1, 0);
+  for (std::uint32_t c : p.index) ++p.tStart[c + 1];
+  for (std::size_t c = 0; c < coarseRows; ++c) p.tStart[c + 1] += p.tStart[c];
+  p.tIndex.resize(p.index.size());
+  p.tWeight.resize(p.index.size());
+  std::vector<std::uint32_t> next(p.tStart.begin(), p.tStart.end() - 1);
+  for (std::size_t i = 0; i + 1 < p.start.size(); ++i)
+    for (std::uint32_t k = p.start[i]; k < p.start[i + 1]; ++k) {
+      const std::uint32_t slot = next[p.index[k]]++;
+      p.tIndex[slot] = static_cast<std::uint32_t>(i);
+      p.tWeight[slot] = p.weight[k];
+    }
+}
+
+}  // namespace
+
+Coarsening coarsenRows(const BlockMatrixView& a, const std::vector<Index3>& coords, int cellSize) {
+  VOXCUT_ASSERT(coords.size() == a.rows, "one grid point per row");
+  VOXCUT_ASSERT(cellSize >= 1 && (cellSize & (cellSize - 1)) == 0, "cell size a power of two");
+  const std::size_t n = a.rows;
+  const int s = cellSize;
+  // The cells around each row: along an axis, a coordinate on a cell boundary lies in the
+  // cells on both sides. Memberships (row, cell) are numbered row by row.
+  FlatHashMap<std::uint32_t> cellId;
+  std::vector<Index3> cellLow;  ///< per cell, its lowest corner (grid units)
+  std::vector<std::uint32_t> memberStart(n + 1, 0), memberCell;
+  memberCell.reserve(2 * n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Index3& x = coords[i];
+    VOXCUT_ASSERT(x.x >= 0 && x.y >= 0 && x.z >= 0, "grid points are non-negative");
+    std::array<std::array<int, 2>, 3> options{};
+    std::array<int, 3> count{};
+    for (int axis = 0; axis < 3; ++axis) {
+      const int v = axis == 0 ? x.x : axis == 1 ? x.y : x.z;
+      const int q = v / s;
+      if (v % s == 0) {
+        options[axis] = {q - 1, q};
+        count[axis] = 2;
+      } else {
+        options[axis] = {q, q};
+        count[axis] = 1;
+      }
+    }
+    for (int cz = 0; cz < count[2]; ++cz)
+      for (int cy = 0; cy < count[1]; ++cy)
+        for (int cx = 0; cx < count[0]; ++cx) {
+          const Index3 c{options[0][cx], options[1][cy], options[2][cz]};
+          const std::uint64_t key = cellKey(c);
+          std::uint32_t* id = cellId.find(key);
+          if (id == nullptr) {
+            cellId.set(key, static_cast<std::uint32_t>(cellLow.size()));
+            memberCell.push_back(static_cast<std::uint32_t>(cellLow.size()));
+            cellLow.push_back({c.x * s, c.y * s, c.z * s});
+          } else {
+            memberCell.push_back(*id);
+          }
+        }
+    memberStart[i + 1] = static_cast<std::uint32_t>(memberCell.size());
+  }
+  // Parts of each cell: memberships of one cell joined along the matrix's couplings.
+  UnionFind parts(memberCell.size());
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::uint32_t slot = a.rowStart[i]; slot < a.rowStart[i + 1]; ++slot) {
+      const std::uint32_t j = a.column[slot];
+      if (j <= i) continue;
+      for (std::uint32_t mi = memberStart[i]; mi < memberStart[i + 1]; ++mi)
+        for (std::uint32_t mj = memberStart[j]; mj < memberStart[j + 1]; ++mj)
+          if (memberCell[mi] == memberCell[mj]) parts.unite(mi, mj);
+    }
+  // Cell copies: one per part, numbered by the part's lowest membership.
+  std::vector<std::uint32_t> copyOf(memberCell.size(), kNone);
+  std::uint32_t copies = 0;
+  for (std::uint32_t m = 0; m < memberCell.size(); ++m) {
+    const std::uint32_t root = parts.find(m);
+    if (copyOf[root] == kNone) copyOf[root] = copies++;
+    copyOf[m] = copyOf[root];
+  }
+  // The corners each row has a weight on, and their weights (from its first cell; every cell
+  // around it gives the same corners, those of the face, edge or corner it lies on).
+  struct Corner {
+    Index3 point;
+    double weight;
+  };
+  auto cornersOf = [&](std::size_t i, std::array<Corner, 8>& out) {
+    const Index3& x = coords[i];
+    const Index3& lo = cellLow[memberCell[memberStart[i]]];
+    const double t[3] = {static_cast<double>(x.x - lo.x) / s, static_cast<double>(x.y - lo.y) / s,
+                         static_cast<double>(x.z - lo.z) / s};
+    int count = 0;
+    for (int c = 0; c < 8; ++c) {
+      double w = 1.0;
+      for (int axis = 0; axis < 3; ++axis) w *= (c >> axis) & 1 ? t[axis] : 1.0 - t[axis];
+      if (w == 0.0) continue;
+      out[static_cast<std::size_t>(count++)] = {
+          {lo.x + (c & 1) * s, lo.y + ((c >> 1) & 1) * s, lo.z + ((c >> 2) & 1) * s}, w};
+    }
+    return count;
+  };
+  auto cornerIndex = [&](const Index3& lo, const Index3& p) {
+    return static_cast<std::uint32_t>((p.x - lo.x) / s + 2 * ((p.y - lo.y) / s) +
+                                      4 * ((p.z - lo.z) / s));
+  };
+  // Coarse rows: (cell copy, corner) pairs joined wherever a row of several copies has a
+  // weight on the corner.
+  UnionFind corners(static_cast<std::size_t>(copies) * 8);
+  std::array<Corner, 8> cs{};
+  for (std::size_t i = 0; i < n; ++i) {
+    const int count = cornersOf(i, cs);
+    const std::uint32_t m0 = memberStart[i];
+    for (int k = 0; k < count; ++k) {
+      const Index3& p = cs[static_cast<std::size_t>(k)].point;
+      const std::uint32_t first = copyOf[m0] * 8 + cornerIndex(cellLow[memberCell[m0]], p);
+      for (std::uint32_t m = m0 + 1; m < memberStart[i + 1]; ++m)
+        corners.unite(first, copyOf[m] * 8 + cornerIndex(cellLow[memberCell[m]], p));
+    }
+  }
+  Coarsening out;
+  Interpolation& p = out.interpolation;
+  p.start.assign(n + 1, 0);
+  std::vector<std::uint32_t> coarseOf(static_cast<std::size_t>(copies) * 8, kNone);
+  for (std::size_t i = 0; i < n; ++i) {
+    const int count = cornersOf(i, cs);
+    const std::uint32_t m0 = memberStart[i];
+    for (int k = 0; k < count; ++k) {
+      const Corner& c = cs[static_cast<std::size_t>(k)];
+      const std::uint32_t root =
+          corners.find(copyOf[m0] * 8 + cornerIndex(cellLow[memberCell[m0]], c.point));
+      if (coarseOf[root] == kNone) {
+        coarseOf[root] = static_cast<std::uint32_t>(out.coords.size());
+        out.coords.push_back(c.point);
+      }
+      p.index.push_back(coarseOf[root]);
+      p.weight.push_back(c.weight);
+    }
+    p.start[i + 1] = static_cast<std::uint32_t>(p.index.size());
+  }
+  transpose(p, out.coords.size());
+  return out;
+}
+
+struct Multigrid::Smoother {
+  std::vector<std::uint32_t> groupStart{0};  ///< per group + 1, into groupRow
+  std::vector<std::uint32_t> groupRow;       ///< rows of each group, ascending
+  std::vector<std::uint32_t> factorStart;    ///< per group, into factor
+  /// Per group of one row, its diagonal block's inverse; of g rows, the Cholesky factor of
+  /// its 3g x 3g diagonal part (column-major).
+  std::vector<double> factor;
+  std::size_t groupedRows = 0;
+  std::vector<double> scratch;  ///< one group's right-hand side
+
+  [[nodiscard]] std::size_t groups() const { return groupStart.size() - 1; }
+};
+
+struct Multigrid::Level {
+  BlockMatrix matrix;                 ///< coarse levels: the Galerkin product (level 0: none)
+  std::vector<std::uint32_t> mirror;  ///< coarse levels: per slot (i, k), the slot (k, i)
+  Interpolation toCoarse;             ///< from the next level's rows (none on the last)
+  Smoother smoother;
+  std::vector<Vec3d> r, u, t;
+};
+
+Multigrid::Multigrid() = default;
+Multigrid::Multigrid(Multigrid&&) noexcept = default;
+Multigrid& Multigrid::operator=(Multigrid&&) noexcept = default;
+Multigrid::~Multigrid() = default;
+
+Multigrid::Multigrid(const Multigrid& other) {
+  *this = other;
+}
+
+Multigrid& Multigrid::operator=(const Multigrid& other) {
+  if (this == &other) return *this;
+  params_ = other.params_;
+  levels_.clear();
+  for (const auto& l : other.levels_) levels_.push_back(std::make_unique<Level>(*l));
+  coarsest_.reset();
+  analysed_ = false;
+  valid_ = false;
+  // The coarsest factor is remade from the copied matrix (the same factor, bit for bit);
+  // a single-level hierarchy factorises the caller's matrix at its next setup.
+  if (other.valid_ && levels_.size() > 1) valid_ = factorCoarsest(levels_.back()->matrix.view());
+  return *this;
+}
+
+std::vector<std::size_t> Multigrid::rowsPerLevel() const {
+  std::vector<std::size_t> out;
+  for (const auto& l : levels_) out.push_back(l->r.size());
+  return out;
+}
+
+std::vector<std::size_t> Multigrid::groupedRowsPerLevel() const {
+  std::vector<std::size_t> out;
+  for (const auto& l : levels_) out.push_back(l->smoother.groupedRows);
+  return out;
+}
+
+void Multigrid::build(const BlockMatrixView& fine, const std::vector<Index3>& coords,
+                      const MultigridParams& params, bool threaded) {
+  (void)threaded;
+  params_ = params;
+  levels_.clear();
+  coarsest_.reset();
+  analysed_ = false;
+  valid_ = false;
+  auto level0 = std::make_unique<Level>();
+  level0->r.resize(fine.rows);
+  level0->u.resize(fine.rows);
+  level0->t.resize(fine.rows);
+  levels_.push_back(std::move(level0));
+  if (fine.rows == 0) return;
+  std::vector<Index3> levelCoords = coords;
+  int cellSize = 1;
+  while (levels_.size() < static_cast<std::size_t>(params_.maxLevels)) {
+    Level& f = *levels_.back();
+    const BlockMatrixView a = levels_.size() == 1 ? fine : f.matrix.view();
+    if (a.rows <= params_.coarsestRows) break;
+    // The smallest cell size, twice the last or more, that coarsens enough.
+    Coarsening c;
+    bool found = false;
+    for (cellSize *= 2; cellSize <= (1 << 20); cellSize *= 2) {
+      c = coarsenRows(a, levelCoords, cellSize);
+      if (static_cast<double>(c.coords.size()) <=
+          params_.maxCoarseRatio * static_cast<double>(a.rows)) {
+        found = true;
+        break;
+      }
+    }
+    if (!found) break;
+    // The coarse pattern: (a, b) wherever a fine block (i, j) has i interpolating from a and
+    // j from b.
+    const Interpolation& p = c.interpolation;
+    const std::size_t m = c.coords.size();
+    auto next = std::make_unique<Level>();
+    BlockMatrix& cm = next->matrix;
+    cm.rowStart.assign(m + 1, 0);
+    std::vector<std::vector<std::uint32_t>> cols(m);
+    parallelFor(
+        0, m, 64,
+        [&](std::size_t b, std::size_t e) {
+          for (std::size_t row = b; row < e; ++row) {
+            std::vector<std::uint32_t>& out = cols[row];
+            for (std::uint32_t k = p.tStart[row]; k < p.tStart[row + 1]; ++k) {
+              const std::uint32_t i = p.tIndex[k];
+              for (std::uint32_t slot = a.rowStart[i]; slot < a.rowStart[i + 1]; ++slot) {
+                const std::uint32_t j = a.column[slot];
+                for (std::uint32_t q = p.start[j]; q < p.start[j + 1]; ++q)
+                  out.push_back(p.index[q]);
+              }
+            }
+            std::sort(out.begin(), out.end());
+            out.erase(std::unique(out.begin(), out.end()), out.end());
+          }
+        },
+        threaded);
+    for (std::size_t row = 0; row < m; ++row)
+      cm.rowStart[row + 1] = cm.rowStart[row] + static_cast<std::uint32_t>(cols[row].size());
+    cm.column.resize(cm.rowStart[m]);
+    cm.diagonal.resize(m);
+    for (std::size_t row = 0; row < m; ++row) {
+      std::copy(cols[row].begin(), cols[row].end(), cm.column.begin() + cm.rowStart[row]);
+      std::vector<std::uint32_t>().swap(cols[row]);
+    }
+    cm.blocks.assign(cm.column.size(), Eigen::Matrix3d::Zero());
+    const BlockMatrixView cv = cm.view();
+    for (std::size_t row = 0; row < m; ++row)
+      cm.diagonal[row] = findSlot(cv, row, static_cast<std::uint32_t>(row));
+    next->mirror.resize(cm.column.size());
+    for (std::size_t row = 0; row < m; ++row)
+      for (std::uint32_t slot = cm.rowStart[row]; slot < cm.rowStart[row + 1]; ++slot)
+        next->mirror[slot] = findSlot(cv, cm.column[slot], static_cast<std::uint32_t>(row));
+    next->r.resize(m);
+    next->u.resize(m);
+    next->t.resize(m);
+    f.toCoarse = std::move(c.interpolation);
+    levelCoords = std::move(c.coords);
+    levels_.push_back(std::move(next));
+  }
+}
+
+void Multigrid::galerkin(std::size_t level, bool threaded) {
+  // A_c = P^T A P, row by row of A_c, upper triangle only; the lower one is its mirror, so
+  // A_c is symmetric exactly. Each block is a sum in a fixed order (any thread count).
+  const Level& f = *levels_[level];
+  Level& c = *levels_[level + 1];
+  const BlockMatrixView a = level == 0 ? *fine_ : f.matrix.view();
+  const Interpolation& p = f.toCoarse;
+  BlockMatrix& cm = c.matrix;
+  const BlockMatrixView cv = cm.view();
+  const std::size_t m = cm.rows();
+  parallelFor(
+      0, m, 16,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t row = b; row < e; ++row) {
+          const std::uint32_t first = cm.diagonal[row], last = cm.rowStart[row + 1];
+          for (std::uint32_t s = first; s < last; ++s) cm.blocks[s].setZero();
+          for (std::uint32_t k = p.tStart[row]; k < p.tStart[row + 1]; ++k) {
+            const std::uint32_t i = p.tIndex[k];
+            const double wi = p.tWeight[k];
+            for (std::uint32_t slot = a.rowStart[i]; slot < a.rowStart[i + 1]; ++slot) {
+              const std::uint32_t j = a.column[slot];
+              const Eigen::Matrix3d& aij = a.blocks[slot];
+              for (std::uint32_t q = p.start[j]; q < p.start[j + 1]; ++q) {
+                const std::uint32_t col = p.index[q];
+                if (col < row) continue;
+                const std::uint32_t* it =
+                    std::lower_bound(cv.column + first, cv.column + last, col);
+                cm.blocks[static_cast<std::size_t>(it - cv.column)] += (wi * p.weight[q]) * aij;
+              }
+            }
+          }
+          // Symmetric, and lifted by kDiagonalLift of its diagonal: a cell copy whose rows
+          // do not determine all its corners (a lone row inside it) makes P rank deficient,
+          // A_c singular on exactly the combinations P maps to zero, which nothing then
+          // excites; the lift keeps every factor positive definite there.
+          Eigen::Matrix3d& d = cm.blocks[first];
+          d = 0.5 * (d + d.transpose()).eval();
+          d.diagonal() *= 1.0 + kDiagonalLift;
+        }
+      },
+      threaded);
+  parallelFor(
+      0, m, 64,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t row = b; row < e; ++row)
+          for (std::uint32_t s = cm.rowStart[row]; s < cm.diagonal[row]; ++s)
+            cm.blocks[s] = cm.blocks[c.mirror[s]].transpose();
+      },
+      threaded);
+}
+
+void Multigrid::groupRows(const BlockMatrixView& a, Smoother& s) const {
+  const std::size_t n = a.rows;
+  std::vector<double> trace(n);
+  for (std::size_t i = 0; i < n; ++i) trace[i] = a.blocks[a.diagonal[i]].trace();
+  std::vector<std::uint8_t> weak(n, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    double strongest = 0.0;
+    for (std::uint32_t slot = a.rowStart[i]; slot < a.rowStart[i + 1]; ++slot)
+      strongest = std::max(strongest, trace[a.column[slot]]);
+    weak[i] = trace[i] < params_.weakRatio * strongest ? 1 : 0;
+  }
+  UnionFind sets(n);
+  for (std::size_t i = 0; i < n; ++i)
+    if (weak[i])
+      for (std::uint32_t slot = a.rowStart[i]; slot < a.rowStart[i + 1]; ++slot)
+        if (weak[a.column[slot]]) sets.unite(static_cast<std::uint32_t>(i), a.column[slot]);
+  // Members of each set, ascending; a set is cut into groups of maxGroupRows in that order.
+  std::vector<std::uint32_t> setStart(n + 1, 0);
+  std::vector<std::uint32_t> root(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    root[i] = sets.find(static_cast<std::uint32_t>(i));
+    ++setStart[root[i] + 1];
+  }
+  for (std::size_t i = 0; i < n; ++i) setStart[i + 1] += setStart[i];
+  std::vector<std::uint32_t> members(n), next(setStart.begin(), setStart.end() - 1), position(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    position[i] = next[root[i]] - setStart[root[i]];
+    members[next[root[i]]++] = static_cast<std::uint32_t>(i);
+  }
+  s.groupStart.assign(1, 0);
+  s.groupRow.clear();
+  s.groupedRows = 0;
+  const std::size_t cap = std::max<std::size_t>(1, params_.maxGroupRows);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint32_t r = root[i];
+    if (position[i] % cap != 0) continue;  // inside a group started by an earlier row
+    const std::uint32_t begin = setStart[r] + position[i];
+    const std::uint32_t end =
+        std::min<std::uint32_t>(setStart[r + 1], begin + static_cast<std::uint32_t>(cap));
+    for (std::uint32_t k = begin; k < end; ++k) s.groupRow.push_back(members[k]);
+    const std::size_t size = end - begin;
+    if (size > 1) s.groupedRows += size;
+    s.groupStart.push_back(static_cast<std::uint32_t>(s.groupRow.size()));
+  }
+  s.factorStart.resize(s.groups());
+  std::size_t total = 0;
+  for (std::size_t g = 0; g < s.groups(); ++g) {
+    s.factorStart[g] = static_cast<std::uint32_t>(total);
+    const std::size_t dim = 3 * (s.groupStart[g + 1] - s.groupStart[g]);
+    total += dim * dim;
+  }
+  s.factor.resize(total);
+}
+
+bool Multigrid::factorSmoother(const BlockMatrixView& a, Smoother& s) const {
+  bool ok = true;
+  for (std::size_t g = 0; g < s.groups() && ok; ++g) {
+    const std::uint32_t* rows = s.groupRow.data() + s.groupStart[g];
+    const int count = static_cast<int>(s.groupStart[g + 1] - s.groupStart[g]);
+    double* f = s.factor.data() + s.factorStart[g];
+    if (count == 1) {
+      const Eigen::Matrix3d& d = a.blocks[a.diagonal[rows[0]]];
+      Eigen::LLT<Eigen::Matrix3d> llt(d);
+      if (llt.info() != Eigen::Success) return false;
+      Eigen::Map<Eigen::Matrix3d> inverse(f);
+      inverse = llt.solve(Eigen::Matrix3d::Identity());
+      ok = inverse.allFinite();
+      continue;
+    }
+    const int dim = 3 * count;
+    Eigen::Map<Eigen::MatrixXd> m(f, dim, dim);
+    m.setZero();
+    for (int p = 0; p < count; ++p)
+      for (int q = 0; q < count; ++q) {
+        const std::uint32_t slot = findSlot(a, rows[p], rows[q]);
+        if (slot != kNone) m.block<3, 3>(3 * p, 3 * q) = a.blocks[slot];
+      }
+    ok = choleskyInPlace(f, dim);
+  }
+  return ok;
+}
+
+bool Multigrid::factorCoarsest(const BlockMatrixView& a) {
+  // The lower triangle, scalar entries.
+  const Eigen::Index n = static_cast<Eigen::Index>(3 * a.rows);
+  std::vector<Eigen::Triplet<double>> entries;
+  entries.reserve(9 * a.rowStart[a.rows] / 2 + 9 * a.rows);
+  for (std::size_t i = 0; i < a.rows; ++i)
+    for (std::uint32_t slot = a.rowStart[i]; slot < a.rowStart[i + 1]; ++slot) {
+      const std::uint32_t j = a.column[slot];
+      if (j > i) continue;
+      for (int p = 0; p < 3; ++p)
+        for (int q = 0; q < 3; ++q)
+          if (3 * i + static_cast<std::size_t>(p) >= 3 * j + static_cast<std::size_t>(q))
+            entries.emplace_back(static_cast<Eigen::Index>(3 * i + p),
+                                 static_cast<Eigen::Index>(3 * j + q), a.blocks[slot](p, q));
+    }
+  Eigen::SparseMatrix<double> lower(n, n);
+  lower.setFromTriplets(entries.begin(), entries.end());
+  if (!coarsest_) coarsest_ = std::make_unique<Factor>();
+  if (!analysed_) {
+    coarsest_->analyzePattern(lower);
+    analysed_ = true;
+  }
+  coarsest_->factorize(lower);
+  return coarsest_->info() == Eigen::Success;
+}
+
+bool Multigrid::setup(const BlockMatrixView& fine, bool threaded) {
+  valid_ = false;
+  if (levels_.empty() || fine.rows == 0) return false;
+  fine_ = &fine;
+  for (std::size_t l = 0; l + 1 < levels_.size(); ++l) {
+    if (l + 1 < levels_.size()) galerkin(l, threaded);
+    const BlockMatrixView a = l == 0 ? fine : levels_[l]->matrix.view();
+    groupRows(a, levels_[l]->smoother);
+    if (!factorSmoother(a, levels_[l]->smoother)) {
+      fine_ = nullptr;
+      return false;
+    }
+  }
+  const BlockMatrixView last = levels_.size() == 1 ? fine : levels_.back()->matrix.view();
+  valid_ = factorCoarsest(last);
+  fine_ = nullptr;
+  return valid_;
+}
+
+bool Multigrid::updateFine(const BlockMatrixView& fine) {
+  if (levels_.empty() || fine.rows == 0) return valid_ = false;
+  if (levels_.size() == 1) return valid_ = factorCoarsest(fine);
+  return valid_ = factorSmoother(fine, levels_[0]->smoother);
+}
+
+void Multigrid::cycle(std::size_t level, bool threaded) {
+  Level& l = *levels_[level];
+  const std::size_t n = l.r.size();
+  if (level + 1 == levels_.size()) {
+    Eigen::Map<const Eigen::VectorXd> rhs(l.r.data()->data(), static_cast<Eigen::Index>(3 * n));
+    Eigen::Map<Eigen::VectorXd>(l.u.data()->data(), static_cast<Eigen::Index>(3 * n)) =
+        coarsest_->solve(rhs);
+    return;
+  }
+  const BlockMatrixView a = level == 0 ? *fine_ : l.matrix.view();
+  Smoother& s = l.smoother;
+  std::fill(l.u.begin(), l.u.end(), Vec3d::Zero());
+  auto relax = [&](std::size_t g) {
+    const std::uint32_t* rows = s.groupRow.data() + s.groupStart[g];
+    const int count = static_cast<int>(s.groupStart[g + 1] - s.groupStart[g]);
+    const double* f = s.factor.data() + s.factorStart[g];
+    if (count == 1) {
+      const std::uint32_t i = rows[0];
+      const Vec3d res = l.r[i] - sweepRowProduct(a, l.u.data(), i);
+      l.u[i] += Eigen::Map<const Eigen::Matrix3d>(f) * res;
+      return;
+    }
+    s.scratch.resize(static_cast<std::size_t>(3 * count));
+    for (int k = 0; k < count; ++k) {
+      const Vec3d res = l.r[rows[k]] - blockRowProduct(a, l.u.data(), rows[k]);
+      for (int c = 0; c < 3; ++c) s.scratch[static_cast<std::size_t>(3 * k + c)] = res[c];
+    }
+    choleskySolve(f, 3 * count, s.scratch.data());
+    for (int k = 0; k < count; ++k)
+      l.u[rows[k]] += Vec3d(s.scratch[static_cast<std::size_t>(3 * k)],
+                            s.scratch[static_cast<std::size_t>(3 * k + 1)],
+                            s.scratch[static_cast<std::size_t>(3 * k + 2)]);
+  };
+  for (std::size_t g = 0; g < s.groups(); ++g) relax(g);
+  Level& c = *levels_[level + 1];
+  parallelFor(
+      0, n, kGrain,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) l.t[i] = l.r[i] - blockRowProduct(a, l.u.data(), i);
+      },
+      threaded);
+  const Interpolation& p = l.toCoarse;
+  parallelFor(
+      0, c.r.size(), kGrain,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t row = b; row < e; ++row) {
+          Vec3d sum = Vec3d::Zero();
+          for (std::uint32_t k = p.tStart[row]; k < p.tStart[row + 1]; ++k)
+            sum += p.tWeight[k] * l.t[p.tIndex[k]];
+          c.r[row] = sum;
+        }
+      },
+      threaded);
+  cycle(level + 1, threaded);
+  parallelFor(
+      0, n, kGrain,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) {
+          Vec3d sum = Vec3d::Zero();
+          for (std::uint32_t k = p.start[i]; k < p.start[i + 1]; ++k)
+            sum += p.weight[k] * c.u[p.index[k]];
+          l.u[i] += sum;
+        }
+      },
+      threaded);
+  for (std::size_t g = s.groups(); g-- > 0;) relax(g);
+}
+
+void Multigrid::apply(const BlockMatrixView& fine, const std::vector<Vec3d>& r,
+                      std::vector<Vec3d>& z, bool threaded) {
+  VOXCUT_ASSERT(
+      valid_ && !levels_.empty() && levels_[0]->r.size() == fine.rows && r.size() == fine.rows,
+      "multigrid applied without a valid setup for this matrix");
+  fine_ = &fine;
+  Level& l0 = *levels_[0];
+  std::copy(r.begin(), r.end(), l0.r.begin());
+  cycle(0, threaded);
+  z.assign(l0.u.begin(), l0.u.end());
+  fine_ = nullptr;
+}
+
+}  // namespace voxcut
