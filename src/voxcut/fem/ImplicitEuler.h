@@ -71,6 +71,12 @@ namespace voxcut {
 /// down to a few iterations, so over the steps it serves it is the cheapest. Being an exact
 /// factor of an SPD matrix, a stale one is still SPD: the conjugate gradients stay correct,
 /// only slower.
+/// Multigrid (linalg/Multigrid.h; docs/algorithms.md, "Multigrid") runs a V-cycle through
+/// coarse levels made from the node grid, cut parts kept apart: its iterations grow least with
+/// the body's size (docs/performance.md, "Deformation solver at scale"). Its hierarchy is built
+/// once per sparsity; its coarse levels are remade only when a step's iterations rise
+/// (multigridRefreshIterations), else only the fine smoother follows the matrix. Where a
+/// factor fails (not positive definite) the step falls back to the two-level V-cycle.
 /// All are deterministic for any thread count.
 enum class Preconditioner {
   Jacobi,                ///< inverse of the diagonal entries
