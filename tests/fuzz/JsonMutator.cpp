@@ -33,7 +33,7 @@ constexpr std::array<double, 16> kNumbers = {0.0,     -0.0,   1.0,   -1.0,  0.5,
 constexpr std::array<double, 8> kScales = {-1.0, 2.0, 0.5, 10.0, 0.1, 1e6, 1e-6, 0.0};
 constexpr std::array<long long, 12> kIntegers = {0, 1, 2,  3,    -1,         6,
                                                  7, 8, 10, 4097, 2147483647, -2147483648LL};
-constexpr std::array<std::string_view, 18> kStrings = {"box:0.1,0.1,0.1",
+constexpr std::array<std::string_view, 19> kStrings = {"box:0.1,0.1,0.1",
                                                        "sphere:0.05",
                                                        "box:1e-9,1,1",
                                                        "box:0.1,0.1",
