@@ -185,7 +185,8 @@ TEST(Multigrid, VCycleIsSymmetricPositiveDefinite) {
   std::vector<Vec3d> mx, my;
   mg.apply(a, x, mx, true);
   mg.apply(a, y, my, true);
-  EXPECT_NEAR(dot(y, mx), dot(x, my), 1e-10 * std::sqrt(dot(mx, mx) * dot(y, y)));
+  // Symmetric up to the rounding of the smoothers' single-precision blocks.
+  EXPECT_NEAR(dot(y, mx), dot(x, my), 1e-6 * std::sqrt(dot(mx, mx) * dot(y, y)));
   EXPECT_GT(dot(x, mx), 0.0);
   EXPECT_GT(dot(y, my), 0.0);
 }

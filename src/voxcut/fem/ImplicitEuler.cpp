@@ -538,7 +538,7 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
                  lastIterations_ > multigridBaseIterations_ + params_.multigridRefreshIterations) {
         ok = multigridRefreshed_ = multigrid_.setup(view, threaded);
       } else {
-        ok = multigrid_.updateFine(view);
+        ok = multigrid_.updateFine(view, threaded);
         if (!ok) ok = multigridRefreshed_ = multigrid_.setup(view, threaded);
       }
       if (!ok) kind = Preconditioner::TwoLevel;

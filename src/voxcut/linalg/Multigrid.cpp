@@ -18,6 +18,9 @@ namespace {
 
 constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 constexpr std::size_t kGrain = 256;
+/// Largest group of weak rows (MultigridParams::maxGroupRows is clamped to it): a group's
+/// right-hand side lives on the stack.
+constexpr std::size_t kMaxGroupRows = 64;
 /// Relative lift of the coarse matrices' diagonals (Multigrid::galerkin).
 constexpr double kDiagonalLift = 1e-9;
 
@@ -34,31 +37,6 @@ std::uint32_t findSlot(const BlockMatrixView& a, std::size_t row, std::uint32_t 
   const std::uint32_t* last = a.column + a.rowStart[row + 1];
   const std::uint32_t* it = std::lower_bound(first, last, col);
   return it != last && *it == col ? static_cast<std::uint32_t>(it - a.column) : kNone;
-}
-
-/// Row i of A x as blockRowProduct, with two independent sums over alternate slots: in a
-/// Gauss-Seidel sweep each row waits for the row before it, so the length of the chain of
-/// additions, not the throughput, sets the pace.
-inline Vec3d sweepRowProduct(const BlockMatrixView& a, const Vec3d* x, std::size_t i) {
-  const std::uint32_t begin = a.rowStart[i], end = a.rowStart[i + 1];
-  double s[2][3] = {{0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}};
-  std::uint32_t slot = begin;
-  for (; slot + 1 < end; slot += 2)
-    for (int h = 0; h < 2; ++h) {
-      const double* m = a.blocks[slot + h].data();
-      const double* v = x[a.column[slot + h]].data();
-      s[h][0] += m[0] * v[0] + m[3] * v[1] + m[6] * v[2];
-      s[h][1] += m[1] * v[0] + m[4] * v[1] + m[7] * v[2];
-      s[h][2] += m[2] * v[0] + m[5] * v[1] + m[8] * v[2];
-    }
-  if (slot < end) {
-    const double* m = a.blocks[slot].data();
-    const double* v = x[a.column[slot]].data();
-    s[0][0] += m[0] * v[0] + m[3] * v[1] + m[6] * v[2];
-    s[0][1] += m[1] * v[0] + m[4] * v[1] + m[7] * v[2];
-    s[0][2] += m[2] * v[0] + m[5] * v[1] + m[8] * v[2];
-  }
-  return Vec3d(s[0][0] + s[1][0], s[0][1] + s[1][1], s[0][2] + s[1][2]);
 }
 
 /// In-place Cholesky factor (lower, column-major n x n); false when not positive definite.
@@ -234,15 +212,27 @@ Coarsening coarsenRows(const BlockMatrixView& a, const std::vector<Index3>& coor
   return out;
 }
 
+/// A level's smoother. Its rows are renumbered so that every group is a run of consecutive
+/// rows ("position" order; groups in the order of their lowest row), and it keeps its own copy
+/// of the level's matrix in that order with blocks in single precision: the sweeps read half
+/// the bytes, and with groups contiguous the forward sweep from zero reads only the blocks left
+/// of a row's group and the residual after it only those right of it (Multigrid::cycle).
 struct Multigrid::Smoother {
-  std::vector<std::uint32_t> groupStart{0};  ///< per group + 1, into groupRow
-  std::vector<std::uint32_t> groupRow;       ///< rows of each group, ascending
-  std::vector<std::uint32_t> factorStart;    ///< per group, into factor
+  std::vector<std::uint32_t> groupStart{0};   ///< per group + 1: its rows, in position order
+  std::vector<std::uint32_t> colourStart{0};  ///< per colour + 1: its groups
+  std::vector<std::uint32_t> order;           ///< per position, the level's row
+  std::vector<std::uint32_t> position;        ///< per row of the level, its position
+  std::vector<std::uint32_t> rowStart{0};     ///< the copy by positions: per position + 1
+  std::vector<std::uint32_t> column;          ///< positions, ascending per row
+  std::vector<std::uint32_t> lowerEnd;    ///< per position: first slot right of its group's start
+  std::vector<std::uint32_t> upperStart;  ///< per position: first slot past its group's end
+  std::vector<std::uint32_t> source;      ///< per slot, the level matrix's slot
+  std::vector<Eigen::Matrix3f> blocks;
+  std::vector<std::uint32_t> factorStart;  ///< per group, into factor
   /// Per group of one row, its diagonal block's inverse; of g rows, the Cholesky factor of
   /// its 3g x 3g diagonal part (column-major).
   std::vector<double> factor;
   std::size_t groupedRows = 0;
-  std::vector<double> scratch;  ///< one group's right-hand side
 
   [[nodiscard]] std::size_t groups() const { return groupStart.size() - 1; }
 };
@@ -251,8 +241,11 @@ struct Multigrid::Level {
   BlockMatrix matrix;                 ///< coarse levels: the Galerkin product (level 0: none)
   std::vector<std::uint32_t> mirror;  ///< coarse levels: per slot (i, k), the slot (k, i)
   Interpolation toCoarse;             ///< from the next level's rows (none on the last)
+  /// toCoarse by positions of this level and of the next (the cycle's vectors are in
+  /// position order; the last level's positions are its rows)
+  Interpolation cycleInterpolation;
   Smoother smoother;
-  std::vector<Vec3d> r, u, t;
+  std::vector<Vec3d> r, u, t;  ///< by position
 };
 
 Multigrid::Multigrid() = default;
@@ -440,34 +433,74 @@ void Multigrid::groupRows(const BlockMatrixView& a, Smoother& s) const {
     if (weak[i])
       for (std::uint32_t slot = a.rowStart[i]; slot < a.rowStart[i + 1]; ++slot)
         if (weak[a.column[slot]]) sets.unite(static_cast<std::uint32_t>(i), a.column[slot]);
-  // Members of each set, ascending; a set is cut into groups of maxGroupRows in that order.
-  std::vector<std::uint32_t> setStart(n + 1, 0);
-  std::vector<std::uint32_t> root(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    root[i] = sets.find(static_cast<std::uint32_t>(i));
-    ++setStart[root[i] + 1];
-  }
-  for (std::size_t i = 0; i < n; ++i) setStart[i + 1] += setStart[i];
-  std::vector<std::uint32_t> members(n), next(setStart.begin(), setStart.end() - 1), position(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    position[i] = next[root[i]] - setStart[root[i]];
-    members[next[root[i]]++] = static_cast<std::uint32_t>(i);
-  }
-  s.groupStart.assign(1, 0);
-  s.groupRow.clear();
+  // Groups: a set of weak rows larger than maxGroupRows is cut into pieces grown breadth
+  // first from its lowest row not yet taken, so a group holds rows coupled to each other.
+  // Groups are numbered in the order of their first row: rows of group k are
+  // rows[rowsStart[k] ...).
+  std::vector<std::uint32_t> rowsStart{0}, rows, groupOf(n, kNone);
+  rows.reserve(n);
   s.groupedRows = 0;
-  const std::size_t cap = std::max<std::size_t>(1, params_.maxGroupRows);
+  const std::size_t cap = std::clamp<std::size_t>(params_.maxGroupRows, 1, kMaxGroupRows);
+  std::vector<std::uint32_t> root(n);
+  for (std::size_t i = 0; i < n; ++i) root[i] = sets.find(static_cast<std::uint32_t>(i));
   for (std::size_t i = 0; i < n; ++i) {
-    const std::uint32_t r = root[i];
-    if (position[i] % cap != 0) continue;  // inside a group started by an earlier row
-    const std::uint32_t begin = setStart[r] + position[i];
-    const std::uint32_t end =
-        std::min<std::uint32_t>(setStart[r + 1], begin + static_cast<std::uint32_t>(cap));
-    for (std::uint32_t k = begin; k < end; ++k) s.groupRow.push_back(members[k]);
-    const std::size_t size = end - begin;
-    if (size > 1) s.groupedRows += size;
-    s.groupStart.push_back(static_cast<std::uint32_t>(s.groupRow.size()));
+    if (groupOf[i] != kNone) continue;
+    const auto group = static_cast<std::uint32_t>(rowsStart.size() - 1);
+    const std::size_t begin = rows.size();
+    groupOf[i] = group;
+    rows.push_back(static_cast<std::uint32_t>(i));
+    for (std::size_t k = begin; k < rows.size() && rows.size() - begin < cap; ++k) {
+      const std::uint32_t row = rows[k];
+      for (std::uint32_t slot = a.rowStart[row]; slot < a.rowStart[row + 1]; ++slot) {
+        const std::uint32_t j = a.column[slot];
+        if (groupOf[j] != kNone || root[j] != root[i]) continue;
+        groupOf[j] = group;
+        rows.push_back(j);
+        if (rows.size() - begin == cap) break;
+      }
+    }
+    std::sort(rows.begin() + static_cast<std::ptrdiff_t>(begin), rows.end());
+    if (rows.size() - begin > 1) s.groupedRows += rows.size() - begin;
+    rowsStart.push_back(static_cast<std::uint32_t>(rows.size()));
   }
+  // Colours: greedily, in that order, the lowest colour no coupled group has yet. Groups of one
+  // colour share no block, so a sweep relaxes them in any order, or in parallel, with the same
+  // result; and no row waits for the row just before it.
+  const std::size_t groups = rowsStart.size() - 1;
+  std::vector<std::uint32_t> colour(groups, kNone);
+  std::vector<std::uint32_t> seenBy;  // per colour, the last group that saw it taken
+  std::uint32_t colours = 0;
+  for (std::size_t g = 0; g < groups; ++g) {
+    for (std::uint32_t k = rowsStart[g]; k < rowsStart[g + 1]; ++k)
+      for (std::uint32_t slot = a.rowStart[rows[k]]; slot < a.rowStart[rows[k] + 1]; ++slot) {
+        const std::uint32_t c = colour[groupOf[a.column[slot]]];
+        if (c != kNone) seenBy[c] = static_cast<std::uint32_t>(g);
+      }
+    std::uint32_t c = 0;
+    while (c < colours && seenBy[c] == g) ++c;
+    if (c == colours) {
+      ++colours;
+      seenBy.push_back(kNone);
+    }
+    colour[g] = c;
+  }
+  // Positions: colour by colour, groups in their order within a colour.
+  s.colourStart.assign(colours + 1, 0);
+  for (std::uint32_t c : colour) ++s.colourStart[c + 1];
+  for (std::uint32_t c = 0; c < colours; ++c) s.colourStart[c + 1] += s.colourStart[c];
+  std::vector<std::uint32_t> slotOf(s.colourStart.begin(), s.colourStart.end() - 1);
+  std::vector<std::uint32_t> sorted(groups);
+  for (std::size_t g = 0; g < groups; ++g)
+    sorted[slotOf[colour[g]]++] = static_cast<std::uint32_t>(g);
+  s.groupStart.assign(1, 0);
+  s.order.clear();
+  s.order.reserve(n);
+  for (std::uint32_t g : sorted) {
+    s.order.insert(s.order.end(), rows.begin() + rowsStart[g], rows.begin() + rowsStart[g + 1]);
+    s.groupStart.push_back(static_cast<std::uint32_t>(s.order.size()));
+  }
+  s.position.resize(n);
+  for (std::size_t p = 0; p < n; ++p) s.position[s.order[p]] = static_cast<std::uint32_t>(p);
   s.factorStart.resize(s.groups());
   std::size_t total = 0;
   for (std::size_t g = 0; g < s.groups(); ++g) {
@@ -476,12 +509,51 @@ void Multigrid::groupRows(const BlockMatrixView& a, Smoother& s) const {
     total += dim * dim;
   }
   s.factor.resize(total);
+  // The copy by positions: each row's slots with their columns renumbered, sorted; then the
+  // split points around the row's group.
+  s.rowStart.assign(n + 1, 0);
+  for (std::size_t p = 0; p < n; ++p) {
+    const std::uint32_t i = s.order[p];
+    s.rowStart[p + 1] = s.rowStart[p] + (a.rowStart[i + 1] - a.rowStart[i]);
+  }
+  s.column.resize(s.rowStart[n]);
+  s.source.resize(s.rowStart[n]);
+  s.blocks.resize(s.rowStart[n]);
+  s.lowerEnd.resize(n);
+  s.upperStart.resize(n);
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> row;
+  for (std::size_t g = 0; g < s.groups(); ++g)
+    for (std::uint32_t p = s.groupStart[g]; p < s.groupStart[g + 1]; ++p) {
+      const std::uint32_t i = s.order[p];
+      row.clear();
+      for (std::uint32_t slot = a.rowStart[i]; slot < a.rowStart[i + 1]; ++slot)
+        row.emplace_back(s.position[a.column[slot]], slot);
+      std::sort(row.begin(), row.end());
+      std::uint32_t out = s.rowStart[p];
+      s.lowerEnd[p] = s.upperStart[p] = s.rowStart[p + 1];
+      for (const auto& [col, slot] : row) {
+        if (col >= s.groupStart[g] && s.lowerEnd[p] == s.rowStart[p + 1]) s.lowerEnd[p] = out;
+        if (col >= s.groupStart[g + 1] && s.upperStart[p] == s.rowStart[p + 1])
+          s.upperStart[p] = out;
+        s.column[out] = col;
+        s.source[out++] = slot;
+      }
+    }
+}
+
+void Multigrid::copyBlocks(const BlockMatrixView& a, Smoother& s, bool threaded) const {
+  parallelFor(
+      0, s.blocks.size(), 4096,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t k = b; k < e; ++k) s.blocks[k] = a.blocks[s.source[k]].cast<float>();
+      },
+      threaded);
 }
 
 bool Multigrid::factorSmoother(const BlockMatrixView& a, Smoother& s) const {
   bool ok = true;
   for (std::size_t g = 0; g < s.groups() && ok; ++g) {
-    const std::uint32_t* rows = s.groupRow.data() + s.groupStart[g];
+    const std::uint32_t* rows = s.order.data() + s.groupStart[g];
     const int count = static_cast<int>(s.groupStart[g + 1] - s.groupStart[g]);
     double* f = s.factor.data() + s.factorStart[g];
     if (count == 1) {
@@ -504,6 +576,47 @@ bool Multigrid::factorSmoother(const BlockMatrixView& a, Smoother& s) const {
     ok = choleskyInPlace(f, dim);
   }
   return ok;
+}
+
+void Multigrid::arrangeInterpolation(std::size_t level) {
+  // toCoarse with both sides renumbered by position; the transpose keeps its order of fine
+  // rows (ascending rows of the level), so every restricted sum is summed as before.
+  Level& f = *levels_[level];
+  const Level& c = *levels_[level + 1];
+  const bool coarseLast = level + 2 == levels_.size();
+  auto coarsePosition = [&](std::uint32_t row) {
+    return coarseLast ? row : c.smoother.position[row];
+  };
+  const Interpolation& p = f.toCoarse;
+  Interpolation& q = f.cycleInterpolation;
+  const std::size_t n = p.start.size() - 1, m = p.tStart.size() - 1;
+  q.start.assign(n + 1, 0);
+  q.index.resize(p.index.size());
+  q.weight.resize(p.weight.size());
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::uint32_t i = f.smoother.order[k];
+    q.start[k + 1] = q.start[k] + (p.start[i + 1] - p.start[i]);
+    std::uint32_t out = q.start[k];
+    for (std::uint32_t e = p.start[i]; e < p.start[i + 1]; ++e, ++out) {
+      q.index[out] = coarsePosition(p.index[e]);
+      q.weight[out] = p.weight[e];
+    }
+  }
+  q.tStart.assign(m + 1, 0);
+  q.tIndex.resize(p.tIndex.size());
+  q.tWeight.resize(p.tWeight.size());
+  std::vector<std::uint32_t> rowOf(m);
+  for (std::size_t a = 0; a < m; ++a)
+    rowOf[coarsePosition(static_cast<std::uint32_t>(a))] = static_cast<std::uint32_t>(a);
+  for (std::size_t k = 0; k < m; ++k) {
+    const std::uint32_t a = rowOf[k];
+    q.tStart[k + 1] = q.tStart[k] + (p.tStart[a + 1] - p.tStart[a]);
+    std::uint32_t out = q.tStart[k];
+    for (std::uint32_t e = p.tStart[a]; e < p.tStart[a + 1]; ++e, ++out) {
+      q.tIndex[out] = f.smoother.position[p.tIndex[e]];
+      q.tWeight[out] = p.tWeight[e];
+    }
+  }
 }
 
 bool Multigrid::factorCoarsest(const BlockMatrixView& a) {
@@ -536,26 +649,47 @@ bool Multigrid::setup(const BlockMatrixView& fine, bool threaded) {
   valid_ = false;
   if (levels_.empty() || fine.rows == 0) return false;
   fine_ = &fine;
+  for (std::size_t l = 0; l + 1 < levels_.size(); ++l) galerkin(l, threaded);
+  fine_ = nullptr;
   for (std::size_t l = 0; l + 1 < levels_.size(); ++l) {
-    if (l + 1 < levels_.size()) galerkin(l, threaded);
     const BlockMatrixView a = l == 0 ? fine : levels_[l]->matrix.view();
-    groupRows(a, levels_[l]->smoother);
-    if (!factorSmoother(a, levels_[l]->smoother)) {
-      fine_ = nullptr;
-      return false;
-    }
+    Smoother& s = levels_[l]->smoother;
+    groupRows(a, s);
+    copyBlocks(a, s, threaded);
+    if (!factorSmoother(a, s)) return false;
   }
+  for (std::size_t l = 0; l + 1 < levels_.size(); ++l) arrangeInterpolation(l);
   const BlockMatrixView last = levels_.size() == 1 ? fine : levels_.back()->matrix.view();
   valid_ = factorCoarsest(last);
-  fine_ = nullptr;
   return valid_;
 }
 
-bool Multigrid::updateFine(const BlockMatrixView& fine) {
+bool Multigrid::updateFine(const BlockMatrixView& fine, bool threaded) {
   if (levels_.empty() || fine.rows == 0) return valid_ = false;
   if (levels_.size() == 1) return valid_ = factorCoarsest(fine);
-  return valid_ = factorSmoother(fine, levels_[0]->smoother);
+  Smoother& s = levels_[0]->smoother;
+  copyBlocks(fine, s, threaded);
+  return valid_ = factorSmoother(fine, s);
 }
+
+namespace {
+
+/// Row p's share of a product with single-precision blocks over slots [begin, end), summed in
+/// double.
+inline Vec3d floatRowProduct(const Eigen::Matrix3f* blocks, const std::uint32_t* column,
+                             const Vec3d* x, std::uint32_t begin, std::uint32_t end) {
+  double s0 = 0.0, s1 = 0.0, s2 = 0.0;
+  for (std::uint32_t slot = begin; slot < end; ++slot) {
+    const float* a = blocks[slot].data();
+    const double* v = x[column[slot]].data();
+    s0 += a[0] * v[0] + a[3] * v[1] + a[6] * v[2];
+    s1 += a[1] * v[0] + a[4] * v[1] + a[7] * v[2];
+    s2 += a[2] * v[0] + a[5] * v[1] + a[8] * v[2];
+  }
+  return Vec3d(s0, s1, s2);
+}
+
+}  // namespace
 
 void Multigrid::cycle(std::size_t level, bool threaded) {
   Level& l = *levels_[level];
@@ -566,46 +700,69 @@ void Multigrid::cycle(std::size_t level, bool threaded) {
         coarsest_->solve(rhs);
     return;
   }
-  const BlockMatrixView a = level == 0 ? *fine_ : l.matrix.view();
   Smoother& s = l.smoother;
-  std::fill(l.u.begin(), l.u.end(), Vec3d::Zero());
-  auto relax = [&](std::size_t g) {
-    const std::uint32_t* rows = s.groupRow.data() + s.groupStart[g];
-    const int count = static_cast<int>(s.groupStart[g + 1] - s.groupStart[g]);
+  const Eigen::Matrix3f* blocks = s.blocks.data();
+  const std::uint32_t* column = s.column.data();
+  // Relaxes group g: u_g += A_gg^-1 (r_g - sum over the slots [first(p), last(p)) of each row
+  // p of the group). Group rows are consecutive positions.
+  auto relax = [&](std::size_t g, auto first, auto last) {
+    const std::uint32_t begin = s.groupStart[g], end = s.groupStart[g + 1];
     const double* f = s.factor.data() + s.factorStart[g];
-    if (count == 1) {
-      const std::uint32_t i = rows[0];
-      const Vec3d res = l.r[i] - sweepRowProduct(a, l.u.data(), i);
-      l.u[i] += Eigen::Map<const Eigen::Matrix3d>(f) * res;
+    if (end - begin == 1) {
+      const Vec3d res =
+          l.r[begin] - floatRowProduct(blocks, column, l.u.data(), first(begin), last(begin));
+      l.u[begin] += Eigen::Map<const Eigen::Matrix3d>(f) * res;
       return;
     }
-    s.scratch.resize(static_cast<std::size_t>(3 * count));
-    for (int k = 0; k < count; ++k) {
-      const Vec3d res = l.r[rows[k]] - blockRowProduct(a, l.u.data(), rows[k]);
-      for (int c = 0; c < 3; ++c) s.scratch[static_cast<std::size_t>(3 * k + c)] = res[c];
+    const int count = static_cast<int>(end - begin);
+    std::array<double, 3 * kMaxGroupRows> rhs;
+    for (std::uint32_t p = begin; p < end; ++p) {
+      const Vec3d res = l.r[p] - floatRowProduct(blocks, column, l.u.data(), first(p), last(p));
+      for (int c = 0; c < 3; ++c) rhs[3 * (p - begin) + static_cast<std::size_t>(c)] = res[c];
     }
-    choleskySolve(f, 3 * count, s.scratch.data());
-    for (int k = 0; k < count; ++k)
-      l.u[rows[k]] += Vec3d(s.scratch[static_cast<std::size_t>(3 * k)],
-                            s.scratch[static_cast<std::size_t>(3 * k + 1)],
-                            s.scratch[static_cast<std::size_t>(3 * k + 2)]);
+    choleskySolve(f, 3 * count, rhs.data());
+    for (std::uint32_t p = begin; p < end; ++p)
+      l.u[p] += Vec3d(rhs[3 * (p - begin)], rhs[3 * (p - begin) + 1], rhs[3 * (p - begin) + 2]);
   };
-  for (std::size_t g = 0; g < s.groups(); ++g) relax(g);
+  auto rowFirst = [&](std::uint32_t p) { return s.rowStart[p]; };
+  auto rowEnd = [&](std::uint32_t p) { return s.rowStart[p + 1]; };
+  auto lowerEnd = [&](std::uint32_t p) { return s.lowerEnd[p]; };
+  // Forward sweep from u = 0: a row's group sees only the rows before the group (the rest is
+  // still zero), so only the slots left of it are read.
+  // Colour by colour (forward: ascending; backward: descending), the groups of one colour in
+  // parallel: they share no block, so the result is the same for any thread count.
+  auto sweep = [&](bool forward, auto first, auto last) {
+    const std::size_t colours = s.colourStart.size() - 1;
+    for (std::size_t k = 0; k < colours; ++k) {
+      const std::size_t c = forward ? k : colours - 1 - k;
+      parallelFor(
+          s.colourStart[c], s.colourStart[c + 1], 128,
+          [&](std::size_t b, std::size_t e) {
+            for (std::size_t g = b; g < e; ++g) relax(g, first, last);
+          },
+          threaded);
+    }
+  };
+  std::fill(l.u.begin(), l.u.end(), Vec3d::Zero());
+  sweep(true, rowFirst, lowerEnd);
+  // Its residual: each group solved r_g - A_(g, before) u = A_gg u_g, so r - A u is minus the
+  // product with the slots right of the group.
   Level& c = *levels_[level + 1];
   parallelFor(
       0, n, kGrain,
       [&](std::size_t b, std::size_t e) {
-        for (std::size_t i = b; i < e; ++i) l.t[i] = l.r[i] - blockRowProduct(a, l.u.data(), i);
+        for (std::size_t p = b; p < e; ++p)
+          l.t[p] = -floatRowProduct(blocks, column, l.u.data(), s.upperStart[p], s.rowStart[p + 1]);
       },
       threaded);
-  const Interpolation& p = l.toCoarse;
+  const Interpolation& ip = l.cycleInterpolation;
   parallelFor(
       0, c.r.size(), kGrain,
       [&](std::size_t b, std::size_t e) {
         for (std::size_t row = b; row < e; ++row) {
           Vec3d sum = Vec3d::Zero();
-          for (std::uint32_t k = p.tStart[row]; k < p.tStart[row + 1]; ++k)
-            sum += p.tWeight[k] * l.t[p.tIndex[k]];
+          for (std::uint32_t k = ip.tStart[row]; k < ip.tStart[row + 1]; ++k)
+            sum += ip.tWeight[k] * l.t[ip.tIndex[k]];
           c.r[row] = sum;
         }
       },
@@ -614,15 +771,15 @@ void Multigrid::cycle(std::size_t level, bool threaded) {
   parallelFor(
       0, n, kGrain,
       [&](std::size_t b, std::size_t e) {
-        for (std::size_t i = b; i < e; ++i) {
+        for (std::size_t p = b; p < e; ++p) {
           Vec3d sum = Vec3d::Zero();
-          for (std::uint32_t k = p.start[i]; k < p.start[i + 1]; ++k)
-            sum += p.weight[k] * c.u[p.index[k]];
-          l.u[i] += sum;
+          for (std::uint32_t k = ip.start[p]; k < ip.start[p + 1]; ++k)
+            sum += ip.weight[k] * c.u[ip.index[k]];
+          l.u[p] += sum;
         }
       },
       threaded);
-  for (std::size_t g = s.groups(); g-- > 0;) relax(g);
+  sweep(false, rowFirst, rowEnd);
 }
 
 void Multigrid::apply(const BlockMatrixView& fine, const std::vector<Vec3d>& r,
@@ -630,12 +787,18 @@ void Multigrid::apply(const BlockMatrixView& fine, const std::vector<Vec3d>& r,
   VOXCUT_ASSERT(
       valid_ && !levels_.empty() && levels_[0]->r.size() == fine.rows && r.size() == fine.rows,
       "multigrid applied without a valid setup for this matrix");
-  fine_ = &fine;
   Level& l0 = *levels_[0];
-  std::copy(r.begin(), r.end(), l0.r.begin());
+  z.resize(fine.rows);
+  if (levels_.size() == 1) {
+    std::copy(r.begin(), r.end(), l0.r.begin());
+    cycle(0, threaded);
+    std::copy(l0.u.begin(), l0.u.end(), z.begin());
+    return;
+  }
+  const std::vector<std::uint32_t>& order = l0.smoother.order;
+  for (std::size_t p = 0; p < fine.rows; ++p) l0.r[p] = r[order[p]];
   cycle(0, threaded);
-  z.assign(l0.u.begin(), l0.u.end());
-  fine_ = nullptr;
+  for (std::size_t p = 0; p < fine.rows; ++p) z[order[p]] = l0.u[p];
 }
 
 }  // namespace voxcut

@@ -60,7 +60,7 @@ struct MultigridParams {
   double weakRatio = 0.01;
   /// Largest group of weak rows relaxed together (bigger connected sets are split in row
   /// order).
-  std::size_t maxGroupRows = 16;
+  std::size_t maxGroupRows = 8;
   int maxLevels = 16;
 };
 
@@ -109,7 +109,7 @@ class Multigrid {
   bool setup(const BlockMatrixView& fine, bool threaded);
   /// Only level 0's smoother factors, for a new fine matrix of the same pattern: the coarse
   /// levels stay those of the last setup(). False as for setup().
-  bool updateFine(const BlockMatrixView& fine);
+  bool updateFine(const BlockMatrixView& fine, bool threaded);
 
   /// z = M^-1 r (one V-cycle) with the fine matrix `fine` (the one of the last setup() or
   /// updateFine()). `z` is resized and must not alias r.
@@ -129,6 +129,8 @@ class Multigrid {
   struct Level;
   struct Smoother;
   bool factorSmoother(const BlockMatrixView& a, Smoother& s) const;
+  void copyBlocks(const BlockMatrixView& a, Smoother& s, bool threaded) const;
+  void arrangeInterpolation(std::size_t level);
   bool factorCoarsest(const BlockMatrixView& a);
   void groupRows(const BlockMatrixView& a, Smoother& s) const;
   void galerkin(std::size_t level, bool threaded);
