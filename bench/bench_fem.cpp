@@ -9,14 +9,17 @@
 //    tolerance 1e-4, 400 iterations).
 //  - BunnyScaling: the bunny at resolutions 173, 241 and 301 (about 3.1k, 6.3k and 10.3k
 //    nodes), E 1e5 Pa, nu 0.3, dt 10 ms, relative tolerance 1e-6, one thread, with Jacobi,
-//    TwoLevel and Cholesky (arguments: resolution, preconditioner): how the step grows with
-//    the size of the body;
+//    TwoLevel, Cholesky and Multigrid (arguments: resolution, preconditioner): how the step
+//    grows with the size of the body;
+//  - DirectSolvers: our block Cholesky against CHOLMOD (SuiteSparse) on the scaling case's
+//    reduced matrix, one factorisation and solve per iteration (arguments: resolution,
+//    solver);
 //  - Constraints: BunnyCut's reduced-system structure rebuilt in full (ElasticModel::setFixed,
 //    as for new fixed nodes; after a cut, updateTopology copies the rows away from it:
 //    bench_topology ModelUpdate).
 // Each step benchmark runs with 1 and 2 worker threads (first argument) and each
 // preconditioner (second: 0 Jacobi, 1 BlockJacobi, 2 SymmetricGaussSeidel, 3
-// IncompleteCholesky, 4 TwoLevel, 5 Cholesky). A body is first
+// IncompleteCholesky, 4 TwoLevel, 5 Cholesky, 6 Multigrid). A body is first
 // stepped 20 times from rest (the warm start and rotations then look like a running
 // simulation), then each benchmark iteration is one step, timed alone (manual time).
 // Counters: iterations per step, assembly and solve milliseconds per step, steps that did not
@@ -26,12 +29,14 @@
 
 #include <benchmark/benchmark.h>
 
+#include <Eigen/CholmodSupport>
 #include <map>
 #include <string>
 #include <vector>
 
 #include "voxcut/core/Parallel.h"
 #include "voxcut/core/Timer.h"
+#include "voxcut/fem/BlockCholesky.h"
 #include "voxcut/fem/CutTopology.h"
 #include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/fem/ElasticModel.h"
@@ -192,6 +197,70 @@ void BunnyScaling(benchmark::State& state) {
   runSteps(state, cases.at(resolution), 1, state.range(1));
 }
 
+/// The direct solvers on the scaling case's reduced matrix after 20 steps: our block
+/// Cholesky (BlockCholesky.h) against CHOLMOD's supernodal Cholesky (SuiteSparse, through
+/// Eigen's CholmodSupport), each analysed once and then timed for one factorisation and one
+/// solve per iteration. Arguments: resolution, solver (0 block Cholesky, 1 CHOLMOD); one
+/// thread (CHOLMOD's BLAS may use its own threads: run with OPENBLAS_NUM_THREADS=1).
+void DirectSolvers(benchmark::State& state) {
+  static std::map<int, std::pair<FemCase, Eigen::SparseMatrix<double>>> cases;
+  const int resolution = static_cast<int>(state.range(0));
+  const ThreadLimit limit(1);
+  if (!cases.contains(resolution)) {
+    FemCase c = scalingCase(resolution);
+    c.params.preconditioner = Preconditioner::Multigrid;
+    DeformationOctree octree = c.octree;
+    ImplicitEuler solver(c.params);
+    for (int s = 0; s < 20; ++s) (void)solver.step(c.model, octree);
+    Eigen::SparseMatrix<double> a = solver.reducedMatrix(c.model);
+    cases.emplace(resolution, std::pair{std::move(c), std::move(a)});
+  }
+  const auto& [c, a] = cases.at(resolution);
+  const BlockSparsity& sp = c.model.sparsity();
+  const std::size_t rows = c.model.freeNodeCount();
+  std::vector<Vec3d> b(rows, Vec3d(0.0, -1.0, 0.0)), x;
+  Eigen::VectorXd bv = Eigen::Map<const Eigen::VectorXd>(b.data()->data(), 3 * rows);
+  double analyseMs = 0.0, residual = 0.0, fill = 0.0;
+  if (state.range(1) == 0) {
+    std::vector<Eigen::Matrix3d> blocks(sp.blockCount());
+    for (std::size_t i = 0; i < rows; ++i)
+      for (std::uint32_t slot = sp.rowStart[i]; slot < sp.rowStart[i + 1]; ++slot)
+        blocks[slot] = a.block(3 * i, 3 * sp.column[slot], 3, 3);
+    BlockCholesky chol;
+    Timer t;
+    chol.analyse(sp);
+    analyseMs = t.ms();
+    for (auto _ : state) {
+      Timer timer;
+      if (!chol.factorise(sp, blocks, false)) state.SkipWithError("not positive definite");
+      chol.solve(b, x);
+      state.SetIterationTime(timer.ms() * 1e-3);
+    }
+    fill = static_cast<double>(chol.offDiagonalBlocks()) * 9.0 + 6.0 * static_cast<double>(rows);
+    residual = (a * Eigen::Map<const Eigen::VectorXd>(x.data()->data(), 3 * rows) - bv).norm();
+    state.SetLabel("block_cholesky");
+  } else {
+    Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> chol;
+    Timer t;
+    chol.analyzePattern(a);
+    analyseMs = t.ms();
+    Eigen::VectorXd xv;
+    for (auto _ : state) {
+      Timer timer;
+      chol.factorize(a);
+      xv = chol.solve(bv);
+      state.SetIterationTime(timer.ms() * 1e-3);
+    }
+    fill = static_cast<double>(chol.cholmod().lnz);
+    residual = (a * xv - bv).norm();
+    state.SetLabel("cholmod_supernodal");
+  }
+  state.counters["free_nodes"] = static_cast<double>(rows);
+  state.counters["analyse_ms"] = analyseMs;
+  state.counters["factor_entries"] = fill;
+  state.counters["relative_residual"] = residual / bv.norm();
+}
+
 void allSettings(benchmark::internal::Benchmark* b) {
   for (int p = 0; p < 7; ++p)
     for (int t : {1, 2}) b->Args({t, p});
@@ -217,6 +286,11 @@ void Constraints(benchmark::State& state) {
 
 BENCHMARK(BunnyScaling)
     ->ArgsProduct({{173, 241, 301}, {0, 4, 5, 6}})
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(0.3);
+BENCHMARK(DirectSolvers)
+    ->ArgsProduct({{173, 241, 301}, {0, 1}})
     ->UseManualTime()
     ->Unit(benchmark::kMillisecond)
     ->MinTime(0.3);

@@ -7,6 +7,8 @@ packages=(
   build-essential cmake pkg-config
   libeigen3-dev libtbb-dev libcli11-dev nlohmann-json3-dev libspdlog-dev libassimp-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  # bench_fem: CHOLMOD, the direct solver our block Cholesky is compared with
+  libsuitesparse-dev
   # voxcut-view: window, OpenGL 3.3, Dear ImGui (with its GLFW and OpenGL 3 backends), PNG;
   # its tests run under Xvfb with Mesa's software renderer
   libglfw3-dev libgl-dev libimgui-dev libstb-dev xvfb xauth libgl1-mesa-dri
