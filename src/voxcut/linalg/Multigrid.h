@@ -28,10 +28,15 @@
 /// whose diagonal block is far weaker than its neighbours' (a node of a composite element that
 /// holds few voxels, far from them: its stiffness reaches it through tiny interpolation
 /// weights) is relaxed together with the weak rows it is coupled to, as one group solved
-/// exactly (dense Cholesky): modes that span several such rows are invisible to single-row
-/// relaxation and to the interpolated coarse levels alike, and without the groups the
-/// iterations grow with the body's surface (docs/performance.md, "Deformation solver at
-/// scale"). The coarsest level is factorised (sparse Cholesky).
+/// exactly (dense Cholesky; a larger connected set is cut into groups grown breadth first):
+/// modes that span several such rows are invisible to single-row relaxation and to the
+/// interpolated coarse levels alike, and without the groups the iterations grow with the
+/// body's surface (docs/performance.md, "Deformation solver at scale"). Groups are coloured so
+/// that groups of one colour share no block; sweeps run colour by colour, each colour's groups
+/// in parallel. Each level keeps a single-precision copy of its matrix renumbered colour by
+/// colour, so the forward sweep from zero reads only the blocks before a row's group and the
+/// residual after it only those after (sums stay in double; the cycle is symmetric to the
+/// single-precision rounding). The coarsest level is factorised (sparse Cholesky).
 ///
 /// Determinism: the sweeps run rows in order; products, restrictions and prolongations are
 /// parallel with fixed per-row sums, so results do not depend on the thread count.
