@@ -727,8 +727,6 @@ void Multigrid::cycle(std::size_t level, bool threaded) {
   auto rowFirst = [&](std::uint32_t p) { return s.rowStart[p]; };
   auto rowEnd = [&](std::uint32_t p) { return s.rowStart[p + 1]; };
   auto lowerEnd = [&](std::uint32_t p) { return s.lowerEnd[p]; };
-  // Forward sweep from u = 0: a row's group sees only the rows before the group (the rest is
-  // still zero), so only the slots left of it are read.
   // Colour by colour (forward: ascending; backward: descending), the groups of one colour in
   // parallel: they share no block, so the result is the same for any thread count.
   auto sweep = [&](bool forward, auto first, auto last) {
@@ -743,6 +741,8 @@ void Multigrid::cycle(std::size_t level, bool threaded) {
           threaded);
     }
   };
+  // Forward sweep from u = 0: a row's group sees only the rows before the group (the rest is
+  // still zero, or of its own colour and so not coupled), so only the slots left of it are read.
   std::fill(l.u.begin(), l.u.end(), Vec3d::Zero());
   sweep(true, rowFirst, lowerEnd);
   // Its residual: each group solved r_g - A_(g, before) u = A_gg u_g, so r - A u is minus the
