@@ -10,6 +10,7 @@
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/fem/Corotation.h"
+#include "voxcut/linalg/SparseRows.h"
 
 namespace voxcut {
 
@@ -255,21 +256,10 @@ void ElasticModel::buildConstraints() {
       prolongation_.weight[at] = arena[k].second;
     }
 
-  // Restriction = transpose, by counting sort over nodes in ascending order.
-  const std::size_t free = freeNodes_.size();
+  // Restriction = transpose, nodes ascending in each row.
   restriction_ = WeightedRows{};
-  restriction_.start.assign(free + 1, 0);
-  for (std::uint32_t i : prolongation_.index) ++restriction_.start[i + 1];
-  for (std::size_t i = 0; i < free; ++i) restriction_.start[i + 1] += restriction_.start[i];
-  restriction_.index.resize(prolongation_.index.size());
-  restriction_.weight.resize(prolongation_.index.size());
-  std::vector<std::uint32_t> next(restriction_.start.begin(), restriction_.start.end() - 1);
-  for (std::size_t n = 0; n < nodes; ++n)
-    for (std::uint32_t k = prolongation_.start[n]; k < prolongation_.start[n + 1]; ++k) {
-      const std::uint32_t at = next[prolongation_.index[k]]++;
-      restriction_.index[at] = static_cast<std::uint32_t>(n);
-      restriction_.weight[at] = prolongation_.weight[k];
-    }
+  transposeRows(prolongation_.start, prolongation_.index, prolongation_.weight, freeNodes_.size(),
+                restriction_.start, restriction_.index, restriction_.weight);
 }
 
 /// Which rows of the new sparsity are copies of old rows, and how to renumber them.

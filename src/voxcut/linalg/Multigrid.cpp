@@ -11,6 +11,7 @@
 #include "voxcut/core/FlatHashMap.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/core/UnionFind.h"
+#include "voxcut/linalg/SparseRows.h"
 
 namespace voxcut {
 
@@ -68,22 +69,6 @@ void choleskySolve(const double* l, int n, double* x) {
     for (int k = i + 1; k < n; ++k) s -= l[i * n + k] * x[k];
     x[i] = s / l[i * n + i];
   }
-}
-
-/// The transpose of an interpolation's rows (fine rows ascending per coarse row).
-void transpose(Interpolation& p, std::size_t coarseRows) {
-  p.tStart.assign(coarseRows + 1, 0);
-  for (std::uint32_t c : p.index) ++p.tStart[c + 1];
-  for (std::size_t c = 0; c < coarseRows; ++c) p.tStart[c + 1] += p.tStart[c];
-  p.tIndex.resize(p.index.size());
-  p.tWeight.resize(p.index.size());
-  std::vector<std::uint32_t> next(p.tStart.begin(), p.tStart.end() - 1);
-  for (std::size_t i = 0; i + 1 < p.start.size(); ++i)
-    for (std::uint32_t k = p.start[i]; k < p.start[i + 1]; ++k) {
-      const std::uint32_t slot = next[p.index[k]]++;
-      p.tIndex[slot] = static_cast<std::uint32_t>(i);
-      p.tWeight[slot] = p.weight[k];
-    }
 }
 
 }  // namespace
@@ -208,7 +193,7 @@ Coarsening coarsenRows(const BlockMatrixView& a, const std::vector<Index3>& coor
     }
     p.start[i + 1] = static_cast<std::uint32_t>(p.index.size());
   }
-  transpose(p, out.coords.size());
+  transposeRows(p.start, p.index, p.weight, out.coords.size(), p.tStart, p.tIndex, p.tWeight);
   return out;
 }
 
