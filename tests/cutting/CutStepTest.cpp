@@ -195,10 +195,31 @@ TEST(CutStep, SlowBladeCutsEqualTheBaselineFrameByFrame) {
   }
 }
 
-// A short blade reaches few elements: the step then positions only their voxels (and the
-// far ends of their links). It must cut exactly the connected links that a test of every
-// link of the grid finds crossed, without the octree and with it (the whole sweep lies
-// inside the model: with the octree, found from the cubes its boundary reaches into).
+// The connected links of the grid that `sweep` crosses, by brute force over every link.
+std::vector<std::uint64_t> crossedLinks(const CutBody& b, const BladeSweep& sweep) {
+  const VoxelGrid& g = b.grid;
+  std::vector<std::uint64_t> out;
+  for (std::size_t v = 0; v < g.voxelCount(); ++v)
+    for (int a = 0; a < 3; ++a) {
+      if (!g.occupied(v) || !g.hasLink(v, a) || !g.connected(v, a)) continue;
+      const std::size_t w = v + g.stride(a);
+      if (intersectSegment(sweep, b.deformation.voxelPosition(v), b.deformation.voxelPosition(w), v,
+                           w))
+        out.push_back(VoxelGrid::linkId(v, a));
+    }
+  return out;
+}
+
+std::vector<std::uint64_t> linksOf(const CutStepResult& r) {
+  std::vector<std::uint64_t> out;
+  for (const LinkCut& lc : r.cuts) out.push_back(lc.link);
+  return out;
+}
+
+// A short blade reaches few elements, and few voxels of them. It must cut exactly the
+// connected links that a test of every link of the grid finds crossed, without the octree and with
+// it (the whole sweep lies inside the model: with the octree, found from the cubes its boundary
+// reaches into).
 TEST(CutStep, ShortSweepCutsExactlyTheCrossedLinks) {
   const VoxelGrid g = model("bunny", 101);
   for (const bool octree : {false, true}) {
@@ -212,23 +233,13 @@ TEST(CutStep, ShortSweepCutsExactlyTheCrossedLinks) {
     const Vec3d half(0.05 * s.x(), 0.01 * s.y(), 0.015 * s.z());
     const Vec3d move(0.3 * h, 0.4 * h, 2.0 * h);
     const BladeSweep sweep = makeSweep({c - half, c + half}, {c - half + move, c + half + move}, 7);
-    std::vector<std::uint64_t> expected;
-    for (std::size_t v = 0; v < g.voxelCount(); ++v)
-      for (int a = 0; a < 3; ++a) {
-        if (!g.occupied(v) || !g.hasLink(v, a) || !g.connected(v, a)) continue;
-        const std::size_t w = v + g.stride(a);
-        if (intersectSegment(sweep, b.deformation.voxelPosition(v), b.deformation.voxelPosition(w),
-                             v, w))
-          expected.push_back(VoxelGrid::linkId(v, a));
-      }
+    const std::vector<std::uint64_t> expected = crossedLinks(b, sweep);
     const CutStepResult r = cutStep(b, sweep);
     ASSERT_GT(r.markedElements, 0u);
     ASSERT_LT(4 * r.markedElements, b.deformation.elementCount())
         << "the blade should reach few elements";
     ASSERT_GT(expected.size(), 20u);
-    std::vector<std::uint64_t> cut;
-    for (const LinkCut& lc : r.cuts) cut.push_back(lc.link);
-    EXPECT_EQ(cut, expected) << (octree ? "octree" : "baseline");
+    EXPECT_EQ(linksOf(r), expected) << (octree ? "octree" : "baseline");
     if (octree) {
       EXPECT_GT(r.subdivision.boundaryCubes, 0u);
     }
@@ -267,50 +278,53 @@ TEST(CutStep, CutThroughTheMiddleLeavesTwoClosedPieces) {
   }
 }
 
-// The embeddings a body keeps in active order are those of its active voxels after every step
-// (new active voxels), and a topology edit of the deformation octree (new element copies,
-// renumbered elements) makes the next step gather them again.
-TEST(CutStep, ActiveEmbeddingsFollowTheActiveVoxelsAndTopologyEdits) {
-  const VoxelGrid g = model("bunny", 48);
-  CutBody b = body(g, true, Deformation::Bend);
-  const auto current = [&] {
-    const std::vector<std::uint32_t>& active = b.activity.activeVoxels;
-    if (b.activeEmbeddings.size() != active.size()) return false;
-    for (std::size_t i = 0; i < active.size(); ++i) {
-      const VoxelEmbedding& have = b.activeEmbeddings[i];
-      const VoxelEmbedding& want = b.deformation.embedding(active[i]);
-      if (have.element != want.element || have.offset != want.offset) return false;
-    }
-    return true;
+// The culling keeps every crossed link when links are stretched to several voxels (it enlarges
+// the sweep's box by the longest link), follows topology edits (renumbered element copies),
+// and tests a thin layer of links around the sweep, not every link of the large elements the
+// sweep passes through.
+TEST(CutStep, CullingFollowsTheSweepUnderStretchAndTopologyEdits) {
+  const VoxelGrid g = model("bunny", 64);
+  CutBodyParams p;
+  p.useOctree = false;
+  p.deformation.startLevel = 4;
+  p.deformation.maxLevel = 4;
+  CutBody b = makeCutBody(g, p);
+  const Vec3d c = b.deformation.restVoxelBounds().center();
+  const double h = g.voxelSize();
+  // A blade across the middle, tilted, moving six voxels along z and half a voxel up.
+  const auto shortSweep = [&](const Vec3d& at, std::uint64_t id) {
+    const Vec3d half(0.3 * b.deformation.restVoxelBounds().sizes().x(), 0.02 * h, 0.4 * h);
+    const Vec3d move(0.1 * h, 0.5 * h, 6.0 * h);
+    return makeSweep({at - half, at + half}, {at - half + move, at + half + move}, id);
   };
-  EXPECT_TRUE(current());
-  const std::size_t before = b.activity.activeVoxels.size();
-  const BladeMotion across = defaultBladeMotion(b);
-  const CutStepResult first = cutStep(b, makeSweep(across.from, across.to, 0));
-  ASSERT_GT(first.cuts.size(), 100u);
-  EXPECT_GT(b.activity.activeVoxels.size(), before);  // the subdivision opened cubes
-  EXPECT_TRUE(current());
+  const BladeSweep first = shortSweep(c, 3);
+  CutBody copy = b;
+  const CutStepResult plain = cutStep(copy, first);
+  const std::vector<std::uint64_t> expected = crossedLinks(b, first);
+  ASSERT_GT(expected.size(), 50u);
+  EXPECT_EQ(linksOf(plain), expected);
+  // Elements of 16 voxels: whole-element culling tests every link of the elements the sweep
+  // passes through, at least 16 layers of 3 links per crossing; the enlarged box around this
+  // sweep is about 4 voxels thick.
+  EXPECT_LT(plain.testedLinks, 20 * expected.size());
+
+  // Stretched threefold along y about the centre: links along y span three voxels.
+  for (Vec3d& x : b.deformation.positions()) x.y() = c.y() + 3.0 * (x.y() - c.y());
+  b.deformation.updateHangingNodes();
+  const Vec3d at(c.x(), c.y() + 0.1 * h, c.z());
+  const BladeSweep stretched = shortSweep(at, 4);
+  const std::vector<std::uint64_t> crossed = crossedLinks(b, stretched);
+  ASSERT_GT(crossed.size(), 50u);
+  const CutStepResult r = cutStep(b, stretched);
+  EXPECT_EQ(linksOf(r), crossed);
 
   // A topology edit: element copies per voxel part on both sides of the cut.
-  const std::uint64_t stamp = b.deformation.embeddingStamp();
-  std::vector<std::uint64_t> links;
-  for (const LinkCut& c : first.cuts) links.push_back(c.link);
-  const TopologyChange change = updateCutTopology(b.deformation, b.grid, links);
+  const TopologyChange change = updateCutTopology(b.deformation, b.grid, linksOf(r));
   ASSERT_TRUE(change.changed);
-  EXPECT_NE(b.deformation.embeddingStamp(), stamp);
-  EXPECT_FALSE(current());  // stale: elements were renumbered
-  // A step whose blade cuts nothing gathers them first, and positions with the new ones.
-  const Vec3d far = 10.0 * b.deformation.restVoxelBounds().diagonal();
-  const BladePose away{across.from.a + far, across.from.b + far};
-  const CutStepResult second = cutStep(b, makeSweep(away, away, 1));
-  EXPECT_TRUE(second.cuts.empty());
-  EXPECT_TRUE(current());
-  // Copies keep theirs; a refresh of a current body changes nothing.
-  CutBody copy = b;
-  EXPECT_EQ(copy.deformation.embeddingStamp(), b.deformation.embeddingStamp());
-  refreshActiveEmbeddings(copy);
-  EXPECT_EQ(copy.activeEmbeddingsFor[0], b.activeEmbeddingsFor[0]);
-  EXPECT_EQ(copy.activeEmbeddingsFor[1], b.activeEmbeddingsFor[1]);
+  const BladeSweep later = shortSweep(Vec3d(c.x(), c.y() - 6.0 * h, c.z()), 5);
+  const std::vector<std::uint64_t> again = crossedLinks(b, later);
+  ASSERT_GT(again.size(), 50u);
+  EXPECT_EQ(linksOf(cutStep(b, later)), again);
 }
 
 TEST(CutStep, HermiteDataIsInTheRestFrame) {

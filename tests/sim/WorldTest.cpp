@@ -410,7 +410,7 @@ TEST(World, BunnyPokeSpringsBack) {
 double deepestInside(const World& w, std::size_t a, std::size_t b) {
   const SimBody& ba = WorldInternals::body(w, a);
   const SimBody& bb = WorldInternals::body(w, b);
-  SpatialHash hash;
+  LayeredHash hash;
   buildElementHash(bb, hash, true);
   double deepest = 0.0;
   for (const BodyContactPoint& c : findBodyContacts(ba, bb, hash, a == b, 0.0, true))
@@ -455,7 +455,7 @@ TEST(World, SelfCandidatesKeptBetweenFramesFindTheSameContacts) {
   for (int f = 0; f < 100; ++f) {
     (void)w.step();
     const SimBody& b = WorldInternals::body(w, 0);
-    SpatialHash hash;
+    LayeredHash hash;
     buildElementHash(b, hash, true);
     const std::vector<Vec3d> before = cache.nodes;
     const auto kept = findBodyContacts(b, b, hash, true, 0.004, true, &cache);

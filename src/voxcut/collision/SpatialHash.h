@@ -54,6 +54,14 @@ class SpatialHash {
       if (entries_[k].cell == cell) fn(entries_[k].element);
   }
 
+  /// How many cells a query over `bounds` visits: those touching it, clipped to the cells
+  /// holding entries (0 when none). A double: the count may exceed any integer type.
+  [[nodiscard]] double cellsTouching(const Eigen::AlignedBox3d& bounds) const {
+    Index3 lo, hi;
+    if (!cellRange(bounds, lo, hi)) return 0.0;
+    return (hi.x - lo.x + 1.0) * (hi.y - lo.y + 1.0) * (hi.z - lo.z + 1.0);
+  }
+
   /// Elements whose box overlaps `box` (closed boxes), sorted and unique.
   [[nodiscard]] std::vector<std::uint32_t> elementsInBox(const Eigen::AlignedBox3d& box) const;
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <tuple>
 
 #include "voxcut/core/Parallel.h"
@@ -31,12 +32,18 @@ Vec3d pullBackNormal(const DeformationOctree& d, std::uint32_t e, const Vec3d& x
 }
 
 // Blade test of link (v, a) whose ends are now at pv and pw; Hermite data in the rest frame.
+// Only the sweeps listed in `which` (ascending indices into sweeps; all when null) are tested:
+// a caller that knows the link is far from the others leaves them out.
 std::optional<Hermite> testLink(const CutBody& b, const std::vector<BladeSweep>& sweeps,
-                                std::size_t v, int a, const Vec3d& pv, const Vec3d& pw) {
+                                std::size_t v, int a, const Vec3d& pv, const Vec3d& pw,
+                                const std::uint32_t* which = nullptr, std::size_t count = 0) {
   const std::size_t w = v + b.grid.stride(a);
   std::optional<SweepHit> hit;
-  for (const BladeSweep& sweep : sweeps)
+  const std::size_t tests = which != nullptr ? count : sweeps.size();
+  for (std::size_t k = 0; k < tests; ++k) {
+    const BladeSweep& sweep = sweeps[which != nullptr ? which[k] : k];
     if (const auto h = intersectSegment(sweep, pv, pw, v, w); h && (!hit || h->t < hit->t)) hit = h;
+  }
   if (!hit) return std::nullopt;
   // Pull the normal back with the element holding the nearer end.
   const std::size_t near = hit->t < 0.5 ? v : w;
@@ -170,7 +177,7 @@ SweepBoundary sweepBoundary(const CutBody& b, const std::vector<BladeSweep>& swe
       return;
     }
     hint = kNoElement;
-    b.hash.forEachInCell(b.hash.cellOf(x), [&](std::uint32_t e) {
+    b.hash.forEachNear(x, [&](std::uint32_t e) {
       if (!inBox(e, x) || !d.trilinearCoordinates(e, x, t)) return;
       take(e, t);
       hint = e;
@@ -223,19 +230,6 @@ void setActivity(CutBody& b, bool useOctree, const OctreeParams& octree, bool th
   } else {
     b.activity = allActive(b.grid, threaded);
   }
-  b.activePositions.assign(b.activity.activeVoxels.size(), Vec3d::Zero());
-  b.activeMarked.clear();
-  refreshActiveEmbeddings(b, threaded);
-}
-
-void refreshActiveEmbeddings(CutBody& b, bool threaded) {
-  const std::uint64_t stamps[2] = {b.activity.activeStamp, b.deformation.embeddingStamp()};
-  if (b.activeEmbeddingsFor[0] == stamps[0] && b.activeEmbeddingsFor[1] == stamps[1] &&
-      b.activeEmbeddings.size() == b.activity.activeVoxels.size())
-    return;
-  b.deformation.gatherEmbeddings(b.activity.activeVoxels, b.activeEmbeddings, threaded);
-  b.activeEmbeddingsFor[0] = stamps[0];
-  b.activeEmbeddingsFor[1] = stamps[1];
 }
 
 CutStepResult cutStep(CutBody& b, const BladeSweep& sweep, SubdivisionWorkspace& workspace,
@@ -255,16 +249,170 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
 
 namespace {
 
-// Culling, the first part of the intersection test: the hash of element boxes (from the nodes)
-// and the elements under the sweeps' OBBs (1 each).
-std::vector<std::uint8_t> markElementsUnderSweeps(CutBody& b, const std::vector<BladeSweep>& sweeps,
-                                                  bool threaded) {
-  if (threaded) wakeWorkers();  // the culling is serial, the position update is not
+// Culling (docs/algorithms.md, "Culling that follows the sweep"). A link crosses the swept
+// surface only when its low voxel lies within one link's length of it, so the candidates are
+// the active voxels inside the sweeps' OBBs enlarged by the longest a link can be this frame.
+// They are found from the top down: the elements whose boxes meet an enlarged OBB (through the
+// spatial hash), then, in each, blocks of voxels halved until they are small, a block kept
+// while the hull of its corner voxels' positions meets an enlarged OBB, then its voxels one by
+// one. The work follows the swept area, not the volume of the elements the sweep touches.
+struct CullBox {
+  Vec3d centre;
+  Eigen::Matrix3d axes;  // orthonormal columns
+  Vec3d halfExtents;
+  std::uint32_t sweep;  // the index of the sweep it encloses
+};
+
+// The longest any link can be now: along axis a, a voxel step inside an element moves by at
+// most its longest edge along a over its size (the derivative of the trilinear map along a
+// blends those 4 edges), and a link that crosses into a neighbour is two such pieces of the
+// same line, so the largest ratio over all elements bounds every link.
+double longestLink(const DeformationOctree& d, bool threaded) {
+  const std::size_t n = d.elementCount();
+  constexpr std::size_t kGrain = 2048;
+  std::vector<double> partial((n + kGrain - 1) / kGrain, 0.0);
+  const Vec3d* x = d.positions().data();
+  parallelFor(
+      0, partial.size(), 1,
+      [&](std::size_t c0, std::size_t c1) {
+        for (std::size_t c = c0; c < c1; ++c) {
+          double m = 0.0;
+          for (std::size_t e = c * kGrain; e < std::min(n, (c + 1) * kGrain); ++e) {
+            const OctreeElement& el = d.element(static_cast<std::uint32_t>(e));
+            double edge = 0.0;
+            for (int k = 0; k < 8; ++k)
+              for (int a = 0; a < 3; ++a)
+                if (((k >> a) & 1) == 0)
+                  edge = std::max(edge, (x[el.nodes[k | (1 << a)]] - x[el.nodes[k]]).squaredNorm());
+            m = std::max(m, std::sqrt(edge) * el.inverseSize());
+          }
+          partial[c] = m;
+        }
+      },
+      threaded);
+  double m = 0.0;
+  for (double p : partial) m = std::max(m, p);
+  return m;
+}
+
+// Whether the convex hull of points p[0..n) meets box (tested along the box's axes only:
+// it may keep a hull that misses, never drop one that meets).
+bool hullMeets(const CullBox& box, const Vec3d* p, int n) {
+  for (int i = 0; i < 3; ++i) {
+    const Vec3d axis = box.axes.col(i);
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (int k = 0; k < n; ++k) {
+      const double s = axis.dot(p[k] - box.centre);
+      lo = std::min(lo, s);
+      hi = std::max(hi, s);
+    }
+    if (lo > box.halfExtents[i] || hi < -box.halfExtents[i]) return false;
+  }
+  return true;
+}
+
+// An active voxel near the sweeps: its entry in the active voxels, its position, and the
+// sweeps whose enlarged boxes hold it (sweepCount indices from firstSweep in the element's list).
+struct Candidate {
+  std::uint32_t entry;
+  std::uint32_t firstSweep;
+  std::uint32_t sweepCount;
+  Vec3d position;
+};
+
+// The candidates of one element and the sweep indices they list.
+struct ElementCandidates {
+  std::vector<Candidate> voxels;
+  std::vector<std::uint32_t> sweeps;
+};
+
+// The candidates among the active voxels that element e owns, in ascending voxel order within
+// each block and blocks in a fixed order: the voxel offsets [lo, lo + size) of e (size a power
+// of two), halved while the block is larger than kLeaf and its corner voxels' hull meets a box.
+// A block tests only the boxes its parent met, a voxel only those its block met.
+void collectCandidates(const CutBody& b, std::uint32_t e, const std::vector<CullBox>& boxes,
+                       ElementCandidates& out) {
+  constexpr int kLeaf = 4;
+  const DeformationOctree& d = b.deformation;
+  const OctreeElement& el = d.element(e);
+  const Index3 first = el.firstVoxel();
+  const Index3 dims = b.grid.dims();
+  const double inv = el.inverseSize();
+  const std::uint32_t* activeIndex = b.activity.activeIndex.data();
+  // Per depth of the recursion, the boxes the block there meets (a block's list is read while
+  // its children fill the next depth's): depth k's list is met[k * nb .. k * nb + metCount[k]).
+  const std::size_t nb = boxes.size();
+  const auto depths = static_cast<std::size_t>(el.level) + 2;
+  std::vector<std::uint32_t> met(depths * nb), metCount(depths, 0);
+  for (std::size_t k = 0; k < nb; ++k) met[k] = static_cast<std::uint32_t>(k);
+  metCount[0] = static_cast<std::uint32_t>(nb);
+  const auto visit = [&](const auto& self, const Index3& lo, int size, std::size_t depth) -> void {
+    Index3 hi;  // last offset of the block inside the grid
+    for (int a = 0; a < 3; ++a) {
+      hi[a] = std::min(lo[a] + size, dims[a] - first[a]) - 1;
+      if (hi[a] < lo[a]) return;
+    }
+    Vec3d corners[8];
+    for (int k = 0; k < 8; ++k) {
+      const Vec3d t(((k & 1) ? hi[0] : lo[0]) + 0.5, ((k & 2) ? hi[1] : lo[1]) + 0.5,
+                    ((k & 4) ? hi[2] : lo[2]) + 0.5);
+      corners[k] = d.pointInElement(e, t * inv);
+    }
+    const std::uint32_t* parent = met.data() + depth * nb;
+    std::uint32_t* here = met.data() + (depth + 1) * nb;
+    std::uint32_t count = 0;
+    for (std::uint32_t j = 0; j < metCount[depth]; ++j)
+      if (hullMeets(boxes[parent[j]], corners, 8)) here[count++] = parent[j];
+    metCount[depth + 1] = count;
+    if (count == 0) return;
+    if (size > kLeaf) {
+      const int h = size / 2;
+      for (int k = 0; k < 8; ++k)
+        self(
+            self,
+            Index3{lo[0] + ((k & 1) ? h : 0), lo[1] + ((k & 2) ? h : 0), lo[2] + ((k & 4) ? h : 0)},
+            h, depth + 1);
+      return;
+    }
+    for (int z = lo[2]; z <= hi[2]; ++z)
+      for (int y = lo[1]; y <= hi[1]; ++y)
+        for (int x = lo[0]; x <= hi[0]; ++x) {
+          const std::size_t v = b.grid.index(Index3{first[0] + x, first[1] + y, first[2] + z});
+          const std::uint32_t i = activeIndex[v];
+          if (i == kNoActive) continue;
+          const VoxelEmbedding& em = d.embedding(v);
+          if (em.element != e) continue;
+          const Vec3d p = d.voxelPosition(em);
+          const auto firstSweep = static_cast<std::uint32_t>(out.sweeps.size());
+          for (std::uint32_t j = 0; j < count; ++j)
+            if (hullMeets(boxes[here[j]], &p, 1)) out.sweeps.push_back(boxes[here[j]].sweep);
+          const auto holding = static_cast<std::uint32_t>(out.sweeps.size()) - firstSweep;
+          if (holding > 0) out.voxels.push_back({i, firstSweep, holding, p});
+        }
+  };
+  visit(visit, Index3{0, 0, 0}, el.size(), 0);
+}
+
+// The elements under the sweeps (ascending) and the enlarged boxes their voxels are culled by.
+struct SweepCull {
+  std::vector<std::uint32_t> elements;
+  std::vector<CullBox> boxes;
+};
+
+SweepCull cullElements(CutBody& b, const std::vector<BladeSweep>& sweeps, bool threaded) {
+  if (threaded) wakeWorkers();  // the culling is serial, the candidates' search is not
   b.deformation.updateElementBounds(b.elementBoxes, threaded);
-  b.hash.build(b.elementBoxes, 0.0, threaded);
+  b.hash.build(b.elementBoxes, threaded);
+  const double reach = longestLink(b.deformation, threaded);
+  SweepCull out;
   std::vector<std::uint8_t> marked(b.elementBoxes.size(), 0);
   for (const BladeSweep& sweep : sweeps) {
-    const Obb obb = sweepObb(sweep, b.obbMargin);
+    Obb obb = sweepObb(sweep, b.obbMargin);
+    // Enlarged by the longest link, and by a rounding allowance for the hull tests.
+    obb.halfExtents += Vec3d::Constant(reach * (1.0 + 1e-9) + 1e-9 * b.grid.voxelSize());
+    if (!obb.halfExtents.allFinite() || !obb.centre.allFinite()) continue;
+    out.boxes.push_back({obb.centre, obb.axes, obb.halfExtents,
+                         static_cast<std::uint32_t>(&sweep - sweeps.data())});
     Eigen::AlignedBox3d obbBounds;
     for (int k = 0; k < 8; ++k) {
       Vec3d corner = obb.centre;
@@ -272,29 +420,18 @@ std::vector<std::uint8_t> markElementsUnderSweeps(CutBody& b, const std::vector<
         corner += ((k >> i) & 1 ? 1.0 : -1.0) * obb.halfExtents[i] * obb.axes.col(i);
       obbBounds.extend(corner);
     }
-    b.hash.markElements(
-        obbBounds, [&](const Eigen::AlignedBox3d& cell) { return overlaps(obb, cell); }, marked);
+    // The elements of the cells the box meets whose own box meets it.
+    for (const std::uint32_t e : b.hash.elements(
+             obbBounds, [&](const Eigen::AlignedBox3d& cell) { return overlaps(obb, cell); }))
+      if (marked[e] == 0 && overlaps(obb, b.elementBoxes[e])) marked[e] = 1;
   }
-  return marked;
+  for (std::size_t e = 0; e < marked.size(); ++e)
+    if (marked[e] != 0) out.elements.push_back(static_cast<std::uint32_t>(e));
+  return out;
 }
 
-// Voxel position update, stored in active order, with whether each active voxel's element
-// is marked (from the embeddings kept in active order, see CutBody). When
-// the blade reaches under half the elements (a frame of a running scene, and the bunny's
-// single-frame cut), only the voxels in marked elements are positioned and a
-// link to a voxel outside them positions that end on the way; else (a longer sweep) every
-// active voxel is positioned in one pass, which is cheaper than positioning the many ends
-// outside one by one (docs/performance.md, "Single-frame cutting test"). The positions are
-// bitwise the same.
-void positionActiveVoxels(CutBody& b, const std::vector<std::uint8_t>& marked, bool fewMarked,
-                          bool threaded) {
-  refreshActiveEmbeddings(b, threaded);
-  b.deformation.updateVoxelPositions(b.activeEmbeddings, marked, fewMarked, b.activePositions,
-                                     b.activeMarked, threaded);
-}
-
-// What the intersection test finds: the crossed links (in the order of the active voxels'
-// chunks), how many links it tested, and with the octree the sweeps' boundary and the cubes
+// What the intersection test finds: the crossed links (in the order of the elements under the
+// sweeps), how many links it tested, and with the octree the sweeps' boundary and the cubes
 // around the cuts (sub-step (1) of the subdivision).
 struct LinkTestResult {
   std::vector<LinkCut> cuts;
@@ -303,69 +440,46 @@ struct LinkTestResult {
   std::vector<std::uint8_t> cubeMarks;
 };
 
-// Intersection test: each active connected link (v, a) once, from its low voxel v, when
-// either end lies in a marked element. Per chunk of entries, first the candidates, without
-// a branch per link: the octree's active links come and go from one entry to the next
-// (frames, shell), and branching on each costs more than the test of the links that pass
-// (docs/performance.md, "Single-frame cutting test"); then the candidates are tested.
-LinkTestResult testActiveLinks(CutBody& b, const std::vector<BladeSweep>& sweeps, bool fewMarked,
-                               bool threaded) {
+// Intersection test: each active connected link (v, a) whose low voxel v is a candidate, once.
+// The far end is positioned on the way.
+LinkTestResult testCandidateLinks(CutBody& b, const std::vector<BladeSweep>& sweeps,
+                                  const SweepCull& cull,
+                                  const std::vector<ElementCandidates>& candidates, bool threaded) {
   VoxelGrid& g = b.grid;
   const std::vector<std::uint32_t>& active = b.activity.activeVoxels;
-  const std::vector<VoxelEmbedding>& embeddings = b.activeEmbeddings;
-  const auto positionOf = [&](std::size_t i, bool isMarked) {
-    return isMarked || !fewMarked ? b.activePositions[i]
-                                  : b.deformation.voxelPosition(embeddings[i]);
-  };
-  VOXCUT_ASSERT(active.size() < (std::size_t{1} << 30),
-                "too many active voxels for the link table");
   const auto nActive = static_cast<std::uint32_t>(active.size());
-  b.activeMarked.push_back(0);  // entry nActive: what a missing link's far end reads
-  const std::uint8_t* inMarked = b.activeMarked.data();
   const std::vector<std::array<std::uint32_t, 3>>& next = b.activity.activeNext;
-  constexpr std::size_t kChunk = 1024;
-  std::vector<std::vector<LinkCut>> found((active.size() + kChunk - 1) / kChunk);
-  std::vector<std::size_t> tested(found.size(), 0);
+  const std::size_t n = cull.elements.size();
+  std::vector<std::vector<LinkCut>> found(n);
+  std::vector<std::size_t> tested(n, 0);
   // With the octree, the sweeps' boundary (for the subdivision) is found meanwhile, as one
   // more task, the first: it reads none of what the test writes.
   SweepBoundary boundary;
   const std::size_t side = b.useOctree ? 1 : 0;
-  // With the octree, sub-step (1) of the subdivision for these cuts: each chunk marks the cubes
-  // around its cuts once it has tested its links (their cells fetched as the cuts are found).
+  // With the octree, sub-step (1) of the subdivision for these cuts: each element's task marks
+  // the cubes around its cuts once it has tested its links.
   std::vector<std::uint8_t> cubeMarks(b.useOctree ? b.activity.cubes.size() : 0, 0);
   parallelFor(
-      0, found.size() + side, 1,
+      0, n + side, 1,
       [&](std::size_t j0, std::size_t j1) {
         if (j0 < side) {
           boundary = sweepBoundary(b, sweeps);
           ++j0;
         }
-        std::array<std::uint32_t, 3 * kChunk> candidates;  // entry * 4 + axis
-        std::array<std::uint32_t, 3 * kChunk> farEnds;     // the entry across
         for (std::size_t c = j0 - side; c < j1 - side; ++c) {
-          std::size_t count = 0;
-          const std::size_t end = std::min(active.size(), (c + 1) * kChunk);
-          for (std::size_t i = c * kChunk; i < end; ++i) {
-            const unsigned here = inMarked[i];
-            const auto first = static_cast<std::uint32_t>(4 * i);
-            for (std::uint32_t a = 0; a < 3; ++a) {
-              const std::uint32_t j = next[i][a];  // kNoActive is above every entry
-              candidates[count] = first + a;
-              farEnds[count] = j;
-              count += static_cast<unsigned>(j < nActive) & (here | inMarked[std::min(j, nActive)]);
-            }
-          }
-          for (std::size_t k = 0; k < count; ++k) {
-            const std::size_t i = candidates[k] >> 2;
-            const int a = static_cast<int>(candidates[k] & 3u);
-            const std::size_t v = active[i];
-            if (!g.connected(v, a)) continue;
-            const std::uint32_t j = farEnds[k];
-            ++tested[c];
-            if (const auto h = testLink(b, sweeps, v, a, positionOf(i, inMarked[i] != 0),
-                                        positionOf(j, inMarked[j] != 0))) {
-              found[c].push_back({VoxelGrid::linkId(v, a), *h, std::nullopt});
-              if (side) prefetchCubesAroundLink(b.activity, g, found[c].back().link);
+          for (const Candidate& cand : candidates[c].voxels) {
+            const std::uint32_t* which = candidates[c].sweeps.data() + cand.firstSweep;
+            const std::size_t v = active[cand.entry];
+            for (int a = 0; a < 3; ++a) {
+              const std::uint32_t j = next[cand.entry][static_cast<std::size_t>(a)];
+              if (j >= nActive || !g.connected(v, a)) continue;
+              ++tested[c];
+              if (const auto h = testLink(b, sweeps, v, a, cand.position,
+                                          b.deformation.voxelPosition(v + g.stride(a)), which,
+                                          cand.sweepCount)) {
+                found[c].push_back({VoxelGrid::linkId(v, a), *h, std::nullopt});
+                if (side) prefetchCubesAroundLink(b.activity, g, found[c].back().link);
+              }
             }
           }
           if (side)
@@ -378,7 +492,7 @@ LinkTestResult testActiveLinks(CutBody& b, const std::vector<BladeSweep>& sweeps
   LinkTestResult out;
   out.boundary = std::move(boundary);
   out.cubeMarks = std::move(cubeMarks);
-  for (std::size_t c = 0; c < found.size(); ++c) {
+  for (std::size_t c = 0; c < n; ++c) {
     out.tested += tested[c];
     out.cuts.insert(out.cuts.end(), found[c].begin(), found[c].end());
   }
@@ -417,7 +531,6 @@ void subdivideAroundCuts(CutBody& b, const std::vector<BladeSweep>& sweeps,
     activateNewCubeFrames(b.activity, g, threaded);
     compactCubes(b.activity, threaded);
     rebuildActiveVoxels(b.activity, threaded);
-    refreshActiveEmbeddings(b, threaded);
     r.deferredMs = timer.ms();
   } else if (b.useOctree) {
     r.subdivisionMs = timer.ms();
@@ -430,17 +543,24 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps,
                       SubdivisionWorkspace& workspace, bool threaded) {
   CutStepResult r;
   Timer timer;
-  const std::vector<std::uint8_t> marked = markElementsUnderSweeps(b, sweeps, threaded);
-  for (std::uint8_t m : marked) r.markedElements += m;
+  const SweepCull cull = cullElements(b, sweeps, threaded);
+  r.markedElements = cull.elements.size();
   const double cullMs = timer.ms();
 
+  // Voxel position update: the candidates near the sweep, positioned.
   timer.restart();
-  const bool fewMarked = 2 * r.markedElements < marked.size();
-  positionActiveVoxels(b, marked, fewMarked, threaded);
+  std::vector<ElementCandidates> candidates(cull.elements.size());
+  parallelFor(
+      0, cull.elements.size(), 1,
+      [&](std::size_t k0, std::size_t k1) {
+        for (std::size_t k = k0; k < k1; ++k)
+          collectCandidates(b, cull.elements[k], cull.boxes, candidates[k]);
+      },
+      threaded);
   r.positionUpdateMs = timer.ms();
 
   timer.restart();
-  LinkTestResult found = testActiveLinks(b, sweeps, fewMarked, threaded);
+  LinkTestResult found = testCandidateLinks(b, sweeps, cull, candidates, threaded);
   r.testedLinks = found.tested;
   r.cuts = std::move(found.cuts);
   applyCuts(b, r.cuts);

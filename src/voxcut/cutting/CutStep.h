@@ -1,15 +1,17 @@
 #pragma once
 /// @file CutStep.h
 /// The cutting tool's collision for one frame (paper §3.1-3.2; docs/algorithms.md, "Blade sweep"):
-/// voxel position update, intersection test of the blade sweep against active connected links
-/// (culled by the spatial hash of element AABBs and the sweep's approximate OBB), then, with
+/// voxel position update and intersection test of the blade sweep against the active connected
+/// links near it (culled by the spatial hash of element AABBs, then by blocks of voxels and
+/// single voxels against the sweep's OBB enlarged by the longest link: docs/algorithms.md,
+/// "Culling that follows the sweep"), then, with
 /// the octree, subdivision of the cubes the new cuts touch; the deferred updates follow.
 /// The baseline ("previous method") is the same code with every link active and no octree.
 
 #include <cstdint>
 #include <vector>
 
-#include "voxcut/collision/SpatialHash.h"
+#include "voxcut/collision/LayeredHash.h"
 #include "voxcut/cutting/Blade.h"
 #include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/octree/OctreeSubdivision.h"
@@ -34,20 +36,8 @@ struct CutBody {
   VoxelOctree activity;  ///< the pseudo voxel octree, or everything active
   bool useOctree = true;
   double obbMargin = 0.0;
-  /// Per entry of activity.activeVoxels: its position this frame (where the step positioned
-  /// it: every entry, or those in elements under the blade when it reaches few; see cutStep).
-  std::vector<Vec3d> activePositions;
-  /// Per entry of activity.activeVoxels: its embedding in the deformation octree, kept across
-  /// frames in the active voxels' order, so that the position update reads it in order
-  /// instead of one voxel at a time from the grid-sized table; gathered again
-  /// (refreshActiveEmbeddings) when either of the stamps it was gathered for has changed
-  /// (a new active voxel array, a topology edit).
-  std::vector<VoxelEmbedding> activeEmbeddings;
-  std::uint64_t activeEmbeddingsFor[2] = {
-      0, 0};                               ///< activity.activeStamp, deformation.embeddingStamp()
-  std::vector<std::uint8_t> activeMarked;  ///< per entry: its element is under the blade (scratch)
   std::vector<Eigen::AlignedBox3d> elementBoxes;
-  SpatialHash hash;
+  LayeredHash hash;
 };
 
 /// Builds the deformation octree and the activity marks of `grid`.
@@ -58,11 +48,6 @@ struct CutBody {
 /// connected, so no cube spans a cut): the voxel octree with `octree`'s levels (the defaults
 /// when empty), or, without it, every link active (the baseline). Either gives the same cuts.
 void setActivity(CutBody& body, bool useOctree, const OctreeParams& octree, bool threaded = true);
-
-/// Gathers body.activeEmbeddings again unless it is current (see CutBody). cutStep calls it
-/// first, and again after its deferred updates; a caller that edits the deformation octree's
-/// topology can call it afterwards, so that the next step does not wait for it.
-void refreshActiveEmbeddings(CutBody& body, bool threaded = true);
 
 /// Timings (ms) and counts of one frame's cutting tool collision.
 struct CutStepResult {

@@ -85,7 +85,7 @@ bool pointDepth(const SimBody& b, std::uint32_t e, const Vec3d& x, Vec3d& t, dou
 /// The elements of b (whose element boxes `bHash` holds) whose boxes meet `box`; for self,
 /// less element `own` of the same body and the elements sharing a node with it (its own
 /// neighbourhood; its nodes sorted, each candidate node found by binary search). Ascending.
-std::vector<std::uint32_t> candidatesOf(const SimBody& b, const SpatialHash& bHash,
+std::vector<std::uint32_t> candidatesOf(const SimBody& b, const LayeredHash& bHash,
                                         std::uint32_t own, const Eigen::AlignedBox3d& box,
                                         bool self) {
   std::vector<std::uint32_t> candidates = bHash.elementsInBox(box);
@@ -105,7 +105,7 @@ std::vector<std::uint32_t> candidatesOf(const SimBody& b, const SpatialHash& bHa
 
 }  // namespace
 
-void buildElementHash(const SimBody& body, SpatialHash& hash, bool threaded) {
+void buildElementHash(const SimBody& body, LayeredHash& hash, bool threaded) {
   const DeformationOctree& d = body.cut.deformation;
   std::vector<Eigen::AlignedBox3d> boxes(d.elementCount());
   parallelFor(
@@ -116,7 +116,7 @@ void buildElementHash(const SimBody& body, SpatialHash& hash, bool threaded) {
             boxes[e].extend(d.positions()[n]);
       },
       threaded);
-  hash.build(boxes, 0.0, threaded);
+  hash.build(boxes, threaded);
 }
 
 void groupVerticesByElement(const SimBody& body, VerticesByElement& groups) {
@@ -140,7 +140,7 @@ void groupVerticesByElement(const SimBody& body, VerticesByElement& groups) {
 }
 
 std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& b,
-                                               const SpatialHash& bHash, bool self, double dt,
+                                               const LayeredHash& bHash, bool self, double dt,
                                                bool threaded, SelfCandidateCache* cache,
                                                const VerticesByElement* groups) {
   const DeformationOctree& da = a.cut.deformation;

@@ -11,7 +11,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "voxcut/collision/SpatialHash.h"
+#include "voxcut/collision/LayeredHash.h"
 #include "voxcut/sim/WorldInternals.h"
 
 namespace voxcut {
@@ -35,7 +35,7 @@ struct BodyContactPoint {
 void groupVerticesByElement(const SimBody& body, VerticesByElement& groups);
 
 /// Boxes of every element copy of the body at its current node positions, in a spatial hash.
-void buildElementHash(const SimBody& body, SpatialHash& hash, bool threaded);
+void buildElementHash(const SimBody& body, LayeredHash& hash, bool threaded);
 
 /// The surface vertices of `a`, moved on by dt times their velocity relative to the element of
 /// `b` they are tested against, that lie inside the
@@ -48,7 +48,7 @@ void buildElementHash(const SimBody& body, SpatialHash& hash, bool threaded);
 /// and is used while still valid (SelfCandidateCache); the result is the same with or without.
 /// `groups` (may be null: grouped here) are a's vertices by element, up to date.
 [[nodiscard]] std::vector<BodyContactPoint> findBodyContacts(
-    const SimBody& a, const SimBody& b, const SpatialHash& bHash, bool self, double dt,
+    const SimBody& a, const SimBody& b, const LayeredHash& bHash, bool self, double dt,
     bool threaded, SelfCandidateCache* cache = nullptr, const VerticesByElement* groups = nullptr);
 
 }  // namespace voxcut

@@ -875,7 +875,7 @@ std::vector<std::vector<PointContact>> World::Impl::findBodyContactsAll(std::vec
     bounds[i].extend(bounds[i].min() - Vec3d::Constant(pad));
     bounds[i].extend(bounds[i].max() + Vec3d::Constant(pad));
   }
-  std::vector<SpatialHash> hashes(bodies.size());
+  std::vector<LayeredHash> hashes(bodies.size());
   std::vector<std::uint8_t> hashed(bodies.size(), 0);
   // Effective inverse mass of a point with trilinear weights w in element e: sum w_c^2 / m_c
   // over its free corners (0 where every corner is fixed).
@@ -1335,8 +1335,6 @@ bool World::Impl::updateTopology(SimBody& b, const std::vector<std::uint64_t>& c
       b.model.updateTopology(b.cut.deformation, b.cut.grid, change,
                              b.settings.fixed.empty() ? nullptr : &fixed);
       b.solver.updateTopology(change);
-      // The collision's per-entry embeddings, gathered here rather than in next frame's step.
-      refreshActiveEmbeddings(b.cut, settings.threaded);
     }
   }
   for (std::size_t ti = 0; ti < tools.size(); ++ti) {
