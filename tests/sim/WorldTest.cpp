@@ -102,6 +102,32 @@ TEST(World, SurfaceChangesReplayTheView) {
 
 // A probe pressed 5 mm into the top of a box fixed at its base, without gravity, then lifted:
 // the bodies push it up through its centre (without friction), and the box springs back.
+// After every frame of a cut that refines and copies elements, each surface vertex is embedded
+// where a fresh lookup puts it: the element that owns its voxel, at the same trilinear
+// coordinates (renumbering keeps the kept elements' vertices, looks the others up again).
+TEST(World, SurfaceVerticesStayEmbeddedThroughTopologyChanges) {
+  World w = worldOf(box(kBlade, kBaseFixed));
+  std::size_t checked = 0;
+  for (int f = 0; f < 35; ++f) {
+    w.step();
+    const SimBody& b = WorldInternals::body(w, 0);
+    const DeformationOctree& d = b.cut.deformation;
+    ASSERT_EQ(b.embedding.size(), b.surface.vertexSlots());
+    for (std::size_t v = 0; v < b.embedding.size(); ++v) {
+      if (!b.surface.alive(static_cast<std::int32_t>(v))) continue;
+      const std::uint32_t e = d.owner(static_cast<std::size_t>(b.surface.vertexVoxels()[v]));
+      const OctreeElement& el = d.element(e);
+      const Vec3d local = (b.surface.positions()[v] - d.nodeGridPosition(el.firstVoxel())) /
+                          (d.voxelSize() * el.size());
+      ASSERT_EQ(b.embedding[v].element, e) << "frame " << f << " vertex " << v;
+      ASSERT_EQ(b.embedding[v].local, local) << "frame " << f << " vertex " << v;
+      ++checked;
+    }
+  }
+  EXPECT_GT(WorldInternals::body(w, 0).cutLinks, 100u);
+  EXPECT_GT(checked, 1000u);
+}
+
 TEST(World, ProbePushesAndTheBodySpringsBack) {
   const std::string probe = R"("tools": [{"type": "probe", "radius": 0.01, "friction": 0,
       "keys": [{"t": 0.0, "p": [0, 0.075, 0]}, {"t": 0.2, "p": [0, 0.065, 0]},

@@ -299,8 +299,11 @@ struct World::Impl {
   [[nodiscard]] std::optional<std::vector<BladeSweep>> toolSweeps(SimBody& body, std::size_t tool,
                                                                   const Motion& motion,
                                                                   BladeEnds& ends) const;
-  bool updateTopology(SimBody& body, const std::vector<std::uint64_t>& cut, const BladeEnds& ends);
-  void updateSurface(SimBody& body, const std::vector<std::uint64_t>& cut, bool topologyChanged);
+  TopologyChange updateTopology(SimBody& body, const std::vector<std::uint64_t>& cut,
+                                const BladeEnds& ends);
+  void updateSurface(SimBody& body, const std::vector<std::uint64_t>& cut,
+                     const TopologyChange& change);
+  void renumberVertexElements(SimBody& body, const TopologyChange& change) const;
   void recordSolve(const StepStatus& status, FrameReport& report) const;
   /// Changes to the contact set of a step found after solving it (docs/algorithms.md,
   /// "Contact", the active set): keys vertex * shapes + shape, ascending.
@@ -849,11 +852,11 @@ void World::Impl::cutPhase(SimBody& b, const Motion& motion, std::vector<double>
   b.cutLinks += cut.size();
 
   Timer timer;
-  const bool topologyChanged = updateTopology(b, cut, ends);
+  const TopologyChange change = updateTopology(b, cut, ends);
   ms[kCutTopology] += timer.ms();
 
   timer.restart();
-  if (!cut.empty()) updateSurface(b, cut, topologyChanged);
+  if (!cut.empty()) updateSurface(b, cut, change);
   ms[kSurfaceUpdate] += timer.ms();
 
   timer.restart();
@@ -1311,10 +1314,10 @@ std::optional<std::vector<BladeSweep>> World::Impl::toolSweeps(SimBody& b, std::
 }
 
 // After the cuts: the cut topology, the model's and solver's, and the blades' fronts embedded
-// again. Returns whether the topology changed.
-bool World::Impl::updateTopology(SimBody& b, const std::vector<std::uint64_t>& cut,
-                                 const BladeEnds& ends) {
-  bool topologyChanged = false;
+// again. Returns how the topology changed.
+TopologyChange World::Impl::updateTopology(SimBody& b, const std::vector<std::uint64_t>& cut,
+                                           const BladeEnds& ends) {
+  TopologyChange change;
   // Fronts of blades that did not move this frame, where they are now (re-embedded after a
   // topology change, which renumbers elements but moves no material).
   std::vector<std::vector<Vec3d>> still(tools.size());
@@ -1324,11 +1327,9 @@ bool World::Impl::updateTopology(SimBody& b, const std::vector<std::uint64_t>& c
         std::vector<std::uint64_t> ids;
         frontStart(b.fronts[ti], b.cut.deformation, 0, still[ti], ids);
       }
-    const TopologyChange change =
-        updateCutTopology(b.cut.deformation, b.cut.grid, cut,
-                          CutTopologyParams{b.settings.finestLevel, settings.threaded});
+    change = updateCutTopology(b.cut.deformation, b.cut.grid, cut,
+                               CutTopologyParams{b.settings.finestLevel, settings.threaded});
     if (change.changed) {
-      topologyChanged = true;
       // The fixed boxes, applied to the new nodes in the same rebuild of the constraints.
       const std::vector<std::uint8_t> fixed =
           b.settings.fixed.empty() ? std::vector<std::uint8_t>{} : fixedFlags(b);
@@ -1340,25 +1341,48 @@ bool World::Impl::updateTopology(SimBody& b, const std::vector<std::uint64_t>& c
   for (std::size_t ti = 0; ti < tools.size(); ++ti) {
     if (!ends.points[ti].empty())
       b.fronts[ti] = embedFront(ends.points[ti], ends.ids[ti], b.cut.deformation);
-    else if (topologyChanged && !b.fronts[ti].empty())
+    else if (change.changed && !b.fronts[ti].empty())
       b.fronts[ti] = embedFront(still[ti], b.fronts[ti].ids, b.cut.deformation);
   }
-  return topologyChanged;
+  return change;
 }
 
-// The surface after the cuts, its new vertices embedded (every vertex when elements were
-// renumbered), and the change logged for readers.
-void World::Impl::updateSurface(SimBody& b, const std::vector<std::uint64_t>& cut,
-                                bool topologyChanged) {
-  SurfaceDelta delta = b.surface.update(b.cut.grid, cut);
-  if (topologyChanged) {
-    embedVertices(b, nullptr);  // element ids moved: every vertex looks its element up again
-  } else {
-    b.embedding.resize(b.surface.vertexSlots());
-    b.vertexPositions.resize(b.surface.vertexSlots(), Vec3d::Zero());
-    for (std::int32_t v : delta.removedVertices) b.embedding[static_cast<std::size_t>(v)] = {};
-    embedVertices(b, &delta.addedVertices);
+// After a topology change, each surface vertex's element id: the new id of its element when
+// that element was kept (same cube, same voxels: the vertex's trilinear coordinates in it are
+// the same), else looked up again from its voxel. One pass over the vertices with a table the
+// size of the elements; only the vertices in refined or copied elements read the grid-sized
+// embedding.
+void World::Impl::renumberVertexElements(SimBody& b, const TopologyChange& change) const {
+  std::vector<std::uint32_t> kept;  // old element -> its new id, or kNoElement
+  for (std::size_t e = 0; e < change.elementSource.size(); ++e) {
+    const std::uint32_t old = change.elementSource[e];
+    if (old == kNewElement) continue;
+    if (old >= kept.size()) kept.resize(static_cast<std::size_t>(old) + 1, kNoElement);
+    kept[old] = static_cast<std::uint32_t>(e);
   }
+  std::vector<std::int32_t> again;
+  for (std::size_t v = 0; v < b.embedding.size(); ++v) {
+    VertexEmbedding& em = b.embedding[v];
+    if (em.element == kNoElement) continue;
+    const std::uint32_t now = em.element < kept.size() ? kept[em.element] : kNoElement;
+    if (now != kNoElement)
+      em.element = now;
+    else
+      again.push_back(static_cast<std::int32_t>(v));
+  }
+  embedVertices(b, &again);
+}
+
+// The surface after the cuts, its new vertices embedded (and, when elements were renumbered,
+// the others' element ids renumbered), and the change logged for readers.
+void World::Impl::updateSurface(SimBody& b, const std::vector<std::uint64_t>& cut,
+                                const TopologyChange& change) {
+  SurfaceDelta delta = b.surface.update(b.cut.grid, cut);
+  b.embedding.resize(b.surface.vertexSlots());
+  b.vertexPositions.resize(b.surface.vertexSlots(), Vec3d::Zero());
+  for (std::int32_t v : delta.removedVertices) b.embedding[static_cast<std::size_t>(v)] = {};
+  if (change.changed) renumberVertexElements(b, change);
+  embedVertices(b, &delta.addedVertices);
   if (delta.addedVertices.empty() && delta.removedVertices.empty() &&
       delta.addedTriangles.empty() && delta.removedTriangles.empty())
     return;
