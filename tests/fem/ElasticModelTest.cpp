@@ -5,13 +5,13 @@
 #include <numeric>
 #include <vector>
 
+#include "../topology/OctreeChecks.h"
 #include "FemBodies.h"
-#include "OctreeChecks.h"
 #include "voxcut/core/Parallel.h"
-#include "voxcut/fem/CutTopology.h"
 #include "voxcut/fem/ElasticModel.h"
 #include "voxcut/fem/ImplicitEuler.h"
 #include "voxcut/io/ModelSource.h"
+#include "voxcut/topology/CutTopology.h"
 #include "voxcut/voxel/Voxelizer.h"
 
 namespace voxcut {

@@ -7,9 +7,9 @@
 
 #include "FemBodies.h"
 #include "voxcut/fem/BlockCholesky.h"
-#include "voxcut/fem/CutTopology.h"
 #include "voxcut/fem/FactorBridge.h"
 #include "voxcut/fem/ImplicitEuler.h"
+#include "voxcut/topology/CutTopology.h"
 
 namespace voxcut {
 namespace {

@@ -10,10 +10,10 @@
 
 #include "FemBodies.h"
 #include "voxcut/core/Parallel.h"
-#include "voxcut/fem/CutTopology.h"
-#include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/fem/ElasticModel.h"
 #include "voxcut/fem/ImplicitEuler.h"
+#include "voxcut/topology/CutTopology.h"
+#include "voxcut/topology/DeformationOctree.h"
 
 namespace voxcut {
 namespace {

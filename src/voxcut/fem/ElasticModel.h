@@ -27,10 +27,10 @@
 
 #include "voxcut/core/Types.h"
 #include "voxcut/fem/BlockPreconditioner.h"
-#include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/fem/HexElement.h"
-#include "voxcut/fem/TopologyChange.h"
 #include "voxcut/fem/TwoLevelPreconditioner.h"
+#include "voxcut/topology/DeformationOctree.h"
+#include "voxcut/topology/TopologyChange.h"
 #include "voxcut/voxel/VoxelGrid.h"
 
 namespace voxcut {

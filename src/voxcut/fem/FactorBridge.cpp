@@ -6,8 +6,8 @@
 #include "voxcut/core/Error.h"
 #include "voxcut/fem/BlockCholesky.h"
 #include "voxcut/fem/BlockPreconditioner.h"
-#include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/fem/ElasticModel.h"
+#include "voxcut/topology/DeformationOctree.h"
 
 namespace voxcut {
 

@@ -34,13 +34,13 @@
 #include "voxcut/core/Types.h"
 #include "voxcut/fem/BlockCholesky.h"
 #include "voxcut/fem/BlockPreconditioner.h"
-#include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/fem/ElasticModel.h"
 #include "voxcut/fem/FactorBridge.h"
 #include "voxcut/fem/RigidModes.h"
-#include "voxcut/fem/TopologyChange.h"
 #include "voxcut/fem/TwoLevelPreconditioner.h"
 #include "voxcut/linalg/Multigrid.h"
+#include "voxcut/topology/DeformationOctree.h"
+#include "voxcut/topology/TopologyChange.h"
 
 namespace voxcut {
 
