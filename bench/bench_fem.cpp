@@ -36,10 +36,10 @@
 
 #include "voxcut/core/Parallel.h"
 #include "voxcut/core/Timer.h"
-#include "voxcut/fem/BlockCholesky.h"
 #include "voxcut/fem/ElasticModel.h"
 #include "voxcut/fem/ImplicitEuler.h"
 #include "voxcut/io/ModelSource.h"
+#include "voxcut/linalg/BlockCholesky.h"
 #include "voxcut/topology/CutTopology.h"
 #include "voxcut/topology/DeformationOctree.h"
 #include "voxcut/voxel/Voxelizer.h"

@@ -6,9 +6,9 @@
 #include <vector>
 
 #include "FemBodies.h"
-#include "voxcut/fem/BlockCholesky.h"
 #include "voxcut/fem/FactorBridge.h"
 #include "voxcut/fem/ImplicitEuler.h"
+#include "voxcut/linalg/BlockCholesky.h"
 #include "voxcut/topology/CutTopology.h"
 
 namespace voxcut {

@@ -4,9 +4,9 @@
 #include <utility>
 
 #include "voxcut/core/Error.h"
-#include "voxcut/fem/BlockCholesky.h"
-#include "voxcut/fem/BlockPreconditioner.h"
 #include "voxcut/fem/ElasticModel.h"
+#include "voxcut/linalg/BlockCholesky.h"
+#include "voxcut/linalg/BlockPreconditioner.h"
 #include "voxcut/topology/DeformationOctree.h"
 
 namespace voxcut {

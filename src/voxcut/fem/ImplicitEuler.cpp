@@ -9,8 +9,8 @@
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/core/Timer.h"
-#include "voxcut/fem/BlockPreconditioner.h"
 #include "voxcut/fem/Corotation.h"
+#include "voxcut/linalg/BlockPreconditioner.h"
 
 namespace voxcut {
 

@@ -32,13 +32,13 @@
 #include <vector>
 
 #include "voxcut/core/Types.h"
-#include "voxcut/fem/BlockCholesky.h"
-#include "voxcut/fem/BlockPreconditioner.h"
 #include "voxcut/fem/ElasticModel.h"
 #include "voxcut/fem/FactorBridge.h"
 #include "voxcut/fem/RigidModes.h"
-#include "voxcut/fem/TwoLevelPreconditioner.h"
+#include "voxcut/linalg/BlockCholesky.h"
+#include "voxcut/linalg/BlockPreconditioner.h"
 #include "voxcut/linalg/Multigrid.h"
+#include "voxcut/linalg/TwoLevelPreconditioner.h"
 #include "voxcut/topology/DeformationOctree.h"
 #include "voxcut/topology/TopologyChange.h"
 
