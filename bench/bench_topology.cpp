@@ -70,7 +70,7 @@ std::vector<std::vector<std::uint64_t>> bladeFrames(const VoxelGrid& g, int fram
 }
 
 /// The connected links crossed by the plane n.x = d (voxel coordinates), as in
-/// tests/fem/CutTopologyTest.cpp's bunny ear cut.
+/// tests/topology/CutTopologyTest.cpp's bunny ear cut.
 std::vector<std::uint64_t> planeLinks(const VoxelGrid& g, const Vec3d& n, double d) {
   std::vector<std::uint64_t> ids;
   for (std::size_t v = 0; v < g.voxelCount(); ++v) {

@@ -116,8 +116,8 @@ class ElasticModel {
   /// rather than gathered anew; 0 after a full build.
   [[nodiscard]] std::size_t sparsityRowsReused() const { return sparsityRowsReused_; }
   /// The aggregates of the free nodes for the two-level preconditioner
-  /// (TwoLevelPreconditioner.h), for the current sparsity(): made by the first call after each
-  /// rebuild (a cost that a step preconditioned otherwise does not pay). That first call must
+  /// (linalg/TwoLevelPreconditioner.h), for the current sparsity(): made by the first call after
+  /// each rebuild (a cost that a step preconditioned otherwise does not pay). That first call must
   /// not run concurrently with another.
   [[nodiscard]] const NodeAggregation& aggregation() const;
   [[nodiscard]] bool threaded() const { return threaded_; }
