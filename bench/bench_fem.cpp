@@ -36,12 +36,12 @@
 
 #include "voxcut/core/Parallel.h"
 #include "voxcut/core/Timer.h"
-#include "voxcut/fem/BlockCholesky.h"
-#include "voxcut/fem/CutTopology.h"
-#include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/fem/ElasticModel.h"
 #include "voxcut/fem/ImplicitEuler.h"
 #include "voxcut/io/ModelSource.h"
+#include "voxcut/linalg/BlockCholesky.h"
+#include "voxcut/topology/CutTopology.h"
+#include "voxcut/topology/DeformationOctree.h"
 #include "voxcut/voxel/Voxelizer.h"
 
 namespace voxcut {
@@ -137,7 +137,7 @@ void runSteps(benchmark::State& state, const FemCase& base, long threadsArg, lon
   const ThreadLimit limit(threads);
   DeformationOctree octree = base.octree;
   ImplicitEulerParams params = base.params;
-  params.preconditioner = static_cast<Preconditioner>(preconditioner);
+  params.preconditioner = static_cast<PreconditionerKind>(preconditioner);
   ImplicitEuler solver(params);
   for (int s = 0; s < 20; ++s) (void)solver.step(base.model, octree);
   double iterations = 0, assembly = 0, solve = 0, failed = 0, steps = 0;
@@ -208,7 +208,7 @@ void DirectSolvers(benchmark::State& state) {
   const ThreadLimit limit(1);
   if (!cases.contains(resolution)) {
     FemCase c = scalingCase(resolution);
-    c.params.preconditioner = Preconditioner::Multigrid;
+    c.params.preconditioner = PreconditionerKind::Multigrid;
     DeformationOctree octree = c.octree;
     ImplicitEuler solver(c.params);
     for (int s = 0; s < 20; ++s) (void)solver.step(c.model, octree);

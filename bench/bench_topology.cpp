@@ -23,10 +23,10 @@
 
 #include "voxcut/core/Parallel.h"
 #include "voxcut/core/Timer.h"
-#include "voxcut/fem/CutTopology.h"
-#include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/fem/ElasticModel.h"
 #include "voxcut/io/ModelSource.h"
+#include "voxcut/topology/CutTopology.h"
+#include "voxcut/topology/DeformationOctree.h"
 #include "voxcut/voxel/Voxelizer.h"
 
 namespace voxcut {
@@ -70,7 +70,7 @@ std::vector<std::vector<std::uint64_t>> bladeFrames(const VoxelGrid& g, int fram
 }
 
 /// The connected links crossed by the plane n.x = d (voxel coordinates), as in
-/// tests/fem/CutTopologyTest.cpp's bunny ear cut.
+/// tests/topology/CutTopologyTest.cpp's bunny ear cut.
 std::vector<std::uint64_t> planeLinks(const VoxelGrid& g, const Vec3d& n, double d) {
   std::vector<std::uint64_t> ids;
   for (std::size_t v = 0; v < g.voxelCount(); ++v) {

@@ -4,9 +4,9 @@
 
 #include "voxcut/collision/SpatialHash.h"
 #include "voxcut/core/Parallel.h"
-#include "voxcut/fem/DeformationOctree.h"
-#include "voxcut/fem/PrescribedDeformation.h"
 #include "voxcut/io/ModelSource.h"
+#include "voxcut/topology/DeformationOctree.h"
+#include "voxcut/topology/PrescribedDeformation.h"
 #include "voxcut/voxel/Voxelizer.h"
 
 namespace voxcut {

@@ -4,11 +4,11 @@
 
 #include "voxcut/core/Parallel.h"
 #include "voxcut/cutting/CutStep.h"
-#include "voxcut/fem/CutTopology.h"
-#include "voxcut/fem/PrescribedDeformation.h"
 #include "voxcut/io/ModelSource.h"
 #include "voxcut/sim/SingleFrameCut.h"
 #include "voxcut/surface/DualContour.h"
+#include "voxcut/topology/CutTopology.h"
+#include "voxcut/topology/PrescribedDeformation.h"
 #include "voxcut/voxel/Pieces.h"
 #include "voxcut/voxel/Voxelizer.h"
 

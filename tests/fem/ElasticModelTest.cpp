@@ -5,13 +5,13 @@
 #include <numeric>
 #include <vector>
 
+#include "../topology/OctreeChecks.h"
 #include "FemBodies.h"
-#include "OctreeChecks.h"
 #include "voxcut/core/Parallel.h"
-#include "voxcut/fem/CutTopology.h"
 #include "voxcut/fem/ElasticModel.h"
 #include "voxcut/fem/ImplicitEuler.h"
 #include "voxcut/io/ModelSource.h"
+#include "voxcut/topology/CutTopology.h"
 #include "voxcut/voxel/Voxelizer.h"
 
 namespace voxcut {
@@ -45,7 +45,7 @@ TEST(ElasticModelTopology, IdentityUpdateChangesNothing) {
   p.gravity = Vec3d(0, 0, -9.81);
   // The Cholesky preconditioner treats a new structure (a new sparsity revision) differently
   // from one it has seen for a while; the two-level one depends only on the matrix.
-  p.preconditioner = Preconditioner::TwoLevel;
+  p.preconditioner = PreconditionerKind::TwoLevel;
   ImplicitEuler sa(p);
   for (int s = 0; s < 5; ++s) sa.step(a.model, a.octree);
   DeformationOctree octree = a.octree;  // a copy, as a cut step would make

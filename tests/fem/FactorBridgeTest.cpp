@@ -6,10 +6,10 @@
 #include <vector>
 
 #include "FemBodies.h"
-#include "voxcut/fem/BlockCholesky.h"
-#include "voxcut/fem/CutTopology.h"
 #include "voxcut/fem/FactorBridge.h"
 #include "voxcut/fem/ImplicitEuler.h"
+#include "voxcut/linalg/BlockCholesky.h"
+#include "voxcut/topology/CutTopology.h"
 
 namespace voxcut {
 namespace {
@@ -159,7 +159,7 @@ TEST(ImplicitEulerDynamics, CutStepIsBridgedAndAgreesWithTwoLevel) {
   p.tolerance = 1e-10;
   p.maxIterations = 2000;
   ImplicitEuler chol(p);
-  p.preconditioner = Preconditioner::TwoLevel;
+  p.preconditioner = PreconditionerKind::TwoLevel;
   ImplicitEuler two(p);
   bool factored = false;
   for (int s = 0; s < 4; ++s) {
@@ -174,7 +174,7 @@ TEST(ImplicitEulerDynamics, CutStepIsBridgedAndAgreesWithTwoLevel) {
   ASSERT_TRUE(sa.converged && sb.converged);
   EXPECT_TRUE(sa.bridged);
   EXPECT_FALSE(sa.factorised);
-  EXPECT_EQ(sa.preconditioner, Preconditioner::Cholesky);
+  EXPECT_EQ(sa.preconditioner, PreconditionerKind::Cholesky);
   EXPECT_FALSE(sb.bridged);
   EXPECT_LT(2 * sa.iterations, sb.iterations);  // measured: 13 against 27
   double moved = 0, difference = 0;
@@ -214,7 +214,7 @@ TEST(ImplicitEulerDynamics, AWornBridgeHandsCutStepsToTwoLevel) {
     EXPECT_FALSE(second.factorised);
     EXPECT_EQ(second.bridged, limit > 0) << limit;
     EXPECT_EQ(second.preconditioner,
-              limit > 0 ? Preconditioner::Cholesky : Preconditioner::TwoLevel);
+              limit > 0 ? PreconditionerKind::Cholesky : PreconditionerKind::TwoLevel);
   }
 }
 

@@ -6,8 +6,8 @@
 #include <random>
 #include <vector>
 
-#include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/fem/ElasticModel.h"
+#include "voxcut/topology/DeformationOctree.h"
 #include "voxcut/voxel/VoxelGrid.h"
 
 namespace voxcut::test {

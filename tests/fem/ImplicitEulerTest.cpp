@@ -10,10 +10,10 @@
 
 #include "FemBodies.h"
 #include "voxcut/core/Parallel.h"
-#include "voxcut/fem/CutTopology.h"
-#include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/fem/ElasticModel.h"
 #include "voxcut/fem/ImplicitEuler.h"
+#include "voxcut/topology/CutTopology.h"
+#include "voxcut/topology/DeformationOctree.h"
 
 namespace voxcut {
 namespace {
@@ -357,7 +357,7 @@ std::vector<std::uint8_t> nodesAtZero(const DeformationOctree& oc, int axis) {
 }
 
 std::vector<Vec3d> runSteps(int threads, int steps, std::vector<StepStatus>& statuses,
-                            Preconditioner kind) {
+                            PreconditionerKind kind) {
   ThreadLimit limit(threads);
   Body b = smallBody(0.2, 1e-4);
   b.model.setFixed(nodesAtZero(b.octree, 0));
@@ -371,8 +371,8 @@ std::vector<Vec3d> runSteps(int threads, int steps, std::vector<StepStatus>& sta
 }
 
 TEST(ImplicitEulerDynamics, BitIdenticalAtOneAndTwoThreads) {
-  for (Preconditioner kind :
-       {Preconditioner::TwoLevel, Preconditioner::Cholesky, Preconditioner::Multigrid}) {
+  for (PreconditionerKind kind : {PreconditionerKind::TwoLevel, PreconditionerKind::Cholesky,
+                                  PreconditionerKind::Multigrid}) {
     std::vector<StepStatus> one, two;
     const auto a = runSteps(1, 25, one, kind);
     const auto b = runSteps(2, 25, two, kind);
@@ -394,7 +394,7 @@ TEST(ImplicitEulerDynamics, CholeskyFactorIsReusedUntilStaleAndRedoneAfterAChang
   perturb(b.octree, 2e-3);
   ImplicitEulerParams p;
   p.gravity = Vec3d(0.3, -2.0, -9.81);
-  p.preconditioner = Preconditioner::Cholesky;
+  p.preconditioner = PreconditionerKind::Cholesky;
   p.refactorIterations = 2;
   ImplicitEuler solver(p);
   std::vector<StepStatus> st;
@@ -403,7 +403,7 @@ TEST(ImplicitEulerDynamics, CholeskyFactorIsReusedUntilStaleAndRedoneAfterAChang
     ASSERT_TRUE(st.back().converged) << "step " << s;
   }
   EXPECT_FALSE(st[0].factorised);  // the first step on a structure: two-level
-  EXPECT_EQ(st[0].preconditioner, Preconditioner::TwoLevel);
+  EXPECT_EQ(st[0].preconditioner, PreconditionerKind::TwoLevel);
   EXPECT_TRUE(st[1].factorised);
   int reused = 0;
   for (std::size_t s = 2; s < st.size(); ++s) {
@@ -425,11 +425,11 @@ TEST(ImplicitEulerDynamics, CholeskyFactorIsReusedUntilStaleAndRedoneAfterAChang
   EXPECT_TRUE(change.converged);
   EXPECT_FALSE(change.factorised);
   EXPECT_TRUE(change.bridged);
-  EXPECT_EQ(change.preconditioner, Preconditioner::Cholesky);
+  EXPECT_EQ(change.preconditioner, PreconditionerKind::Cholesky);
   const StepStatus after = solver.step(b.model, b.octree);
   EXPECT_TRUE(after.converged);
   EXPECT_TRUE(after.factorised);
-  EXPECT_EQ(after.preconditioner, Preconditioner::Cholesky);
+  EXPECT_EQ(after.preconditioner, PreconditionerKind::Cholesky);
   // A factor over either cost limit is never computed: the two-level preconditioner stands in
   // (after one step on the factor there is, bridged, the first time).
   for (int limit = 0; limit < 2; ++limit) {
@@ -447,7 +447,7 @@ TEST(ImplicitEulerDynamics, CholeskyFactorIsReusedUntilStaleAndRedoneAfterAChang
       EXPECT_FALSE(fallback.bridged);
       EXPECT_TRUE(fallback.converged);
       EXPECT_FALSE(fallback.factorised);
-      EXPECT_EQ(fallback.preconditioner, Preconditioner::TwoLevel);
+      EXPECT_EQ(fallback.preconditioner, PreconditionerKind::TwoLevel);
       EXPECT_GT(fallback.iterations, 2);
     }
   }
@@ -469,7 +469,7 @@ TEST(ImplicitEulerDynamics, BlockJacobiAndJacobiAgree) {
   p.tolerance = 1e-12;
   p.maxIterations = 1000;
   ImplicitEuler sb(p);
-  p.preconditioner = Preconditioner::Jacobi;
+  p.preconditioner = PreconditionerKind::Jacobi;
   ImplicitEuler sc(p);
   for (int s = 0; s < 5; ++s) {
     EXPECT_TRUE(sb.step(b.model, b.octree).converged);
@@ -487,13 +487,14 @@ TEST(ImplicitEulerDynamics, CoupledPreconditionersAgreeWithBlockJacobi) {
   p.tolerance = 1e-12;
   p.maxIterations = 1000;
   p.gravity = Vec3d(0, 0, -9.81);
-  p.preconditioner = Preconditioner::BlockJacobi;
+  p.preconditioner = PreconditionerKind::BlockJacobi;
   Body reference = base;
   ImplicitEuler sr(p);
   for (int s = 0; s < 5; ++s) ASSERT_TRUE(sr.step(reference.model, reference.octree).converged);
-  for (Preconditioner kind :
-       {Preconditioner::SymmetricGaussSeidel, Preconditioner::IncompleteCholesky,
-        Preconditioner::TwoLevel, Preconditioner::Cholesky, Preconditioner::Multigrid}) {
+  for (PreconditionerKind kind :
+       {PreconditionerKind::SymmetricGaussSeidel, PreconditionerKind::IncompleteCholesky,
+        PreconditionerKind::TwoLevel, PreconditionerKind::Cholesky,
+        PreconditionerKind::Multigrid}) {
     Body b = base;
     p.preconditioner = kind;
     ImplicitEuler solver(p);
@@ -545,12 +546,12 @@ TEST(ImplicitEulerDynamics, CoupledPreconditionersConvergeOnAMixedLevelMesh) {
   p.maxFactorUpdates = 1e12;
   p.maxFactorUpdatesPerBlock = 1e12;
   constexpr int kKinds = 6;
-  const Preconditioner kinds[kKinds] = {Preconditioner::BlockJacobi,
-                                        Preconditioner::IncompleteCholesky,
-                                        Preconditioner::SymmetricGaussSeidel,
-                                        Preconditioner::TwoLevel,
-                                        Preconditioner::Cholesky,
-                                        Preconditioner::Multigrid};
+  const PreconditionerKind kinds[kKinds] = {PreconditionerKind::BlockJacobi,
+                                            PreconditionerKind::IncompleteCholesky,
+                                            PreconditionerKind::SymmetricGaussSeidel,
+                                            PreconditionerKind::TwoLevel,
+                                            PreconditionerKind::Cholesky,
+                                            PreconditionerKind::Multigrid};
   std::vector<Vec3d> result[kKinds];
   int iterations[kKinds] = {};
   for (int k = 0; k < kKinds; ++k) {
@@ -649,7 +650,7 @@ std::pair<Vec3d, Vec3d> momentaAfterTwoSteps(double tolerance, bool correct) {
   p.tolerance = tolerance;
   p.maxIterations = 10000;
   p.rigidCorrection = correct;
-  p.preconditioner = Preconditioner::Jacobi;
+  p.preconditioner = PreconditionerKind::Jacobi;
   ImplicitEuler solver(p);
   (void)solver.step(b.model, b.octree);
   (void)solver.step(b.model, b.octree);

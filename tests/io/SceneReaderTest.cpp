@@ -434,12 +434,12 @@ TEST(SceneReaderErrors, OutOfRangeNamesTheKeyPathAndTheValue) {
 }
 
 TEST(SceneReader, PreconditionerByName) {
-  for (Preconditioner kind : kPreconditioners) {
+  for (PreconditionerKind kind : kPreconditionerKinds) {
     const Scene scene = parse(withTop(std::string(R"("solver": {"preconditioner": ")") +
                                       preconditionerName(kind) + "\"}"));
     EXPECT_EQ(scene.solver.preconditioner, kind) << preconditionerName(kind);
   }
-  EXPECT_EQ(parse(withTop(R"("frames": 3)")).solver.preconditioner, Preconditioner::Cholesky);
+  EXPECT_EQ(parse(withTop(R"("frames": 3)")).solver.preconditioner, PreconditionerKind::Cholesky);
 }
 
 TEST(SceneReaderErrors, NotAnIntegerIsAnError) {

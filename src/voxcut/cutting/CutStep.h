@@ -13,9 +13,9 @@
 
 #include "voxcut/collision/LayeredHash.h"
 #include "voxcut/cutting/Blade.h"
-#include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/octree/OctreeSubdivision.h"
 #include "voxcut/octree/VoxelOctree.h"
+#include "voxcut/topology/DeformationOctree.h"
 #include "voxcut/voxel/LinkCut.h"
 
 namespace voxcut {

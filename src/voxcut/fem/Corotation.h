@@ -9,7 +9,7 @@
 #include <array>
 #include <cstdint>
 
-#include "voxcut/fem/DeformationOctree.h"
+#include "voxcut/topology/DeformationOctree.h"
 
 namespace voxcut {
 

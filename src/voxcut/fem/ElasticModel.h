@@ -26,45 +26,18 @@
 #include <vector>
 
 #include "voxcut/core/Types.h"
-#include "voxcut/fem/BlockPreconditioner.h"
-#include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/fem/HexElement.h"
-#include "voxcut/fem/TopologyChange.h"
-#include "voxcut/fem/TwoLevelPreconditioner.h"
+#include "voxcut/linalg/BlockSparsity.h"
+#include "voxcut/linalg/SparseRows.h"
+#include "voxcut/linalg/TwoLevelPreconditioner.h"
+#include "voxcut/topology/DeformationOctree.h"
+#include "voxcut/topology/TopologyChange.h"
 #include "voxcut/voxel/VoxelGrid.h"
 
 namespace voxcut {
 
 /// Marks a node that is not a reduced unknown (hanging, fixed or unused).
 inline constexpr std::uint32_t kNotFree = 0xffffffffu;
-
-/// Compressed rows of (index, weight) pairs; row r holds entries [start[r], start[r + 1]).
-struct WeightedRows {
-  std::vector<std::uint32_t> start{0};
-  std::vector<std::uint32_t> index;
-  std::vector<double> weight;
-
-  [[nodiscard]] std::size_t rows() const { return start.size() - 1; }
-};
-
-/// The reduced system's 3x3-block sparsity (symmetric pattern, both triangles stored) and, per
-/// block, the sources summed into it each step, in a fixed order (deterministic assembly).
-struct BlockSparsity {
-  std::vector<std::uint32_t> rowStart{0};  ///< #free + 1 offsets into column
-  std::vector<std::uint32_t> column;       ///< free index of each block, ascending per row
-  std::vector<std::uint32_t> diagonal;     ///< slot of block (i, i), #free
-  /// Per block on or above the diagonal (the assembly mirrors the others, which have none),
-  /// sources [sourceStart[s], sourceStart[s + 1]): an id below 64 * #elements is
-  /// the element block 64 e + 8 a + b (corners a, b of element e); an id 64 * #elements + n is
-  /// node n's lumped mass (times the identity); each with a weight (products of prolongation
-  /// weights).
-  std::vector<std::uint32_t> sourceStart{0};
-  std::vector<std::uint32_t> source;
-  std::vector<double> sourceWeight;
-  std::vector<std::uint32_t> mirror;  ///< per slot (i, k), the slot (k, i)
-
-  [[nodiscard]] std::size_t blockCount() const { return column.size(); }
-};
 
 /// The composite FEM set-up of one deformation octree. Copyable.
 class ElasticModel {
@@ -130,6 +103,10 @@ class ElasticModel {
   /// Element corners at each node: row n lists 8 e + c for every corner c of element e that
   /// is node n, ascending (weights unused, 1).
   [[nodiscard]] const WeightedRows& incidence() const { return incidence_; }
+  /// The reduced system's 3x3-block sparsity, one row per free node, with its assembly plan:
+  /// a source id below 64 * #elements is the element block 64 e + 8 a + b (corners a, b of
+  /// element e); an id 64 * #elements + n is node n's lumped mass (times the identity); each
+  /// with a weight (products of prolongation weights).
   [[nodiscard]] const BlockSparsity& sparsity() const { return sparsity_; }
   /// Changes whenever sparsity() is rebuilt or updated (unique across models; copies share
   /// it), so that a solver can keep structures derived from the sparsity (ImplicitEuler's
@@ -139,8 +116,8 @@ class ElasticModel {
   /// rather than gathered anew; 0 after a full build.
   [[nodiscard]] std::size_t sparsityRowsReused() const { return sparsityRowsReused_; }
   /// The aggregates of the free nodes for the two-level preconditioner
-  /// (TwoLevelPreconditioner.h), for the current sparsity(): made by the first call after each
-  /// rebuild (a cost that a step preconditioned otherwise does not pay). That first call must
+  /// (linalg/TwoLevelPreconditioner.h), for the current sparsity(): made by the first call after
+  /// each rebuild (a cost that a step preconditioned otherwise does not pay). That first call must
   /// not run concurrently with another.
   [[nodiscard]] const NodeAggregation& aggregation() const;
   [[nodiscard]] bool threaded() const { return threaded_; }

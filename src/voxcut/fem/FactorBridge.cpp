@@ -4,10 +4,10 @@
 #include <utility>
 
 #include "voxcut/core/Error.h"
-#include "voxcut/fem/BlockCholesky.h"
-#include "voxcut/fem/BlockPreconditioner.h"
-#include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/fem/ElasticModel.h"
+#include "voxcut/linalg/BlockCholesky.h"
+#include "voxcut/linalg/BlockPreconditioner.h"
+#include "voxcut/topology/DeformationOctree.h"
 
 namespace voxcut {
 

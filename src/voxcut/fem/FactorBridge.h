@@ -36,7 +36,7 @@
 #include <vector>
 
 #include "voxcut/core/Types.h"
-#include "voxcut/fem/TopologyChange.h"
+#include "voxcut/topology/TopologyChange.h"
 
 namespace voxcut {
 

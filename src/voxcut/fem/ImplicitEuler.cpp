@@ -4,13 +4,15 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <utility>
 
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/core/Timer.h"
-#include "voxcut/fem/BlockPreconditioner.h"
 #include "voxcut/fem/Corotation.h"
+#include "voxcut/linalg/BlockPreconditioner.h"
+#include "voxcut/linalg/ChunkedSum.h"
 
 namespace voxcut {
 
@@ -25,62 +27,6 @@ constexpr std::array<std::array<std::uint8_t, 8>, 8> kUpperBlock = [] {
     for (int b = a; b < 8; ++b) t[a][b] = t[b][a] = next++;
   return t;
 }();
-
-/// Rows per chunk of a dot product: partial sums land in fixed slots and are added in chunk
-/// order, so the result does not depend on how the scheduler splits the range.
-constexpr std::size_t kChunk = 256;
-
-/// sum_i body(i) over [0, rows), chunked as above. body may also write row i's outputs.
-template <class Body>
-double chunkedSum(std::size_t rows, std::vector<double>& partial, bool threaded, Body&& body) {
-  const std::size_t chunks = (rows + kChunk - 1) / kChunk;
-  partial.resize(chunks);
-  parallelFor(
-      0, chunks, 1,
-      [&](std::size_t b, std::size_t e) {
-        for (std::size_t c = b; c < e; ++c) {
-          double s = 0.0;
-          const std::size_t end = std::min(rows, (c + 1) * kChunk);
-          for (std::size_t i = c * kChunk; i < end; ++i) s += body(i);
-          partial[c] = s;
-        }
-      },
-      threaded);
-  double sum = 0.0;
-  for (std::size_t c = 0; c < chunks; ++c) sum += partial[c];
-  return sum;
-}
-
-/// Two sums at once: body(i) returns a pair.
-template <class Body>
-std::pair<double, double> chunkedSum2(std::size_t rows, std::vector<double>& partial,
-                                      std::vector<double>& partial2, bool threaded, Body&& body) {
-  const std::size_t chunks = (rows + kChunk - 1) / kChunk;
-  partial.resize(chunks);
-  partial2.resize(chunks);
-  parallelFor(
-      0, chunks, 1,
-      [&](std::size_t b, std::size_t e) {
-        for (std::size_t c = b; c < e; ++c) {
-          double s = 0.0, s2 = 0.0;
-          const std::size_t end = std::min(rows, (c + 1) * kChunk);
-          for (std::size_t i = c * kChunk; i < end; ++i) {
-            const auto [x, y] = body(i);
-            s += x;
-            s2 += y;
-          }
-          partial[c] = s;
-          partial2[c] = s2;
-        }
-      },
-      threaded);
-  double sum = 0.0, sum2 = 0.0;
-  for (std::size_t c = 0; c < chunks; ++c) {
-    sum += partial[c];
-    sum2 += partial2[c];
-  }
-  return {sum, sum2};
-}
 
 /// P applied to reduced values: out[n] = sum over node n's prolongation row.
 void prolong(const WeightedRows& p, const std::vector<Vec3d>& reduced, std::vector<Vec3d>& out,
@@ -124,21 +70,21 @@ std::vector<std::uint8_t> anchoredRows(const ElasticModel& model) {
 
 }  // namespace
 
-const char* preconditionerName(Preconditioner p) {
+const char* preconditionerName(PreconditionerKind p) {
   switch (p) {
-    case Preconditioner::Jacobi:
+    case PreconditionerKind::Jacobi:
       return "jacobi";
-    case Preconditioner::BlockJacobi:
+    case PreconditionerKind::BlockJacobi:
       return "block_jacobi";
-    case Preconditioner::SymmetricGaussSeidel:
+    case PreconditionerKind::SymmetricGaussSeidel:
       return "symmetric_gauss_seidel";
-    case Preconditioner::IncompleteCholesky:
+    case PreconditionerKind::IncompleteCholesky:
       return "incomplete_cholesky";
-    case Preconditioner::TwoLevel:
+    case PreconditionerKind::TwoLevel:
       return "two_level";
-    case Preconditioner::Cholesky:
+    case PreconditionerKind::Cholesky:
       return "cholesky";
-    case Preconditioner::Multigrid:
+    case PreconditionerKind::Multigrid:
       return "multigrid";
   }
   return "unknown";
@@ -212,7 +158,7 @@ void ImplicitEuler::resize(const ElasticModel& model) {
   nodeRhs_.resize(nodes);
   blocks_.resize(model.sparsity().blockCount());
   preconditioner_.resize(free);
-  for (auto* v : {&b_, &x_, &r_, &z_, &p_, &q_, &vr_, &shift_}) v->resize(free);
+  for (auto* v : {&b_, &x_, &r_, &q_, &vr_, &shift_}) v->resize(free);
   massRow_.resize(free);
 }
 
@@ -310,7 +256,7 @@ void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree&
   const BlockSparsity& sp = model.sparsity();
   const std::vector<std::uint32_t>& mirror = sp.mirror;
   const auto massBase = static_cast<std::uint32_t>(64 * model.elementCount());
-  const bool block = params_.preconditioner != Preconditioner::Jacobi;
+  const bool block = params_.preconditioner != PreconditionerKind::Jacobi;
   parallelFor(
       0, model.freeNodeCount(), 128,
       [&](std::size_t b, std::size_t end) {
@@ -359,37 +305,141 @@ void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree&
       threaded);
 }
 
+/// The preconditioner of one solve, through linalg's interface. setOperator, which the
+/// conjugate gradients call once an iteration is needed, decides what preconditions this step
+/// (Cholesky's factor, made anew or kept; the earlier factor through the bridge; the two-level
+/// V-cycle where neither is to be had; the multigrid's levels, remade or kept: see
+/// ImplicitEulerParams), sets it up and writes the choice into the step's status; apply runs
+/// it. Jacobi and block Jacobi act row by row with the assembly's inverse diagonal blocks.
+class ImplicitEuler::StepPreconditioner final : public LinearPreconditioner {
+ public:
+  StepPreconditioner(ImplicitEuler& solver, const ElasticModel& model, StepStatus& status)
+      : solver_(solver), model_(model), status_(status), kind_(solver.params_.preconditioner) {}
+
+  [[nodiscard]] bool setOperator(const BlockMatrixView& a, bool threaded) override;
+  void apply(const std::vector<Vec3d>& r, std::vector<Vec3d>& z) override;
+  [[nodiscard]] const Eigen::Matrix3d* rowBlocks() const override {
+    const bool pointwise =
+        kind_ == PreconditionerKind::Jacobi || kind_ == PreconditionerKind::BlockJacobi;
+    return pointwise ? solver_.preconditioner_.data() : nullptr;
+  }
+
+ private:
+  ImplicitEuler& solver_;
+  const ElasticModel& model_;
+  StepStatus& status_;
+  PreconditionerKind kind_;  ///< what apply runs (Cholesky may hand a step to TwoLevel)
+  bool bridged_ = false;     ///< apply runs the earlier factor through the bridge
+  bool threaded_ = true;
+};
+
+bool ImplicitEuler::StepPreconditioner::setOperator(const BlockMatrixView& view, bool threaded) {
+  ImplicitEuler& s = solver_;
+  const ElasticModel& model = model_;
+  const ImplicitEulerParams& params = s.params_;
+  const BlockSparsity& sp = model.sparsity();
+  const std::size_t rows = view.rows;
+  threaded_ = threaded;
+  if (kind_ == PreconditionerKind::IncompleteCholesky) {
+    if (s.icRevision_ != model.sparsityRevision()) {
+      s.icPattern_ = incompleteCholeskyPattern(sp);
+      s.icRevision_ = model.sparsityRevision();
+    }
+    factorIncompleteCholesky(sp, s.icPattern_, s.blocks_, s.factor_);
+  }
+  if (kind_ == PreconditionerKind::Cholesky) {
+    // A new structure is analysed and factorised once it has lasted factorAfterSteps steps;
+    // until then, when its factor would cost too much, or when the matrix is not SPD, the
+    // two-level V-cycle stands in. A structure at least 90 % the size of one whose factor
+    // was too costly is not analysed again (the analysis alone takes tens of ms there).
+    const std::uint64_t revision = model.sparsityRevision();
+    if (s.choleskyRevision_ != revision && s.costlyRevision_ != revision &&
+        s.stepsOnStructure_ >= params.factorAfterSteps) {
+      if (s.costlyRows_ != 0 && 10 * rows >= 9 * s.costlyRows_) {
+        s.costlyRevision_ = revision;
+      } else {
+        s.cholesky_.analyse(sp);
+        s.bridge_.invalidate();
+        s.choleskyRevision_ = revision;
+        const double updates = s.cholesky_.updateCount();
+        s.costlyRows_ = 0;
+        if (updates > params.maxFactorUpdates ||
+            updates > params.maxFactorUpdatesPerBlock * static_cast<double>(sp.blockCount())) {
+          s.costlyRows_ = rows;
+          s.costlyRevision_ = revision;
+          s.cholesky_ = BlockCholesky{};  // its pattern's memory back
+        }
+      }
+    }
+    if (s.choleskyRevision_ != revision || s.costlyRevision_ == revision) {
+      // The earlier factor through the node map when step() could prepare it.
+      bridged_ = s.bridgeRevision_ == revision && s.bridge_.valid() && s.cholesky_.factorised();
+      if (!bridged_) kind_ = PreconditionerKind::TwoLevel;
+    } else if (!s.cholesky_.factorised() || s.lastIterations_ > params.refactorIterations) {
+      status_.factorised = s.cholesky_.factorise(sp, s.blocks_, threaded);
+      if (status_.factorised)
+        s.bridge_.reset(model);
+      else {
+        s.bridge_.invalidate();
+        kind_ = PreconditionerKind::TwoLevel;
+      }
+    }
+  }
+  if (kind_ == PreconditionerKind::Multigrid) {
+    // The hierarchy follows the sparsity; its coarse levels are remade when the last step
+    // showed them stale, else only the fine smoother follows the new matrix.
+    if (s.multigridRefreshed_) s.multigridBaseIterations_ = s.lastIterations_;
+    s.multigridRefreshed_ = false;
+    bool ok = false;
+    if (s.multigridRevision_ != model.sparsityRevision() || !s.multigrid_.built()) {
+      s.multigrid_.build(view, s.freeCoords_, params.multigrid, threaded);
+      s.multigridRevision_ = model.sparsityRevision();
+      ok = s.multigridRefreshed_ = s.multigrid_.setOperator(view, threaded);
+    } else if (!s.multigrid_.valid() ||
+               s.lastIterations_ > s.multigridBaseIterations_ + params.multigridRefreshIterations) {
+      ok = s.multigridRefreshed_ = s.multigrid_.setOperator(view, threaded);
+    } else {
+      ok = s.multigrid_.updateFine(view, threaded);
+      if (!ok) ok = s.multigridRefreshed_ = s.multigrid_.setOperator(view, threaded);
+    }
+    if (!ok) kind_ = PreconditionerKind::TwoLevel;
+  }
+  if (kind_ == PreconditionerKind::TwoLevel)
+    (void)s.twoLevel_.setup(sp, model.aggregation(), s.blocks_, &s.freePositions_, threaded);
+  status_.preconditioner = kind_;
+  status_.bridged = bridged_;
+  return true;  // every kind above applies, the two-level V-cycle as smoothing alone at worst
+}
+
+void ImplicitEuler::StepPreconditioner::apply(const std::vector<Vec3d>& r, std::vector<Vec3d>& z) {
+  ImplicitEuler& s = solver_;
+  const BlockSparsity& sp = model_.sparsity();
+  if (bridged_)
+    s.bridge_.apply(sp, s.blocks_, s.cholesky_, s.preconditioner_, r, z);
+  else if (kind_ == PreconditionerKind::Cholesky)
+    s.cholesky_.solve(r, z);
+  else if (kind_ == PreconditionerKind::IncompleteCholesky)
+    applyIncompleteCholesky(sp, s.factor_, r, z);
+  else if (kind_ == PreconditionerKind::Multigrid)
+    s.multigrid_.apply(r, z);
+  else if (kind_ == PreconditionerKind::TwoLevel)
+    s.twoLevel_.apply(sp, model_.aggregation(), s.blocks_, s.preconditioner_, r, z, threaded_);
+  else
+    applySymmetricGaussSeidel(sp, s.blocks_, s.preconditioner_, r, z);
+}
+
 StepStatus ImplicitEuler::solve(const ElasticModel& model) {
   const bool threaded = model.threaded();
   const std::size_t rows = model.freeNodeCount();
   const BlockSparsity& sp = model.sparsity();
-  const Eigen::Matrix3d* blocks = blocks_.data();
-  const std::uint32_t* column = sp.column.data();
-  const std::uint32_t* rowStart = sp.rowStart.data();
-  const BlockMatrixView view{rows, rowStart, column, sp.diagonal.data(), blocks};
-  // Row i of A x: most of the solve.
+  const BlockMatrixView view = sp.view(blocks_);
+  VOXCUT_ASSERT(view.rows == rows, "the sparsity does not match the free nodes");
+  const Eigen::Matrix3d* blocks = view.blocks;
+  const std::uint32_t* column = view.column;
+  const std::uint32_t* rowStart = view.rowStart;
+  // Row i of A x (the arrays held in locals: the products are the hot loop).
   auto multiply = [&](const std::vector<Vec3d>& in, std::size_t i) {
     return blockRowProduct(blocks, column, in.data(), rowStart[i], rowStart[i + 1]);
-  };
-  // Jacobi and block Jacobi act row by row, fused into the vector updates; the coupled
-  // preconditioners run as one sequential sweep over all rows after them.
-  Preconditioner kind = params_.preconditioner;
-  const bool pointwise = kind == Preconditioner::Jacobi || kind == Preconditioner::BlockJacobi;
-  bool bridged = false;
-  auto precondition = [&] {
-    if (bridged)
-      bridge_.apply(sp, blocks_, cholesky_, preconditioner_, r_, z_);
-    else if (kind == Preconditioner::Cholesky)
-      cholesky_.solve(r_, z_);
-    else if (kind == Preconditioner::IncompleteCholesky)
-      applyIncompleteCholesky(sp, factor_, r_, z_);
-    else if (kind == Preconditioner::Multigrid)
-      multigrid_.apply(view, r_, z_, threaded);
-    else if (kind == Preconditioner::TwoLevel)
-      twoLevel_.apply(sp, model.aggregation(), blocks_, preconditioner_, r_, z_, threaded);
-    else
-      applySymmetricGaussSeidel(sp, blocks_, preconditioner_, r_, z_);
-    return chunkedSum(rows, partial_, threaded, [&](std::size_t i) { return r_[i].dot(z_[i]); });
   };
 
   StepStatus status;
@@ -398,16 +448,12 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
     x_[i] = params_.warmStart ? lastDv_[model.freeNodes()[i]] : Vec3d::Zero();
     return b_[i].squaredNorm();
   });
-  if (!std::isfinite(bb)) {
-    status.finite = false;
+  if (const std::optional<ConjugateGradientStatus> trivial =
+          ConjugateGradients::trivialSolve(bb, x_)) {
+    status.finite = trivial->finite;
+    status.converged = trivial->converged;
     return status;
   }
-  if (bb == 0.0) {
-    std::fill(x_.begin(), x_.end(), Vec3d::Zero());
-    status.converged = true;
-    return status;
-  }
-  const double stop = params_.tolerance * params_.tolerance * bb;
   // The rigid-mode correction (RigidModes.h) of the start, and again of the result: A times
   // the modes is made once for both.
   const bool correctRigid = params_.rigidCorrection;
@@ -457,7 +503,7 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
         threaded);
     rigid_.setOperator(rigidProducts_);
   }
-  // r = b - A x0 (corrected), z = M^-1 r, p = z; q holds x0 less its shift meanwhile.
+  // r = b - A x0 (corrected); q holds x0 less its shift meanwhile.
   parallelFor(
       0, rows, 256,
       [&](std::size_t b, std::size_t e) {
@@ -472,122 +518,17 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
       },
       threaded);
   if (correctRigid) rigid_.correct(x_, r_);
-  auto [rz, rr] = chunkedSum2(rows, partial_, partial2_, threaded, [&](std::size_t i) {
-    if (!pointwise) return std::pair{0.0, r_[i].squaredNorm()};
-    z_[i] = preconditioner_[i] * r_[i];
-    return std::pair{r_[i].dot(z_[i]), r_[i].squaredNorm()};
-  });
-  bool finite = std::isfinite(rr);
-  if (finite && rr > stop && status.iterations < params_.maxIterations && !pointwise) {
-    if (kind == Preconditioner::IncompleteCholesky) {
-      if (icRevision_ != model.sparsityRevision()) {
-        icPattern_ = incompleteCholeskyPattern(sp);
-        icRevision_ = model.sparsityRevision();
-      }
-      factorIncompleteCholesky(sp, icPattern_, blocks_, factor_);
-    }
-    if (kind == Preconditioner::Cholesky) {
-      // A new structure is analysed and factorised once it has lasted factorAfterSteps steps;
-      // until then, when its factor would cost too much, or when the matrix is not SPD, the
-      // two-level V-cycle stands in. A structure at least 90 % the size of one whose factor
-      // was too costly is not analysed again (the analysis alone takes tens of ms there).
-      const std::uint64_t revision = model.sparsityRevision();
-      if (choleskyRevision_ != revision && costlyRevision_ != revision &&
-          stepsOnStructure_ >= params_.factorAfterSteps) {
-        if (costlyRows_ != 0 && 10 * rows >= 9 * costlyRows_) {
-          costlyRevision_ = revision;
-        } else {
-          cholesky_.analyse(sp);
-          bridge_.invalidate();
-          choleskyRevision_ = revision;
-          const double updates = cholesky_.updateCount();
-          costlyRows_ = 0;
-          if (updates > params_.maxFactorUpdates ||
-              updates > params_.maxFactorUpdatesPerBlock * static_cast<double>(sp.blockCount())) {
-            costlyRows_ = rows;
-            costlyRevision_ = revision;
-            cholesky_ = BlockCholesky{};  // its pattern's memory back
-          }
-        }
-      }
-      if (choleskyRevision_ != revision || costlyRevision_ == revision) {
-        // The earlier factor through the node map when step() could prepare it.
-        bridged = bridgeRevision_ == revision && bridge_.valid() && cholesky_.factorised();
-        if (!bridged) kind = Preconditioner::TwoLevel;
-      } else if (!cholesky_.factorised() || lastIterations_ > params_.refactorIterations) {
-        status.factorised = cholesky_.factorise(sp, blocks_, threaded);
-        if (status.factorised)
-          bridge_.reset(model);
-        else {
-          bridge_.invalidate();
-          kind = Preconditioner::TwoLevel;
-        }
-      }
-    }
-    if (kind == Preconditioner::Multigrid) {
-      // The hierarchy follows the sparsity; its coarse levels are remade when the last step
-      // showed them stale, else only the fine smoother follows the new matrix.
-      if (multigridRefreshed_) multigridBaseIterations_ = lastIterations_;
-      multigridRefreshed_ = false;
-      bool ok = false;
-      if (multigridRevision_ != model.sparsityRevision() || !multigrid_.built()) {
-        multigrid_.build(view, freeCoords_, params_.multigrid, threaded);
-        multigridRevision_ = model.sparsityRevision();
-        ok = multigridRefreshed_ = multigrid_.setup(view, threaded);
-      } else if (!multigrid_.valid() ||
-                 lastIterations_ > multigridBaseIterations_ + params_.multigridRefreshIterations) {
-        ok = multigridRefreshed_ = multigrid_.setup(view, threaded);
-      } else {
-        ok = multigrid_.updateFine(view, threaded);
-        if (!ok) ok = multigridRefreshed_ = multigrid_.setup(view, threaded);
-      }
-      if (!ok) kind = Preconditioner::TwoLevel;
-    }
-    if (kind == Preconditioner::TwoLevel)
-      (void)twoLevel_.setup(sp, model.aggregation(), blocks_, &freePositions_, threaded);
-    rz = precondition();
-    status.preconditioner = kind;
-    status.bridged = bridged;
-  }
-  finite = finite && std::isfinite(rz);
-  std::copy(z_.begin(), z_.end(), p_.begin());
-  while (finite && rr > stop && status.iterations < params_.maxIterations) {
-    const double pq = chunkedSum(rows, partial_, threaded, [&](std::size_t i) {
-      q_[i] = multiply(p_, i);
-      return p_[i].dot(q_[i]);
-    });
-    const double alpha = rz / pq;
-    if (!std::isfinite(alpha)) {
-      finite = std::isfinite(pq);
-      break;  // pq == 0 (breakdown) or a non-finite value
-    }
-    auto [rzNew, rrNew] = chunkedSum2(rows, partial_, partial2_, threaded, [&](std::size_t i) {
-      x_[i] += alpha * p_[i];
-      r_[i] -= alpha * q_[i];
-      if (!pointwise) return std::pair{0.0, r_[i].squaredNorm()};
-      z_[i] = preconditioner_[i] * r_[i];
-      return std::pair{r_[i].dot(z_[i]), r_[i].squaredNorm()};
-    });
-    ++status.iterations;
-    rr = rrNew;
-    finite = std::isfinite(rr);
-    if (!finite || rr <= stop) break;
-    if (!pointwise) rzNew = precondition();
-    finite = std::isfinite(rzNew);
-    if (!finite) break;
-    const double beta = rzNew / rz;
-    rz = rzNew;
-    parallelFor(
-        0, rows, 256,
-        [&](std::size_t b, std::size_t e) {
-          for (std::size_t i = b; i < e; ++i) p_[i] = z_[i] + beta * p_[i];
-        },
-        threaded);
-  }
-  status.finite = finite;
-  status.residual = std::sqrt(rr / bb);
-  status.converged = finite && rr <= stop;
-  if (correctRigid && finite) {
+  // The conjugate gradients (linalg/ConjugateGradients.h) from this start and its residual.
+  StepPreconditioner preconditioner(*this, model, status);
+  cg_.setOperator(view, threaded);
+  cg_.setPreconditioner(preconditioner);
+  cg_.setParams({params_.tolerance, params_.maxIterations});
+  const ConjugateGradientStatus cg = cg_.iterate(bb, x_, r_);
+  status.iterations = cg.iterations;
+  status.residual = cg.residual;
+  status.converged = cg.converged;
+  status.finite = cg.finite;
+  if (correctRigid && cg.finite) {
     rigid_.correct(x_, r_);
     for (const Vec3d& v : x_) status.finite = status.finite && v.allFinite();
   }
@@ -620,7 +561,7 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
       freePositions_[i] = octree.positions()[freeNodes[i]];
       freeMasses_[i] = model.nodeMass()[freeNodes[i]];
     }
-    if (params_.preconditioner == Preconditioner::Multigrid &&
+    if (params_.preconditioner == PreconditionerKind::Multigrid &&
         multigridRevision_ != model.sparsityRevision()) {
       freeCoords_.resize(freeNodes.size());
       for (std::size_t i = 0; i < freeNodes.size(); ++i)
@@ -630,7 +571,7 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
   // A cut since the factor: map the factor onto the new rows (FactorBridge.h), once per
   // sparsity, unless the last step on the bridge showed it has worn out.
   if (lastBridged_ && lastIterations_ > params_.bridgeIterations) bridge_.invalidate();
-  if (params_.preconditioner == Preconditioner::Cholesky && bridge_.valid() &&
+  if (params_.preconditioner == PreconditionerKind::Cholesky && bridge_.valid() &&
       cholesky_.factorised() && model.sparsityRevision() != choleskyRevision_ &&
       bridgeRevision_ != model.sparsityRevision()) {
     if (bridge_.prepare(model, octree, cholesky_.rows()))

@@ -13,14 +13,14 @@
 /// nodes stay at the mean of their masters and fixed nodes keep their position and zero
 /// velocity.
 ///
-/// The system is solved by preconditioned conjugate gradients on a 3x3-block sparse matrix
-/// assembled each step (each block on or above the diagonal gathered from its sources in a
-/// fixed order, the ones below mirrored), preconditioned by default by the sparse Cholesky
-/// factor of an earlier step's matrix (BlockCholesky.h; the two-level V-cycle of
-/// TwoLevelPreconditioner.h stands in where no factor is ready), warm-started
-/// from the previous step's dv. Parallel over elements and rows; dot products are summed over
-/// fixed chunks in a fixed order and triangular solves are sequential, so results are
-/// bit-identical for any thread count.
+/// The system is solved by preconditioned conjugate gradients (linalg/ConjugateGradients.h)
+/// on a 3x3-block sparse matrix assembled each step (each block on or above the diagonal
+/// gathered from its sources in a fixed order, the ones below mirrored), preconditioned by
+/// default by the sparse Cholesky factor of an earlier step's matrix (linalg/BlockCholesky.h;
+/// the two-level V-cycle of linalg/TwoLevelPreconditioner.h stands in where no factor is
+/// ready), warm-started from the previous step's dv. Parallel over elements and rows; dot products
+/// are summed over fixed chunks in a fixed order and triangular solves are sequential, so results
+/// are bit-identical for any thread count.
 ///
 /// Thread-safety: one step at a time per ImplicitEuler; it owns its scratch buffers (sized
 /// once, reused, so steps do not allocate once the sizes settle).
@@ -32,21 +32,23 @@
 #include <vector>
 
 #include "voxcut/core/Types.h"
-#include "voxcut/fem/BlockCholesky.h"
-#include "voxcut/fem/BlockPreconditioner.h"
-#include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/fem/ElasticModel.h"
 #include "voxcut/fem/FactorBridge.h"
 #include "voxcut/fem/RigidModes.h"
-#include "voxcut/fem/TopologyChange.h"
-#include "voxcut/fem/TwoLevelPreconditioner.h"
+#include "voxcut/linalg/BlockCholesky.h"
+#include "voxcut/linalg/BlockPreconditioner.h"
+#include "voxcut/linalg/ConjugateGradients.h"
 #include "voxcut/linalg/Multigrid.h"
+#include "voxcut/linalg/TwoLevelPreconditioner.h"
+#include "voxcut/topology/DeformationOctree.h"
+#include "voxcut/topology/TopologyChange.h"
 
 namespace voxcut {
 
-/// Preconditioner of the conjugate gradients (docs/algorithms.md, "Preconditioners"; the
-/// iterations each takes per step, from bench/bench_fem: docs/performance.md, "Deformation
-/// solver").
+/// The kinds of preconditioner of the conjugate gradients (docs/algorithms.md,
+/// "Preconditioners"; the iterations each takes per step, from bench/bench_fem:
+/// docs/performance.md, "Deformation solver"). ImplicitEuler sets up and applies the kind
+/// chosen through linalg's interface (linalg/LinearPreconditioner.h).
 ///
 /// IC(0) costs a factorisation per step (about 4 matrix-vector products' worth of work) and a
 /// sequential solve per iteration (about one product). Where a pivot breaks down it falls back
@@ -59,11 +61,11 @@ namespace voxcut {
 /// factorised (sparse Cholesky) every step, but its iterations stay low in every case.
 ///
 /// Cholesky (the default) preconditions with the exact sparse Cholesky factor of an earlier
-/// step's matrix (BlockCholesky.h). The matrix changes little from one step to the next (the
-/// element rotations move slowly), so a factor stays good for many steps: it is recomputed
-/// only when the previous step needed more than `refactorIterations` iterations, and for a new
-/// sparsity once it has lasted `factorAfterSteps` steps. The steps before, a cut's, run on the
-/// earlier factor mapped onto the new rows (FactorBridge.h: a V-cycle with that factor as its
+/// step's matrix (linalg/BlockCholesky.h). The matrix changes little from one step to the
+/// next (the element rotations move slowly), so a factor stays good for many steps: it is
+/// recomputed only when the previous step needed more than `refactorIterations` iterations, and for
+/// a new sparsity once it has lasted `factorAfterSteps` steps. The steps before, a cut's, run on
+/// the earlier factor mapped onto the new rows (FactorBridge.h: a V-cycle with that factor as its
 /// coarse solve and Gauss-Seidel on the rows the change touched); without an earlier factor,
 /// or for a system whose factor would cost too much (`maxFactorUpdates`), the two-level
 /// V-cycle stands in. A factorisation costs more than a step's iterations and an iteration a
@@ -78,28 +80,29 @@ namespace voxcut {
 /// (multigridRefreshIterations), else only the fine smoother follows the matrix. Where a
 /// factor fails (not positive definite) the step falls back to the two-level V-cycle.
 /// All are deterministic for any thread count.
-enum class Preconditioner {
+enum class PreconditionerKind {
   Jacobi,                ///< inverse of the diagonal entries
   BlockJacobi,           ///< inverse of each node's 3x3 diagonal block
   SymmetricGaussSeidel,  ///< one forward and one backward block Gauss-Seidel sweep
-  IncompleteCholesky,    ///< block IC(0), refactorised every step (BlockPreconditioner.h)
-  TwoLevel,   ///< Gauss-Seidel around a coarse correction on aggregates (TwoLevelPreconditioner.h)
-  Cholesky,   ///< sparse Cholesky factor of an earlier step's matrix (BlockCholesky.h)
+  IncompleteCholesky,    ///< block IC(0), refactorised every step (linalg/BlockPreconditioner.h)
+  TwoLevel,   ///< Gauss-Seidel and aggregates' rigid motions (linalg/TwoLevelPreconditioner.h)
+  Cholesky,   ///< sparse Cholesky factor of an earlier step's matrix (linalg/BlockCholesky.h)
   Multigrid,  ///< geometric multigrid V-cycle on the node grid (linalg/Multigrid.h)
 };
 
-/// Every preconditioner, in declaration order.
-inline constexpr Preconditioner kPreconditioners[] = {Preconditioner::Jacobi,
-                                                      Preconditioner::BlockJacobi,
-                                                      Preconditioner::SymmetricGaussSeidel,
-                                                      Preconditioner::IncompleteCholesky,
-                                                      Preconditioner::TwoLevel,
-                                                      Preconditioner::Cholesky,
-                                                      Preconditioner::Multigrid};
+/// Every kind of preconditioner, in declaration order.
+inline constexpr PreconditionerKind kPreconditionerKinds[] = {
+    PreconditionerKind::Jacobi,
+    PreconditionerKind::BlockJacobi,
+    PreconditionerKind::SymmetricGaussSeidel,
+    PreconditionerKind::IncompleteCholesky,
+    PreconditionerKind::TwoLevel,
+    PreconditionerKind::Cholesky,
+    PreconditionerKind::Multigrid};
 
 /// Name of a preconditioner ("jacobi", "block_jacobi", "symmetric_gauss_seidel",
 /// "incomplete_cholesky", "two_level", "cholesky", "multigrid"), for reports and scene files.
-[[nodiscard]] const char* preconditionerName(Preconditioner p);
+[[nodiscard]] const char* preconditionerName(PreconditionerKind p);
 
 /// Settings of a time step.
 struct ImplicitEulerParams {
@@ -107,7 +110,7 @@ struct ImplicitEulerParams {
   Vec3d gravity = Vec3d::Zero();  ///< g (m/s^2), as external force M g
   double tolerance = 1e-3;        ///< stop when |r| <= tolerance |b| (reduced 2-norms)
   int maxIterations = 200;        ///< conjugate-gradient iteration cap (>= 0)
-  Preconditioner preconditioner = Preconditioner::Cholesky;
+  PreconditionerKind preconditioner = PreconditionerKind::Cholesky;
   bool warmStart = true;  ///< start from the previous step's dv
   /// Correct each solve by the rigid motions of every piece (RigidModes.h), so that the
   /// net force and torque of a step are exact whatever the tolerance.
@@ -160,7 +163,7 @@ struct StepStatus {
   bool bridged = false;
   /// The preconditioner the solve used (Cholesky may hand a step to TwoLevel); the setting's
   /// own when the warm start already converged.
-  Preconditioner preconditioner = Preconditioner::Cholesky;
+  PreconditionerKind preconditioner = PreconditionerKind::Cholesky;
 };
 
 /// A point of the body pressed against something by a penalty spring along a fixed normal
@@ -234,6 +237,7 @@ class ImplicitEuler {
   void resize(const ElasticModel& model);
   void assemble(const ElasticModel& model, const DeformationOctree& octree);
   StepStatus solve(const ElasticModel& model);
+  class StepPreconditioner;  ///< the preconditioner of one solve (ImplicitEuler.cpp)
 
   ImplicitEulerParams params_;
   std::vector<Vec3d> velocity_;  ///< per node
@@ -285,8 +289,10 @@ class ImplicitEuler {
   std::vector<Vec3d> shift_;             ///< per free row, its free piece's common warm start
   RigidModes rigid_;
   std::array<std::vector<Vec3d>, 6> rigidProducts_;  ///< scratch: A times each rigid mode
-  std::vector<Vec3d> b_, x_, r_, z_, p_, q_, vr_;
-  std::vector<double> partial_, partial2_;  ///< per chunk of rows, for dot products
+  /// The conjugate gradients and their scratch; the preconditioner is each solve's own.
+  ConjugateGradients cg_;
+  std::vector<Vec3d> b_, x_, r_, q_, vr_;
+  std::vector<double> partial_;  ///< per chunk of rows, for |b|^2
 };
 
 }  // namespace voxcut

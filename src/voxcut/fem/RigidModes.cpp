@@ -4,6 +4,7 @@
 
 #include "voxcut/core/Error.h"
 #include "voxcut/core/UnionFind.h"
+#include "voxcut/fem/ElasticModel.h"
 
 namespace voxcut {
 namespace {

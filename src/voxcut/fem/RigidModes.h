@@ -28,7 +28,7 @@
 #include <vector>
 
 #include "voxcut/core/Types.h"
-#include "voxcut/fem/ElasticModel.h"
+#include "voxcut/linalg/BlockSparsity.h"
 
 namespace voxcut {
 

@@ -32,7 +32,7 @@ void checkSceneMemory(const Scene& scene, const std::vector<Model>& models,
     mp.cutting = true;
     mp.simulation = true;
     mp.allActive = !params.useOctree;
-    mp.factor = scene.solver.preconditioner == Preconditioner::Cholesky;
+    mp.factor = scene.solver.preconditioner == PreconditionerKind::Cholesky;
     mp.elementLevel = scene.bodies[i].elementLevel;
     mp.surfaceLevel = scene.bodies[i].surfaceLevel;
     MemoryEstimate e;

@@ -181,7 +181,7 @@ SolverSettings readSolver(const Reader& r, const Json& v, const std::string& pat
     const Json& p = v["preconditioner"];
     std::string names;
     bool found = false;
-    for (Preconditioner kind : kPreconditioners) {
+    for (PreconditionerKind kind : kPreconditionerKinds) {
       names += std::string(names.empty() ? "" : ", ") + "\"" + preconditionerName(kind) + "\"";
       if (p.is_string() && p.get<std::string>() == preconditionerName(kind)) {
         s.preconditioner = kind;

@@ -238,7 +238,7 @@ Multigrid::Multigrid(Multigrid&&) noexcept = default;
 Multigrid& Multigrid::operator=(Multigrid&&) noexcept = default;
 Multigrid::~Multigrid() = default;
 
-Multigrid::Multigrid(const Multigrid& other) {
+Multigrid::Multigrid(const Multigrid& other) : LinearPreconditioner(other) {
   *this = other;
 }
 
@@ -250,6 +250,7 @@ Multigrid& Multigrid::operator=(const Multigrid& other) {
   coarsest_.reset();
   analysed_ = false;
   valid_ = false;
+  operator_ = {};
   // The coarsest factor is remade from the copied matrix (the same factor, bit for bit);
   // a single-level hierarchy factorises the caller's matrix at its next setup.
   if (other.valid_ && levels_.size() > 1) valid_ = factorCoarsest(levels_.back()->matrix.view());
@@ -276,6 +277,7 @@ void Multigrid::build(const BlockMatrixView& fine, const std::vector<Index3>& co
   coarsest_.reset();
   analysed_ = false;
   valid_ = false;
+  operator_ = {};
   auto level0 = std::make_unique<Level>();
   level0->r.resize(fine.rows);
   level0->u.resize(fine.rows);
@@ -632,6 +634,8 @@ bool Multigrid::factorCoarsest(const BlockMatrixView& a) {
 
 bool Multigrid::setup(const BlockMatrixView& fine, bool threaded) {
   valid_ = false;
+  operator_ = fine;
+  threaded_ = threaded;
   if (levels_.empty() || fine.rows == 0) return false;
   fine_ = &fine;
   for (std::size_t l = 0; l + 1 < levels_.size(); ++l) galerkin(l, threaded);
@@ -650,6 +654,8 @@ bool Multigrid::setup(const BlockMatrixView& fine, bool threaded) {
 }
 
 bool Multigrid::updateFine(const BlockMatrixView& fine, bool threaded) {
+  operator_ = fine;
+  threaded_ = threaded;
   if (levels_.empty() || fine.rows == 0) return valid_ = false;
   if (levels_.size() == 1) return valid_ = factorCoarsest(fine);
   Smoother& s = levels_[0]->smoother;

@@ -51,6 +51,7 @@
 
 #include "voxcut/core/Types.h"
 #include "voxcut/linalg/BlockMatrix.h"
+#include "voxcut/linalg/LinearPreconditioner.h"
 
 namespace voxcut {
 
@@ -91,8 +92,10 @@ struct Coarsening {
 [[nodiscard]] Coarsening coarsenRows(const BlockMatrixView& a, const std::vector<Index3>& coords,
                                      int cellSize);
 
-/// The V-cycle preconditioner.
-class Multigrid {
+/// The V-cycle preconditioner. Through the LinearPreconditioner interface, setOperator is
+/// setup() (the hierarchy must have been built for the matrix's pattern) and apply(r, z) one
+/// V-cycle with the matrix of the last setup() or updateFine().
+class Multigrid final : public LinearPreconditioner {
  public:
   Multigrid();
   Multigrid(const Multigrid& other);
@@ -120,6 +123,15 @@ class Multigrid {
   /// updateFine()). `z` is resized and must not alias r.
   void apply(const BlockMatrixView& fine, const std::vector<Vec3d>& r, std::vector<Vec3d>& z,
              bool threaded);
+
+  /// setup(a, threaded): the coarse levels and smoothers for `a`, which apply() then borrows.
+  [[nodiscard]] bool setOperator(const BlockMatrixView& a, bool threaded) override {
+    return setup(a, threaded);
+  }
+  /// One V-cycle with the matrix of the last setup() or updateFine().
+  void apply(const std::vector<Vec3d>& r, std::vector<Vec3d>& z) override {
+    apply(operator_, r, z, threaded_);
+  }
 
   [[nodiscard]] bool built() const { return !levels_.empty(); }
   [[nodiscard]] bool valid() const { return valid_; }
@@ -149,6 +161,10 @@ class Multigrid {
   bool analysed_ = false;
   bool valid_ = false;
   const BlockMatrixView* fine_ = nullptr;  ///< level 0's matrix during setup() and apply()
+  /// The fine matrix of the last setup() or updateFine() (borrowed; a copy has none) and
+  /// their `threaded`, for apply(r, z).
+  BlockMatrixView operator_;
+  bool threaded_ = true;
 };
 
 }  // namespace voxcut

@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "voxcut/cutting/Blade.h"
-#include "voxcut/fem/DeformationOctree.h"
+#include "voxcut/topology/DeformationOctree.h"
 
 namespace voxcut {
 

@@ -11,7 +11,7 @@
 #include <sstream>
 
 #include "voxcut/core/Error.h"
-#include "voxcut/fem/DeformationOctree.h"
+#include "voxcut/topology/DeformationOctree.h"
 
 namespace voxcut {
 namespace {

@@ -9,10 +9,10 @@
 #include <vector>
 
 #include "voxcut/core/Timer.h"
-#include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/octree/VoxelOctree.h"
 #include "voxcut/sim/MemoryEstimate.h"
 #include "voxcut/surface/SurfaceMesh.h"
+#include "voxcut/topology/DeformationOctree.h"
 #include "voxcut/voxel/PlaneCut.h"
 #include "voxcut/voxel/Voxelizer.h"
 

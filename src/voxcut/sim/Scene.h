@@ -23,7 +23,7 @@ namespace voxcut {
 struct SolverSettings {
   double tolerance = 1e-3;  ///< relative residual at which PCG stops, > 0
   int maxIterations = 100;  ///< PCG iteration cap, >= 1
-  Preconditioner preconditioner = Preconditioner::Cholesky;  ///< ImplicitEuler.h
+  PreconditionerKind preconditioner = PreconditionerKind::Cholesky;  ///< ImplicitEuler.h
 };
 
 /// A material's physical and voxel-octree parameters. The defaults are a soft tissue (about
@@ -58,7 +58,7 @@ struct SceneBody {
   int elementLevel = 3;           ///< starting level of the deformation octree, 0..6
   int finestLevel = 0;            ///< finest level refinement after cuts reaches, <= elementLevel
   /// Level down to which elements less than half full are split at the start, <= elementLevel;
-  /// -1: defaultSurfaceLevel (fem/DeformationOctree.h).
+  /// -1: defaultSurfaceLevel (topology/DeformationOctree.h).
   int surfaceLevel = -1;
   /// The materials the scene sets, in the order the file lists them (unique names); the
   /// model's other materials take SceneMaterial's defaults (see sceneMaterial).

@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "voxcut/cutting/CutStep.h"
-#include "voxcut/fem/PrescribedDeformation.h"
 #include "voxcut/surface/SurfaceMesh.h"
+#include "voxcut/topology/PrescribedDeformation.h"
 
 namespace voxcut {
 

@@ -14,10 +14,10 @@
 #include "voxcut/core/Parallel.h"
 #include "voxcut/core/Timer.h"
 #include "voxcut/cutting/Fragments.h"
-#include "voxcut/fem/CutTopology.h"
 #include "voxcut/sim/BodyContacts.h"
 #include "voxcut/sim/WorldInternals.h"
 #include "voxcut/surface/VertexNormals.h"
+#include "voxcut/topology/CutTopology.h"
 #include "voxcut/voxel/Pieces.h"
 
 namespace voxcut {

@@ -1,4 +1,4 @@
-#include "voxcut/fem/PrescribedDeformation.h"
+#include "voxcut/topology/PrescribedDeformation.h"
 
 #include <algorithm>
 #include <cmath>

@@ -6,8 +6,8 @@
 #include "OctreeChecks.h"
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
-#include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/io/ModelSource.h"
+#include "voxcut/topology/DeformationOctree.h"
 #include "voxcut/voxel/Voxelizer.h"
 
 namespace voxcut {

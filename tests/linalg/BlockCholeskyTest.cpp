@@ -5,11 +5,11 @@
 #include <random>
 #include <vector>
 
-#include "FemBodies.h"
+#include "../fem/FemBodies.h"
 #include "voxcut/core/Parallel.h"
-#include "voxcut/fem/BlockCholesky.h"
-#include "voxcut/fem/BlockPreconditioner.h"
-#include "voxcut/fem/ElasticModel.h"
+#include "voxcut/linalg/BlockCholesky.h"
+#include "voxcut/linalg/BlockPreconditioner.h"
+#include "voxcut/linalg/BlockSparsity.h"
 
 namespace voxcut {
 namespace {

@@ -4,9 +4,9 @@
 #include <random>
 #include <vector>
 
-#include "FemBodies.h"
-#include "voxcut/fem/BlockPreconditioner.h"
-#include "voxcut/fem/ElasticModel.h"
+#include "../fem/FemBodies.h"
+#include "voxcut/linalg/BlockPreconditioner.h"
+#include "voxcut/linalg/BlockSparsity.h"
 
 namespace voxcut {
 namespace {

@@ -1,4 +1,4 @@
-#include "voxcut/fem/CutTopology.h"
+#include "voxcut/topology/CutTopology.h"
 
 #include <algorithm>
 #include <array>
@@ -9,7 +9,7 @@
 
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
-#include "voxcut/fem/TopologyEditor.h"
+#include "voxcut/topology/TopologyEditor.h"
 
 namespace voxcut {
 

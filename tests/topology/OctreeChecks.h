@@ -10,7 +10,7 @@
 #include <set>
 #include <vector>
 
-#include "voxcut/fem/DeformationOctree.h"
+#include "voxcut/topology/DeformationOctree.h"
 #include "voxcut/voxel/VoxelGrid.h"
 
 namespace voxcut::test {

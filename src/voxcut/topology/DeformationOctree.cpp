@@ -1,4 +1,4 @@
-#include "voxcut/fem/DeformationOctree.h"
+#include "voxcut/topology/DeformationOctree.h"
 
 #include <Eigen/LU>
 #include <algorithm>
@@ -10,7 +10,7 @@
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/core/Stamp.h"
-#include "voxcut/fem/CutTopology.h"
+#include "voxcut/topology/CutTopology.h"
 
 namespace voxcut {
 

@@ -6,10 +6,11 @@
 #include <random>
 #include <vector>
 
-#include "FemBodies.h"
+#include "../fem/FemBodies.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/fem/ElasticModel.h"
-#include "voxcut/fem/TwoLevelPreconditioner.h"
+#include "voxcut/linalg/BlockPreconditioner.h"
+#include "voxcut/linalg/TwoLevelPreconditioner.h"
 
 namespace voxcut {
 namespace {

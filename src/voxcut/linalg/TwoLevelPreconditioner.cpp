@@ -1,4 +1,4 @@
-#include "voxcut/fem/TwoLevelPreconditioner.h"
+#include "voxcut/linalg/TwoLevelPreconditioner.h"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
@@ -6,8 +6,8 @@
 
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
-#include "voxcut/fem/BlockPreconditioner.h"
-#include "voxcut/fem/ElasticModel.h"
+#include "voxcut/linalg/BlockPreconditioner.h"
+#include "voxcut/linalg/BlockSparsity.h"
 
 namespace voxcut {
 

@@ -1,4 +1,4 @@
-#include "voxcut/fem/BlockCholesky.h"
+#include "voxcut/linalg/BlockCholesky.h"
 
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCore>
@@ -7,7 +7,7 @@
 
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
-#include "voxcut/fem/ElasticModel.h"
+#include "voxcut/linalg/BlockSparsity.h"
 
 namespace voxcut {
 

@@ -5,9 +5,9 @@
 
 #include "OctreeChecks.h"
 #include "voxcut/core/Error.h"
-#include "voxcut/fem/DeformationOctree.h"
-#include "voxcut/fem/PrescribedDeformation.h"
 #include "voxcut/io/ModelSource.h"
+#include "voxcut/topology/DeformationOctree.h"
+#include "voxcut/topology/PrescribedDeformation.h"
 #include "voxcut/voxel/Voxelizer.h"
 
 namespace voxcut {

@@ -1,8 +1,8 @@
 #pragma once
 /// @file BlockPreconditioner.h
-/// Preconditioners for the conjugate gradients of the implicit step (ImplicitEuler.h) that
+/// Preconditioners for the conjugate gradients of the implicit step (fem/ImplicitEuler.h) that
 /// couple nodes: symmetric block Gauss-Seidel and block incomplete Cholesky IC(0), both on the
-/// reduced 3x3-block matrix A in the BlockSparsity layout (ElasticModel.h; both triangles
+/// reduced 3x3-block matrix A in the BlockSparsity layout (BlockSparsity.h; both triangles
 /// stored, columns ascending per row). Rows are visited in their index order, one after the
 /// other (triangular solves are sequential), so results do not depend on the thread count.
 ///
@@ -26,14 +26,13 @@
 
 #include "voxcut/core/Types.h"
 #include "voxcut/linalg/BlockMatrix.h"
+#include "voxcut/linalg/BlockSparsity.h"
 
 namespace voxcut {
 
-struct BlockSparsity;
-
 /// The symbolic part of IC(0) for one sparsity: for every block slot s = (i, k) below the
 /// diagonal, the pairs (slot (i, j), slot (k, j)) with j < k present in both rows, in
-/// ascending j. Built once per sparsity (per ElasticModel::sparsityRevision).
+/// ascending j. Built once per sparsity (fem/ElasticModel.h: per sparsityRevision).
 struct IncompleteCholeskyPattern {
   std::vector<std::uint32_t> pairStart{
       0};                           ///< #blocks + 1 offsets (empty range off the lower part)
@@ -41,10 +40,6 @@ struct IncompleteCholeskyPattern {
 
   [[nodiscard]] std::size_t pairCount() const { return pair.size() / 2; }
 };
-
-/// Per block slot (i, k) of `sparsity`, the slot (k, i) (the pattern is symmetric): what
-/// BlockSparsity::mirror holds.
-[[nodiscard]] std::vector<std::uint32_t> blockMirrors(const BlockSparsity& sparsity);
 
 /// Builds the IC(0) pattern of `sparsity`. Cost: one merge of two rows per lower block.
 [[nodiscard]] IncompleteCholeskyPattern incompleteCholeskyPattern(const BlockSparsity& sparsity);

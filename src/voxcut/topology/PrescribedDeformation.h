@@ -19,7 +19,7 @@
 #include <string_view>
 
 #include "voxcut/core/Types.h"
-#include "voxcut/fem/DeformationOctree.h"
+#include "voxcut/topology/DeformationOctree.h"
 
 namespace voxcut {
 

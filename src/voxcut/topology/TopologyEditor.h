@@ -13,8 +13,8 @@
 #include "voxcut/core/Error.h"
 #include "voxcut/core/FlatHashMap.h"
 #include "voxcut/core/UnionFind.h"
-#include "voxcut/fem/DeformationOctree.h"
-#include "voxcut/fem/TopologyChange.h"
+#include "voxcut/topology/DeformationOctree.h"
+#include "voxcut/topology/TopologyChange.h"
 #include "voxcut/voxel/VoxelGrid.h"
 
 namespace voxcut {

@@ -34,8 +34,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "voxcut/fem/DeformationOctree.h"
-#include "voxcut/fem/TopologyChange.h"
+#include "voxcut/topology/DeformationOctree.h"
+#include "voxcut/topology/TopologyChange.h"
 #include "voxcut/voxel/VoxelGrid.h"
 
 namespace voxcut {

@@ -1,6 +1,6 @@
 #pragma once
 /// @file TwoLevelPreconditioner.h
-/// Two-level preconditioner for the conjugate gradients of the implicit step (ImplicitEuler.h):
+/// Two-level preconditioner for the conjugate gradients of the implicit step (fem/ImplicitEuler.h):
 /// symmetric block Gauss-Seidel smoothing around a coarse correction on node aggregates.
 ///
 /// Why: one-level preconditioners (Jacobi, Gauss-Seidel, IC(0); BlockPreconditioner.h) damp
@@ -69,7 +69,7 @@ struct NodeAggregation {
   [[nodiscard]] std::size_t count() const { return start.size() - 1; }
 };
 
-/// Rounds of pairing after the 1-ring aggregation that ElasticModel uses. One round: larger
+/// Rounds of pairing after the 1-ring aggregation that fem/ElasticModel.h uses. One round: larger
 /// aggregates cost a few more iterations and save more in the coarse system; no round, or a
 /// second one, is no faster per step (docs/performance.md, "Deformation solver").
 inline constexpr int kAggregatePairings = 1;

@@ -1,4 +1,4 @@
-#include "voxcut/fem/TopologyEditor.h"
+#include "voxcut/topology/TopologyEditor.h"
 
 #include <algorithm>
 

@@ -8,9 +8,9 @@
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/core/Timer.h"
-#include "voxcut/fem/CutTopology.h"
-#include "voxcut/fem/DeformationOctree.h"
 #include "voxcut/io/ModelSource.h"
+#include "voxcut/topology/CutTopology.h"
+#include "voxcut/topology/DeformationOctree.h"
 #include "voxcut/voxel/PlaneCut.h"
 #include "voxcut/voxel/Voxelizer.h"
 

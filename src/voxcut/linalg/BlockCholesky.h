@@ -1,7 +1,7 @@
 #pragma once
 /// @file BlockCholesky.h
 /// Sparse Cholesky factorisation A = L L^T of the reduced 3x3-block system of the implicit step
-/// (ImplicitEuler.h), node by node: every entry of L is a 3x3 block, so the factorisation and
+/// (fem/ImplicitEuler.h), node by node: every entry of L is a 3x3 block, so the factorisation and
 /// the triangular solves run on fixed-size block products instead of scalar index chasing.
 /// ImplicitEuler uses it as the preconditioner of its conjugate gradients, refactorised only
 /// when the structure changes or the factor has gone stale (the matrix changes slowly from one
@@ -34,7 +34,7 @@ namespace voxcut {
 
 struct BlockSparsity;
 
-/// Block sparse Cholesky factor of one BlockSparsity (ElasticModel.h).
+/// Block sparse Cholesky factor of one BlockSparsity (BlockSparsity.h).
 class BlockCholesky {
  public:
   /// Orders the nodes of `sparsity` and computes the pattern of L. Call again whenever the

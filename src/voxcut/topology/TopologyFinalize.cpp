@@ -4,7 +4,7 @@
 #include <algorithm>
 
 #include "voxcut/core/Parallel.h"
-#include "voxcut/fem/TopologyEditor.h"
+#include "voxcut/topology/TopologyEditor.h"
 
 namespace voxcut {
 
