@@ -281,29 +281,6 @@ TEST(DeformationOctree, VoxelPositionListMatchesSingleAndThreads) {
   ASSERT_EQ(one.size(), voxels.size());
   EXPECT_EQ(one, two);
   for (std::size_t i = 0; i < voxels.size(); ++i) ASSERT_EQ(one[i], oc.voxelPosition(voxels[i]));
-  std::vector<std::uint32_t> owners;
-  for (const std::uint32_t v : voxels) owners.push_back(oc.owner(v));
-  std::vector<std::uint8_t> mask(oc.elementCount(), 0);
-  for (std::size_t e = 0; e < mask.size(); e += 3) mask[e] = 1;
-  const Vec3d untouched(-7.0, 8.0, -9.0);
-  // From embeddings gathered in list order: the same positions (with a mask: only there),
-  // and the mask per entry.
-  std::vector<VoxelEmbedding> embeddings;
-  oc.gatherEmbeddings(voxels, embeddings);
-  ASSERT_EQ(embeddings.size(), voxels.size());
-  for (const bool onlyMasked : {false, true}) {
-    std::vector<Vec3d> five(voxels.size(), untouched);
-    std::vector<std::uint8_t> inMask;
-    oc.updateVoxelPositions(embeddings, mask, onlyMasked, five, inMask);
-    ASSERT_EQ(inMask.size(), voxels.size());
-    for (std::size_t i = 0; i < voxels.size(); ++i) {
-      ASSERT_EQ(embeddings[i].element, owners[i]);
-      ASSERT_EQ(inMask[i], mask[owners[i]]);
-      ASSERT_EQ(five[i], !onlyMasked || mask[owners[i]] ? one[i] : untouched)
-          << "voxel " << voxels[i];
-      ASSERT_EQ(oc.voxelPosition(embeddings[i]), one[i]);
-    }
-  }
   // Element bounds hold their voxels.
   std::vector<Eigen::AlignedBox3d> boxes;
   oc.updateElementBounds(boxes);

@@ -4,7 +4,6 @@
 #include <atomic>
 
 #include "voxcut/core/Parallel.h"
-#include "voxcut/core/Stamp.h"
 
 namespace voxcut {
 namespace {
@@ -537,7 +536,6 @@ void rebuildActiveVoxels(VoxelOctree& oct, bool threaded) {
   else
     rebuildAllActive(oct, threaded);
   oct.changed.clear();
-  oct.activeStamp = newStamp();
 }
 
 }  // namespace voxcut

@@ -58,9 +58,6 @@ struct VoxelOctree {
   /// kNoActive. Lets a pass over the active voxels keep per-voxel data in active order.
   std::vector<std::array<std::uint32_t, 3>> activeNext;
   std::vector<std::uint32_t> activeIndex;  ///< per voxel: its entry in activeVoxels, or kNoActive
-  /// Stamp of activeVoxels (see core/Stamp.h): a new one whenever rebuildActiveVoxels changes
-  /// it. Data kept per entry elsewhere is current while it stays the same.
-  std::uint64_t activeStamp = 0;
   /// Voxels whose state bits were raised since the last rebuildActiveVoxels, each once (in
   /// any order; see markChanged): activateNewCubeFrames lists those of the new frames and
   /// the opened level-1 cubes. Code that changes `state` otherwise must clear activeIndex,

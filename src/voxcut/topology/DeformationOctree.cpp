@@ -9,7 +9,6 @@
 
 #include "voxcut/core/Error.h"
 #include "voxcut/core/Parallel.h"
-#include "voxcut/core/Stamp.h"
 #include "voxcut/topology/CutTopology.h"
 
 namespace voxcut {
@@ -30,8 +29,7 @@ DeformationOctree::DeformationOctree(const VoxelGrid& grid, int maxLevel,
       elements_(std::move(elements)),
       nodeCoords_(std::move(nodeCoords)),
       hanging_(std::move(hanging)),
-      embedding_(std::move(embedding)),
-      embeddingStamp_(newStamp()) {
+      embedding_(std::move(embedding)) {
   VOXCUT_ASSERT(embedding_.size() == grid.voxelCount(), "one embedding per grid voxel");
   restPositions_.resize(nodeCoords_.size());
   for (std::size_t n = 0; n < nodeCoords_.size(); ++n)
@@ -143,27 +141,23 @@ bool DeformationOctree::trilinearCoordinates(std::uint32_t e, const Vec3d& p, Ve
          (t.array() <= 1.0 + kSlack).all();
 }
 
-template <class EmbeddingAt, class Prefetch, class Want, class Write, class Skip>
-void DeformationOctree::forEachVoxelPosition(std::size_t n, EmbeddingAt&& embeddingAt,
-                                             Prefetch&& prefetch, bool threaded, Want&& want,
-                                             Write&& write, Skip&& skip) const {
+void DeformationOctree::updateVoxelPositions(const std::vector<std::uint32_t>& voxels,
+                                             std::vector<Vec3d>& out, bool threaded) const {
+  out.resize(voxels.size());
   // Voxels listed in index order come in runs along x through one element: the row segment
-  // is computed once per run (element, y offset, z offset) and each voxel costs one lerp.
+  // is computed once per run (element, y offset, z offset) and each voxel costs one lerp. The
+  // voxels may be sparse (the octree's active ones): their embeddings are fetched ahead.
   parallelFor(
-      0, n, 4096,
+      0, voxels.size(), 4096,
       [&](std::size_t b, std::size_t e) {
         std::uint32_t element = kNoElement;
         std::uint8_t oy = 0, oz = 0;
         double inv = 1.0;
         detail::RowSegment row{Vec3d::Zero(), Vec3d::Zero()};
         for (std::size_t i = b; i < e; ++i) {
-          if (i + 16 < e) prefetch(i + 16);
-          const VoxelEmbedding& em = embeddingAt(i);
+          if (i + 16 < e) __builtin_prefetch(&embedding_[voxels[i + 16]]);
+          const VoxelEmbedding& em = embedding_[voxels[i]];
           VOXCUT_ASSERT(em.element != kNoElement, "voxel is empty");
-          if (!want(em.element)) {
-            skip(i, em.element);
-            continue;
-          }
           if (em.element != element || em.offset[1] != oy || em.offset[2] != oz) {
             element = em.element;
             oy = em.offset[1];
@@ -172,55 +166,10 @@ void DeformationOctree::forEachVoxelPosition(std::size_t n, EmbeddingAt&& embedd
             row = detail::rowSegment(positions_, elements_[element].nodes, (oy + 0.5) * inv,
                                      (oz + 0.5) * inv);
           }
-          write(i, em.element, Vec3d(row.start + ((em.offset[0] + 0.5) * inv) * row.delta));
+          out[i] = row.start + ((em.offset[0] + 0.5) * inv) * row.delta;
         }
       },
       threaded);
-}
-
-void DeformationOctree::gatherEmbeddings(const std::vector<std::uint32_t>& voxels,
-                                         std::vector<VoxelEmbedding>& out, bool threaded) const {
-  out.resize(voxels.size());
-  parallelFor(
-      0, voxels.size(), 4096,
-      [&](std::size_t b, std::size_t e) {
-        for (std::size_t i = b; i < e; ++i) {
-          if (i + 16 < e) __builtin_prefetch(&embedding_[voxels[i + 16]]);
-          out[i] = embedding_[voxels[i]];
-        }
-      },
-      threaded);
-}
-
-void DeformationOctree::updateVoxelPositions(const std::vector<VoxelEmbedding>& embeddings,
-                                             const std::vector<std::uint8_t>& elementMask,
-                                             bool onlyMasked, std::vector<Vec3d>& out,
-                                             std::vector<std::uint8_t>& inMask,
-                                             bool threaded) const {
-  VOXCUT_ASSERT(elementMask.size() == elements_.size(), "one mask byte per element");
-  out.resize(embeddings.size());
-  inMask.resize(embeddings.size());
-  forEachVoxelPosition(
-      embeddings.size(), [&](std::size_t i) -> const VoxelEmbedding& { return embeddings[i]; },
-      [](std::size_t) {}, threaded,
-      [&](std::uint32_t e) { return !onlyMasked || elementMask[e] != 0; },
-      [&](std::size_t i, std::uint32_t e, const Vec3d& p) {
-        out[i] = p;
-        inMask[i] = elementMask[e];
-      },
-      [&](std::size_t i, std::uint32_t) { inMask[i] = 0; });
-}
-
-void DeformationOctree::updateVoxelPositions(const std::vector<std::uint32_t>& voxels,
-                                             std::vector<Vec3d>& out, bool threaded) const {
-  out.resize(voxels.size());
-  // The voxels may be sparse (the octree's active ones): their embeddings are fetched ahead.
-  forEachVoxelPosition(
-      voxels.size(), [&](std::size_t i) -> const VoxelEmbedding& { return embedding_[voxels[i]]; },
-      [&](std::size_t i) { __builtin_prefetch(&embedding_[voxels[i]]); }, threaded,
-      [](std::uint32_t) { return true; },
-      [&](std::size_t i, std::uint32_t, const Vec3d& p) { out[i] = p; },
-      [](std::size_t, std::uint32_t) {});
 }
 
 Eigen::AlignedBox3d DeformationOctree::elementBounds(std::uint32_t e) const {

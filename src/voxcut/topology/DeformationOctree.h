@@ -234,30 +234,12 @@ class DeformationOctree {
   void updateVoxelPositions(const std::vector<std::uint32_t>& voxels, std::vector<Vec3d>& out,
                             bool threaded = true) const;
 
-  /// Stamp of the voxels' embeddings (see core/Stamp.h): a new one whenever a topology edit
-  /// may change any voxel's embedding or the elements. Embeddings copied elsewhere (say, in
-  /// another order) are current while it stays the same.
-  [[nodiscard]] std::uint64_t embeddingStamp() const { return embeddingStamp_; }
-  /// out[i] = embedding(voxels[i]) for every i (out is resized), in parallel.
-  void gatherEmbeddings(const std::vector<std::uint32_t>& voxels, std::vector<VoxelEmbedding>& out,
-                        bool threaded = true) const;
   /// Position of the occupied voxel whose embedding is `em` (bitwise voxelPosition).
   /// Inline (as are localCoordinates and pointInElement): the subdivision positions thousands
   /// of scattered voxels one by one.
   [[nodiscard]] Vec3d voxelPosition(const VoxelEmbedding& em) const {
     return pointInElement(em.element, localCoordinates(em));
   }
-  /// For a list of voxels whose embeddings were gathered beforehand (gatherEmbeddings, current
-  /// while embeddingStamp() is), read in order instead of one by one from the grid-sized
-  /// table: inMask[i] = elementMask[element of embeddings[i]] (one byte per element, 0 or 1)
-  /// and out[i] = voxelPosition(embeddings[i]), with `onlyMasked` only where inMask[i] is 1
-  /// (the other entries keep what they held). Both are resized; in parallel; deterministic for
-  /// any thread count.
-  void updateVoxelPositions(const std::vector<VoxelEmbedding>& embeddings,
-                            const std::vector<std::uint8_t>& elementMask, bool onlyMasked,
-                            std::vector<Vec3d>& out, std::vector<std::uint8_t>& inMask,
-                            bool threaded = true) const;
-
   /// Axis-aligned bounds of element e's current corners (metres); they hold all its voxels.
   [[nodiscard]] Eigen::AlignedBox3d elementBounds(std::uint32_t e) const;
   /// out[e] = elementBounds(e) for every element (out is resized), in parallel.
@@ -303,13 +285,6 @@ class DeformationOctree {
   friend class TopologyEditor;
   void rebuildCubeIndex();
 
-  /// Over n entries, entry i having the embedding embeddingAt(i) (fetched ahead through
-  /// prefetch(i)): calls write(i, element, position) for each entry whose element passes
-  /// want(element), and skip(i, element) for the others.
-  template <class EmbeddingAt, class Prefetch, class Want, class Write, class Skip>
-  void forEachVoxelPosition(std::size_t n, EmbeddingAt&& embeddingAt, Prefetch&& prefetch,
-                            bool threaded, Want&& want, Write&& write, Skip&& skip) const;
-
   Index3 dims_;
   Vec3d origin_ = Vec3d::Zero();
   double voxelSize_ = 1.0;
@@ -321,7 +296,6 @@ class DeformationOctree {
   std::vector<HangingNode> hanging_;
   std::vector<std::uint8_t> hangingFlag_;
   std::vector<VoxelEmbedding> embedding_;
-  std::uint64_t embeddingStamp_ = 0;
   std::size_t occupiedVoxels_ = 0;
   Eigen::AlignedBox3d restVoxelBounds_;
   std::unordered_map<std::uint64_t, std::uint32_t> cubeFirst_;  ///< leaf cube key -> first copy

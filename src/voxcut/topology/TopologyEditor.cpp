@@ -3,7 +3,6 @@
 #include <algorithm>
 
 #include "voxcut/core/Parallel.h"
-#include "voxcut/core/Stamp.h"
 
 namespace voxcut {
 
@@ -288,7 +287,6 @@ std::vector<std::uint64_t> TopologyEditor::ambiguousCubes() const {
 
 TopologyChange TopologyEditor::run() {
   // Embeddings (and elements) change from here on: what was derived from them is stale.
-  oc_.embeddingStamp_ = newStamp();
   for (int round = 0;; ++round) {
     VOXCUT_ASSERT(round < 64, "topology update does not settle");
     partitionPending();
