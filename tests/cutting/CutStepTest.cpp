@@ -327,6 +327,42 @@ TEST(CutStep, CullingFollowsTheSweepUnderStretchAndTopologyEdits) {
   EXPECT_EQ(linksOf(cutStep(b, later)), again);
 }
 
+// The deferred updates left pending and run later (beside other work, in a world's frame)
+// leave the same octree as a step that runs them itself; a second step runs the first's
+// pending updates before its own subdivision and cuts the same links.
+TEST(CutStep, DeferredUpdatesLeftPendingGiveTheSameOctree) {
+  const VoxelGrid g = model("bunny", 64);
+  const CutBody start = body(g, true, Deformation::Bend);
+  const BladeMotion across = defaultBladeMotion(start);
+  const BladePose mid{0.5 * (across.from.a + across.to.a), 0.5 * (across.from.b + across.to.b)};
+  const std::vector<BladeSweep> first{makeSweep(across.from, mid, 0)};
+  const std::vector<BladeSweep> second{makeSweep(mid, across.to, 1)};
+  CutBody now = start, later = start;
+  SubdivisionWorkspace w1, w2;
+  const CutStepResult a1 = cutStep(now, first, w1);
+  const CutStepResult a2 = cutStep(now, second, w1);
+  const CutStepResult b1 = cutStepLeavingUpdates(later, first, w2);
+  ASSERT_GT(b1.cuts.size(), 50u);
+  EXPECT_TRUE(later.updatesPending);
+  EXPECT_EQ(b1.deferredMs, 0.0);
+  const CutStepResult b2 = cutStepLeavingUpdates(later, second, w2);
+  EXPECT_GT(b2.deferredMs, 0.0);  // the first step's, run before this one's subdivision
+  EXPECT_GT(runDeferredUpdates(later), 0.0);
+  EXPECT_FALSE(later.updatesPending);
+  EXPECT_EQ(runDeferredUpdates(later), 0.0);
+  EXPECT_EQ(linksOf(a1), linksOf(b1));
+  EXPECT_EQ(linksOf(a2), linksOf(b2));
+  EXPECT_EQ(now.activity.state, later.activity.state);
+  EXPECT_EQ(now.activity.cellCube, later.activity.cellCube);
+  EXPECT_EQ(now.activity.activeVoxels, later.activity.activeVoxels);
+  EXPECT_EQ(now.activity.activeNext, later.activity.activeNext);
+  ASSERT_EQ(now.activity.cubes.size(), later.activity.cubes.size());
+  for (std::size_t c = 0; c < now.activity.cubes.size(); ++c) {
+    EXPECT_EQ(now.activity.cubes[c].origin, later.activity.cubes[c].origin);
+    EXPECT_EQ(now.activity.cubes[c].level, later.activity.cubes[c].level);
+  }
+}
+
 TEST(CutStep, HermiteDataIsInTheRestFrame) {
   // A rigid rotation: the normal pulled back to the rest frame is the rest-frame blade normal.
   const VoxelGrid g = model("sphere:0.05", 40);

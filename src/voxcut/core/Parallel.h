@@ -7,6 +7,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include <cstddef>
 #include <memory>
@@ -45,6 +46,37 @@ void parallelFor(std::size_t begin, std::size_t end, std::size_t grain, Body&& b
 #else
   tbb::parallel_for(tbb::blocked_range<std::size_t>(begin, end, grain),
                     [&](const tbb::blocked_range<std::size_t>& r) { body(r.begin(), r.end()); });
+#endif
+}
+
+/// Runs f() and g() side by side (each may run parallelFor loops of its own, which share the
+/// threads), and returns when both have; with `threaded` false, f() then g() on the calling
+/// thread. The two must not touch the same data unless both only read it.
+template <class F, class G>
+void parallelInvoke(F&& f, G&& g, bool threaded = true) {
+  if (!threaded) {
+    f();
+    g();
+    return;
+  }
+#ifdef VOXCUT_TSAN
+  // As in parallelFor: the start happens before both, both happen before the return.
+  char start = 0, finish = 0;
+  __tsan_release(&start);
+  tbb::parallel_invoke(
+      [&] {
+        __tsan_acquire(&start);
+        f();
+        __tsan_release(&finish);
+      },
+      [&] {
+        __tsan_acquire(&start);
+        g();
+        __tsan_release(&finish);
+      });
+  __tsan_acquire(&finish);
+#else
+  tbb::parallel_invoke([&] { f(); }, [&] { g(); });
 #endif
 }
 

@@ -222,6 +222,7 @@ CutBody makeCutBody(VoxelGrid grid, const CutBodyParams& params, bool threaded) 
 
 void setActivity(CutBody& b, bool useOctree, const OctreeParams& octree, bool threaded) {
   b.useOctree = useOctree;
+  b.updatesPending = false;  // a new octree: nothing of the old one is left to update
   if (useOctree) {
     OctreeParams op = octree;
     const std::size_t n = b.grid.materialNames().size();
@@ -527,11 +528,7 @@ void subdivideAroundCuts(CutBody& b, const std::vector<BladeSweep>& sweeps,
     r.subdivision = subdivideCutCubes(b.activity, g, r.cuts, hooks, workspace, threaded, boundary,
                                       false, &cubeMarks);
     r.subdivisionMs = timer.ms();
-    timer.restart();
-    activateNewCubeFrames(b.activity, g, threaded);
-    compactCubes(b.activity, threaded);
-    rebuildActiveVoxels(b.activity, threaded);
-    r.deferredMs = timer.ms();
+    b.updatesPending = true;
   } else if (b.useOctree) {
     r.subdivisionMs = timer.ms();
   }
@@ -539,9 +536,27 @@ void subdivideAroundCuts(CutBody& b, const std::vector<BladeSweep>& sweeps,
 
 }  // namespace
 
+double runDeferredUpdates(CutBody& b, bool threaded) {
+  if (!b.updatesPending) return 0.0;
+  Timer timer;
+  activateNewCubeFrames(b.activity, b.grid, threaded);
+  compactCubes(b.activity, threaded);
+  rebuildActiveVoxels(b.activity, threaded);
+  b.updatesPending = false;
+  return timer.ms();
+}
+
 CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps,
                       SubdivisionWorkspace& workspace, bool threaded) {
+  CutStepResult r = cutStepLeavingUpdates(b, sweeps, workspace, threaded);
+  r.deferredMs += runDeferredUpdates(b, threaded);
+  return r;
+}
+
+CutStepResult cutStepLeavingUpdates(CutBody& b, const std::vector<BladeSweep>& sweeps,
+                                    SubdivisionWorkspace& workspace, bool threaded) {
   CutStepResult r;
+  r.deferredMs = runDeferredUpdates(b, threaded);  // a previous step's, before this subdivision
   Timer timer;
   const SweepCull cull = cullElements(b, sweeps, threaded);
   r.markedElements = cull.elements.size();

@@ -36,6 +36,9 @@ struct CutBody {
   VoxelOctree activity;  ///< the pseudo voxel octree, or everything active
   bool useOctree = true;
   double obbMargin = 0.0;
+  /// The octree's deferred updates after a subdivision are still to run (see
+  /// cutStepLeavingUpdates).
+  bool updatesPending = false;
   std::vector<Eigen::AlignedBox3d> elementBoxes;
   LayeredHash hash;
 };
@@ -76,6 +79,19 @@ CutStepResult cutStep(CutBody& body, const BladeSweep& sweep, bool threaded = tr
 CutStepResult cutStep(CutBody& body, const std::vector<BladeSweep>& sweeps,
                       SubdivisionWorkspace& workspace, bool threaded = true);
 CutStepResult cutStep(CutBody& body, const std::vector<BladeSweep>& sweeps, bool threaded = true);
+
+/// As cutStep for a strip of sweeps, but the octree's deferred updates after its subdivision
+/// (new cube frames activated, cubes compacted, the active voxel tables: deferredMs of cutStep)
+/// are left pending, for the caller to run with runDeferredUpdates beside other work: they
+/// touch only body.activity and read only the grid's geometry, and nothing of a frame after the
+/// cut reads body.activity. Pending updates left by an earlier call run first (their time in
+/// deferredMs). Until they have run, body.activity's cube map and active tables are not current.
+CutStepResult cutStepLeavingUpdates(CutBody& body, const std::vector<BladeSweep>& sweeps,
+                                    SubdivisionWorkspace& workspace, bool threaded = true);
+
+/// Runs the deferred updates a cutStepLeavingUpdates left pending (nothing when none are);
+/// returns their time in ms. Deterministic for any thread count.
+double runDeferredUpdates(CutBody& body, bool threaded = true);
 
 /// 64-bit FNV-1a hash of the cuts sorted by link id, with t and normals rounded to 1e-6.
 [[nodiscard]] std::uint64_t cutSetHash(std::vector<LinkCut> cuts);

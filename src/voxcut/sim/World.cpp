@@ -283,9 +283,9 @@ struct World::Impl {
 
   [[nodiscard]] std::string prefix() const { return source.empty() ? "" : source + ": "; }
   [[nodiscard]] double time() const { return frame * settings.timeStep; }
-  /// A body's frame up to its contacts: cutting, cut topology, surface, distance field.
-  void cutPhase(SimBody& body, const Motion& motion, std::vector<double>& stageMs,
-                FrameReport& report);
+  /// After a body's cuts: cut topology, surface, distance field.
+  void afterCut(SimBody& body, const std::vector<std::uint64_t>& cut, const BladeEnds& ends,
+                std::vector<double>& stageMs);
   /// The contacts between bodies and of bodies with themselves, as point contacts of each
   /// body's next step (pairs the step's end finds pulling are left out and solved again).
   std::vector<std::vector<PointContact>> findBodyContactsAll(std::vector<double>& stageMs,
@@ -844,13 +844,10 @@ void World::Impl::updateVertexPositions(SimBody& b) const {
       settings.threaded);
 }
 
-void World::Impl::cutPhase(SimBody& b, const Motion& motion, std::vector<double>& ms,
-                           FrameReport& report) {
-  BladeEnds ends;
-  const std::vector<std::uint64_t> cut = cutBody(b, motion, ends, ms);
-  report.cutLinks += cut.size();
-  b.cutLinks += cut.size();
-
+// What follows a body's cuts: its cut topology (the model's and solver's with it), its surface
+// and its rest distance field.
+void World::Impl::afterCut(SimBody& b, const std::vector<std::uint64_t>& cut, const BladeEnds& ends,
+                           std::vector<double>& ms) {
   Timer timer;
   const TopologyChange change = updateTopology(b, cut, ends);
   ms[kCutTopology] += timer.ms();
@@ -1233,7 +1230,7 @@ std::vector<std::uint64_t> World::Impl::cutBody(SimBody& b, const Motion& motion
     if (tools[ti].kind != ToolKind::Blade) continue;
     const std::optional<std::vector<BladeSweep>> moving = toolSweeps(b, ti, motion, ends);
     if (!moving || moving->empty()) continue;
-    CutStepResult r = cutStep(b.cut, *moving, b.subdivision, settings.threaded);
+    CutStepResult r = cutStepLeavingUpdates(b.cut, *moving, b.subdivision, settings.threaded);
     ms[kPositionUpdate] += r.positionUpdateMs;
     ms[kIntersectionTest] += r.intersectionMs;
     ms[kOctreeSubdivision] += r.subdivisionMs;
@@ -1541,11 +1538,33 @@ FrameReport World::step() {
                                 w.settings.timeStep);
     }
   }
-  for (SimBody& b : w.bodies) w.cutPhase(b, motion, report.stageMs, report);
-  std::vector<std::vector<PointContact>> bodyContacts =
-      w.findBodyContactsAll(report.stageMs, report);
-  for (std::size_t i = 0; i < w.bodies.size(); ++i)
-    w.solvePhase(w.bodies[i], motion, shapes, std::move(bodyContacts[i]), report.stageMs, report);
+  const std::size_t n = w.bodies.size();
+  std::vector<std::vector<std::uint64_t>> cuts(n);
+  std::vector<Impl::BladeEnds> ends(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    cuts[i] = w.cutBody(w.bodies[i], motion, ends[i], report.stageMs);
+    report.cutLinks += cuts[i].size();
+    w.bodies[i].cutLinks += cuts[i].size();
+  }
+  // The octrees' deferred updates run beside the rest of the frame (the paper's figure 3):
+  // they touch only each body's voxel octree, which nothing after the cut reads.
+  std::vector<double> deferredMs(n, 0.0);
+  parallelInvoke(
+      [&] {
+        for (std::size_t i = 0; i < n; ++i)
+          deferredMs[i] = runDeferredUpdates(w.bodies[i].cut, w.settings.threaded);
+      },
+      [&] {
+        for (std::size_t i = 0; i < n; ++i)
+          w.afterCut(w.bodies[i], cuts[i], ends[i], report.stageMs);
+        std::vector<std::vector<PointContact>> bodyContacts =
+            w.findBodyContactsAll(report.stageMs, report);
+        for (std::size_t i = 0; i < n; ++i)
+          w.solvePhase(w.bodies[i], motion, shapes, std::move(bodyContacts[i]), report.stageMs,
+                       report);
+      },
+      w.settings.threaded);
+  for (const double ms : deferredMs) report.stageMs[kDeferredUpdates] += ms;
   ++w.frame;
   for (std::size_t ti = 0; ti < w.tools.size(); ++ti) {
     WorldTool& t = w.tools[ti];
