@@ -51,6 +51,31 @@ TEST(Parallel, EmptyRangeDoesNothing) {
   EXPECT_FALSE(called);
 }
 
+// Both halves run once, each with loops of its own, and the call returns after both; without
+// threads, the first then the second on the calling thread.
+TEST(Parallel, InvokeRunsBothSidesOnceWithTheirOwnLoops) {
+  for (int threads : {1, 2, 3}) {
+    ThreadLimit limit(threads);
+    std::vector<int> left(5003, 0), right(7001, 0);
+    parallelInvoke(
+        [&] {
+          parallelFor(0, left.size(), 16, [&](std::size_t b, std::size_t e) {
+            for (std::size_t i = b; i < e; ++i) ++left[i];
+          });
+        },
+        [&] {
+          parallelFor(0, right.size(), 16, [&](std::size_t b, std::size_t e) {
+            for (std::size_t i = b; i < e; ++i) ++right[i];
+          });
+        });
+    for (int h : left) ASSERT_EQ(h, 1);
+    for (int h : right) ASSERT_EQ(h, 1);
+  }
+  std::vector<int> order;
+  parallelInvoke([&] { order.push_back(1); }, [&] { order.push_back(2); }, /*threaded=*/false);
+  EXPECT_EQ(order, (std::vector<int>{1, 2}));
+}
+
 TEST(Parallel, ThreadLimitIsScoped) {
   const int before = ThreadLimit::current();
   {

@@ -261,7 +261,8 @@ struct CullBox {
   Vec3d centre;
   Eigen::Matrix3d axes;  // orthonormal columns
   Vec3d halfExtents;
-  std::uint32_t sweep;  // the index of the sweep it encloses
+  std::uint32_t sweep;         // the index of the sweep it encloses
+  Eigen::AlignedBox3d bounds;  // its axis-aligned bounds, a cheaper first test
 };
 
 // The longest any link can be now: along axis a, a voxel step inside an element moves by at
@@ -299,6 +300,9 @@ double longestLink(const DeformationOctree& d, bool threaded) {
 // Whether the convex hull of points p[0..n) meets box (tested along the box's axes only:
 // it may keep a hull that misses, never drop one that meets).
 bool hullMeets(const CullBox& box, const Vec3d* p, int n) {
+  Eigen::AlignedBox3d hull;
+  for (int k = 0; k < n; ++k) hull.extend(p[k]);
+  if (!hull.intersects(box.bounds)) return false;
   for (int i = 0; i < 3; ++i) {
     const Vec3d axis = box.axes.col(i);
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
@@ -412,8 +416,6 @@ SweepCull cullElements(CutBody& b, const std::vector<BladeSweep>& sweeps, bool t
     // Enlarged by the longest link, and by a rounding allowance for the hull tests.
     obb.halfExtents += Vec3d::Constant(reach * (1.0 + 1e-9) + 1e-9 * b.grid.voxelSize());
     if (!obb.halfExtents.allFinite() || !obb.centre.allFinite()) continue;
-    out.boxes.push_back({obb.centre, obb.axes, obb.halfExtents,
-                         static_cast<std::uint32_t>(&sweep - sweeps.data())});
     Eigen::AlignedBox3d obbBounds;
     for (int k = 0; k < 8; ++k) {
       Vec3d corner = obb.centre;
@@ -421,6 +423,13 @@ SweepCull cullElements(CutBody& b, const std::vector<BladeSweep>& sweeps, bool t
         corner += ((k >> i) & 1 ? 1.0 : -1.0) * obb.halfExtents[i] * obb.axes.col(i);
       obbBounds.extend(corner);
     }
+    // Padded by the rounding of the corners, so that the first test never drops what the
+    // box itself holds.
+    const double pad = 1e-9 * (obbBounds.diagonal().norm() + obb.centre.norm());
+    out.boxes.push_back({obb.centre, obb.axes, obb.halfExtents,
+                         static_cast<std::uint32_t>(&sweep - sweeps.data()),
+                         Eigen::AlignedBox3d(obbBounds.min() - Vec3d::Constant(pad),
+                                             obbBounds.max() + Vec3d::Constant(pad))});
     // The elements of the cells the box meets whose own box meets it.
     for (const std::uint32_t e : b.hash.elements(
              obbBounds, [&](const Eigen::AlignedBox3d& cell) { return overlaps(obb, cell); }))

@@ -301,8 +301,7 @@ struct World::Impl {
                                                                   BladeEnds& ends) const;
   TopologyChange updateTopology(SimBody& body, const std::vector<std::uint64_t>& cut,
                                 const BladeEnds& ends);
-  void updateSurface(SimBody& body, const std::vector<std::uint64_t>& cut,
-                     const TopologyChange& change);
+  void embedSurfaceChange(SimBody& body, SurfaceDelta delta, const TopologyChange& change);
   void renumberVertexElements(SimBody& body, const TopologyChange& change) const;
   void recordSolve(const StepStatus& status, FrameReport& report) const;
   /// Changes to the contact set of a step found after solving it (docs/algorithms.md,
@@ -848,17 +847,32 @@ void World::Impl::updateVertexPositions(SimBody& b) const {
 // and its rest distance field.
 void World::Impl::afterCut(SimBody& b, const std::vector<std::uint64_t>& cut, const BladeEnds& ends,
                            std::vector<double>& ms) {
-  Timer timer;
-  const TopologyChange change = updateTopology(b, cut, ends);
-  ms[kCutTopology] += timer.ms();
-
-  timer.restart();
-  if (!cut.empty()) updateSurface(b, cut, change);
-  ms[kSurfaceUpdate] += timer.ms();
-
-  timer.restart();
-  if (!cut.empty()) b.restDistance.update(b.cut.grid, cut);
-  ms[kObjectCollision] += timer.ms();
+  // The topology (deformation octree, model, solver, fronts) beside the surface's and the
+  // distance field's own updates: all three only read the grid, and write apart.
+  TopologyChange change;
+  SurfaceDelta delta;
+  double topologyMs = 0.0, surfaceMs = 0.0, distanceMs = 0.0;
+  parallelInvoke(
+      [&] {
+        const Timer timer;
+        change = updateTopology(b, cut, ends);
+        topologyMs = timer.ms();
+      },
+      [&] {
+        if (cut.empty()) return;
+        Timer timer;
+        delta = b.surface.update(b.cut.grid, cut);
+        surfaceMs = timer.ms();
+        timer.restart();
+        b.restDistance.update(b.cut.grid, cut);
+        distanceMs = timer.ms();
+      },
+      settings.threaded && !cut.empty());
+  ms[kCutTopology] += topologyMs;
+  ms[kObjectCollision] += distanceMs;
+  const Timer timer;
+  if (!cut.empty()) embedSurfaceChange(b, std::move(delta), change);
+  ms[kSurfaceUpdate] += surfaceMs + timer.ms();
 }
 
 std::vector<std::vector<PointContact>> World::Impl::findBodyContactsAll(std::vector<double>& ms,
@@ -1370,11 +1384,9 @@ void World::Impl::renumberVertexElements(SimBody& b, const TopologyChange& chang
   embedVertices(b, &again);
 }
 
-// The surface after the cuts, its new vertices embedded (and, when elements were renumbered,
-// the others' element ids renumbered), and the change logged for readers.
-void World::Impl::updateSurface(SimBody& b, const std::vector<std::uint64_t>& cut,
-                                const TopologyChange& change) {
-  SurfaceDelta delta = b.surface.update(b.cut.grid, cut);
+// After the surface's update for the cuts: its new vertices embedded (and, when elements were
+// renumbered, the others' element ids renumbered), and the change logged for readers.
+void World::Impl::embedSurfaceChange(SimBody& b, SurfaceDelta delta, const TopologyChange& change) {
   b.embedding.resize(b.surface.vertexSlots());
   b.vertexPositions.resize(b.surface.vertexSlots(), Vec3d::Zero());
   for (std::int32_t v : delta.removedVertices) b.embedding[static_cast<std::size_t>(v)] = {};
