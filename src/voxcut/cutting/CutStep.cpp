@@ -380,20 +380,27 @@ void collectCandidates(const CutBody& b, std::uint32_t e, const std::vector<Cull
       return;
     }
     for (int z = lo[2]; z <= hi[2]; ++z)
-      for (int y = lo[1]; y <= hi[1]; ++y)
+      for (int y = lo[1]; y <= hi[1]; ++y) {
+        // The row's segment through the element, once per row (bitwise voxelPosition: the
+        // voxel's offset in its owner is (x, y, z)).
+        bool haveRow = false;
+        detail::RowSegment row{Vec3d::Zero(), Vec3d::Zero()};
         for (int x = lo[0]; x <= hi[0]; ++x) {
           const std::size_t v = b.grid.index(Index3{first[0] + x, first[1] + y, first[2] + z});
           const std::uint32_t i = activeIndex[v];
-          if (i == kNoActive) continue;
-          const VoxelEmbedding& em = d.embedding(v);
-          if (em.element != e) continue;
-          const Vec3d p = d.voxelPosition(em);
+          if (i == kNoActive || d.owner(v) != e) continue;
+          if (!haveRow) {
+            row = detail::rowSegment(d.positions(), el.nodes, (y + 0.5) * inv, (z + 0.5) * inv);
+            haveRow = true;
+          }
+          const Vec3d p = row.start + ((x + 0.5) * inv) * row.delta;
           const auto firstSweep = static_cast<std::uint32_t>(out.sweeps.size());
           for (std::uint32_t j = 0; j < count; ++j)
             if (hullMeets(boxes[here[j]], &p, 1)) out.sweeps.push_back(boxes[here[j]].sweep);
           const auto holding = static_cast<std::uint32_t>(out.sweeps.size()) - firstSweep;
           if (holding > 0) out.voxels.push_back({i, firstSweep, holding, p});
         }
+      }
   };
   visit(visit, Index3{0, 0, 0}, el.size(), 0);
 }
