@@ -57,17 +57,27 @@ bool choleskyInPlace(double* a, int n) {
   return true;
 }
 
-/// Solves L L^T x = b in place with the factor of choleskyInPlace.
+/// Solves L L^T x = b in place with the factor of choleskyInPlace. The forward substitution
+/// runs by columns of L (contiguous, and no chain of dependent sums), in the same order of
+/// terms as by rows; the backward one by rows of L^T, which are columns of L, with two partial
+/// sums.
 void choleskySolve(const double* l, int n, double* x) {
-  for (int i = 0; i < n; ++i) {
-    double s = x[i];
-    for (int k = 0; k < i; ++k) s -= l[k * n + i] * x[k];
-    x[i] = s / l[i * n + i];
+  for (int k = 0; k < n; ++k) {
+    const double* col = l + static_cast<std::ptrdiff_t>(k) * n;
+    const double xk = x[k] / col[k];
+    x[k] = xk;
+    for (int i = k + 1; i < n; ++i) x[i] -= col[i] * xk;
   }
   for (int i = n - 1; i >= 0; --i) {
-    double s = x[i];
-    for (int k = i + 1; k < n; ++k) s -= l[i * n + k] * x[k];
-    x[i] = s / l[i * n + i];
+    const double* col = l + static_cast<std::ptrdiff_t>(i) * n;
+    double s0 = 0.0, s1 = 0.0;
+    int k = i + 1;
+    for (; k + 1 < n; k += 2) {
+      s0 += col[k] * x[k];
+      s1 += col[k + 1] * x[k + 1];
+    }
+    if (k < n) s0 += col[k] * x[k];
+    x[i] = (x[i] - (s0 + s1)) / col[i];
   }
 }
 
@@ -663,25 +673,6 @@ bool Multigrid::updateFine(const BlockMatrixView& fine, bool threaded) {
   return valid_ = factorSmoother(fine, s);
 }
 
-namespace {
-
-/// Row p's share of a product with single-precision blocks over slots [begin, end), summed in
-/// double.
-inline Vec3d floatRowProduct(const Eigen::Matrix3f* blocks, const std::uint32_t* column,
-                             const Vec3d* x, std::uint32_t begin, std::uint32_t end) {
-  double s0 = 0.0, s1 = 0.0, s2 = 0.0;
-  for (std::uint32_t slot = begin; slot < end; ++slot) {
-    const float* a = blocks[slot].data();
-    const double* v = x[column[slot]].data();
-    s0 += a[0] * v[0] + a[3] * v[1] + a[6] * v[2];
-    s1 += a[1] * v[0] + a[4] * v[1] + a[7] * v[2];
-    s2 += a[2] * v[0] + a[5] * v[1] + a[8] * v[2];
-  }
-  return Vec3d(s0, s1, s2);
-}
-
-}  // namespace
-
 void Multigrid::cycle(std::size_t level, bool threaded) {
   Level& l = *levels_[level];
   const std::size_t n = l.r.size();
@@ -701,14 +692,18 @@ void Multigrid::cycle(std::size_t level, bool threaded) {
     const double* f = s.factor.data() + s.factorStart[g];
     if (end - begin == 1) {
       const Vec3d res =
-          l.r[begin] - floatRowProduct(blocks, column, l.u.data(), first(begin), last(begin));
-      l.u[begin] += Eigen::Map<const Eigen::Matrix3d>(f) * res;
+          l.r[begin] - blockRowProduct(blocks, column, l.u.data(), first(begin), last(begin));
+      // f is the inverse of the diagonal block (column-major), written out: this runs once
+      // per row and sweep.
+      l.u[begin] += Vec3d(f[0] * res[0] + f[3] * res[1] + f[6] * res[2],
+                          f[1] * res[0] + f[4] * res[1] + f[7] * res[2],
+                          f[2] * res[0] + f[5] * res[1] + f[8] * res[2]);
       return;
     }
     const int count = static_cast<int>(end - begin);
     std::array<double, 3 * kMaxGroupRows> rhs;
     for (std::uint32_t p = begin; p < end; ++p) {
-      const Vec3d res = l.r[p] - floatRowProduct(blocks, column, l.u.data(), first(p), last(p));
+      const Vec3d res = l.r[p] - blockRowProduct(blocks, column, l.u.data(), first(p), last(p));
       for (int c = 0; c < 3; ++c) rhs[3 * (p - begin) + static_cast<std::size_t>(c)] = res[c];
     }
     choleskySolve(f, 3 * count, rhs.data());
@@ -743,7 +738,7 @@ void Multigrid::cycle(std::size_t level, bool threaded) {
       0, n, kGrain,
       [&](std::size_t b, std::size_t e) {
         for (std::size_t p = b; p < e; ++p)
-          l.t[p] = -floatRowProduct(blocks, column, l.u.data(), s.upperStart[p], s.rowStart[p + 1]);
+          l.t[p] = -blockRowProduct(blocks, column, l.u.data(), s.upperStart[p], s.rowStart[p + 1]);
       },
       threaded);
   const Interpolation& ip = l.cycleInterpolation;
