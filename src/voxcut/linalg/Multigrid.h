@@ -57,8 +57,11 @@ namespace voxcut {
 
 /// Settings of the hierarchy.
 struct MultigridParams {
-  /// Stop coarsening at this many rows or fewer (the coarsest level is factorised).
-  std::size_t coarsestRows = 200;
+  /// Stop coarsening at this many rows or fewer (the coarsest level is factorised). Levels of
+  /// a hundred or two rows (cells of 64 voxels on the bunny) no longer carry the body's shape;
+  /// factorising the level above them instead costs little and saves iterations
+  /// (docs/performance.md, "Deformation solver at scale").
+  std::size_t coarsestRows = 600;
   /// A cell size is accepted when its coarse level has at most this fraction of the rows.
   double maxCoarseRatio = 0.6;
   /// A row is weak when the trace of its diagonal block is below this fraction of the largest
