@@ -1,7 +1,6 @@
 #include "voxcut/linalg/Multigrid.h"
 
 #include <Eigen/Cholesky>
-#include <Eigen/Sparse>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -257,13 +256,13 @@ Multigrid& Multigrid::operator=(const Multigrid& other) {
   params_ = other.params_;
   levels_.clear();
   for (const auto& l : other.levels_) levels_.push_back(std::make_unique<Level>(*l));
-  coarsest_.reset();
-  analysed_ = false;
-  valid_ = false;
+  coarsest_ = other.coarsest_;
+  coarsestPattern_ = other.coarsestPattern_;
+  coarsestBlocks_ = other.coarsestBlocks_;
+  analysed_ = other.analysed_;
+  // A single-level hierarchy factorises the caller's matrix at its next setup.
+  valid_ = other.valid_ && levels_.size() > 1;
   operator_ = {};
-  // The coarsest factor is remade from the copied matrix (the same factor, bit for bit);
-  // a single-level hierarchy factorises the caller's matrix at its next setup.
-  if (other.valid_ && levels_.size() > 1) valid_ = factorCoarsest(levels_.back()->matrix.view());
   return *this;
 }
 
@@ -284,7 +283,8 @@ void Multigrid::build(const BlockMatrixView& fine, const std::vector<Index3>& co
   (void)threaded;
   params_ = params;
   levels_.clear();
-  coarsest_.reset();
+  coarsest_ = BlockCholesky{};
+  coarsestBlocks_.clear();
   analysed_ = false;
   valid_ = false;
   operator_ = {};
@@ -299,7 +299,7 @@ void Multigrid::build(const BlockMatrixView& fine, const std::vector<Index3>& co
   while (levels_.size() < static_cast<std::size_t>(params_.maxLevels)) {
     Level& f = *levels_.back();
     const BlockMatrixView a = levels_.size() == 1 ? fine : f.matrix.view();
-    if (a.rows <= params_.coarsestRows) break;
+    if (a.rows <= params_.coarsestRows && analyseCoarsest(a, fine.rowStart[fine.rows])) break;
     // The smallest cell size, twice the last or more, that coarsens enough.
     Coarsening c;
     bool found = false;
@@ -616,30 +616,25 @@ void Multigrid::arrangeInterpolation(std::size_t level) {
   }
 }
 
-bool Multigrid::factorCoarsest(const BlockMatrixView& a) {
-  // The lower triangle, scalar entries.
-  const Eigen::Index n = static_cast<Eigen::Index>(3 * a.rows);
-  std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(9 * a.rowStart[a.rows] / 2 + 9 * a.rows);
-  for (std::size_t i = 0; i < a.rows; ++i)
-    for (std::uint32_t slot = a.rowStart[i]; slot < a.rowStart[i + 1]; ++slot) {
-      const std::uint32_t j = a.column[slot];
-      if (j > i) continue;
-      for (int p = 0; p < 3; ++p)
-        for (int q = 0; q < 3; ++q)
-          if (3 * i + static_cast<std::size_t>(p) >= 3 * j + static_cast<std::size_t>(q))
-            entries.emplace_back(static_cast<Eigen::Index>(3 * i + p),
-                                 static_cast<Eigen::Index>(3 * j + q), a.blocks[slot](p, q));
-    }
-  Eigen::SparseMatrix<double> lower(n, n);
-  lower.setFromTriplets(entries.begin(), entries.end());
-  if (!coarsest_) coarsest_ = std::make_unique<Factor>();
-  if (!analysed_) {
-    coarsest_->analyzePattern(lower);
-    analysed_ = true;
-  }
-  coarsest_->factorize(lower);
-  return coarsest_->info() == Eigen::Success;
+bool Multigrid::analyseCoarsest(const BlockMatrixView& a, std::size_t fineBlocks) {
+  coarsestPattern_.rowStart.assign(a.rowStart, a.rowStart + a.rows + 1);
+  coarsestPattern_.column.assign(a.column, a.column + a.rowStart[a.rows]);
+  coarsestPattern_.diagonal.assign(a.diagonal, a.diagonal + a.rows);
+  coarsest_.analyse(coarsestPattern_);
+  analysed_ = true;
+  return static_cast<double>(coarsest_.offDiagonalBlocks()) <=
+         params_.maxCoarsestFill * static_cast<double>(fineBlocks);
+}
+
+bool Multigrid::factorCoarsest(const BlockMatrixView& a, bool threaded) {
+  if (!analysed_ || coarsest_.rows() != a.rows) (void)analyseCoarsest(a, 0);
+  // The last level's own blocks, or a copy of the fine ones (a hierarchy of one level).
+  const std::vector<Eigen::Matrix3d>* blocks = &coarsestBlocks_;
+  if (levels_.size() > 1)
+    blocks = &levels_.back()->matrix.blocks;
+  else
+    coarsestBlocks_.assign(a.blocks, a.blocks + a.rowStart[a.rows]);
+  return coarsest_.factorise(coarsestPattern_, *blocks, threaded);
 }
 
 bool Multigrid::setup(const BlockMatrixView& fine, bool threaded) {
@@ -659,7 +654,7 @@ bool Multigrid::setup(const BlockMatrixView& fine, bool threaded) {
   }
   for (std::size_t l = 0; l + 1 < levels_.size(); ++l) arrangeInterpolation(l);
   const BlockMatrixView last = levels_.size() == 1 ? fine : levels_.back()->matrix.view();
-  valid_ = factorCoarsest(last);
+  valid_ = factorCoarsest(last, threaded);
   return valid_;
 }
 
@@ -667,7 +662,7 @@ bool Multigrid::updateFine(const BlockMatrixView& fine, bool threaded) {
   operator_ = fine;
   threaded_ = threaded;
   if (levels_.empty() || fine.rows == 0) return valid_ = false;
-  if (levels_.size() == 1) return valid_ = factorCoarsest(fine);
+  if (levels_.size() == 1) return valid_ = factorCoarsest(fine, threaded);
   Smoother& s = levels_[0]->smoother;
   copyBlocks(fine, s, threaded);
   return valid_ = factorSmoother(fine, s);
@@ -677,9 +672,7 @@ void Multigrid::cycle(std::size_t level, bool threaded) {
   Level& l = *levels_[level];
   const std::size_t n = l.r.size();
   if (level + 1 == levels_.size()) {
-    Eigen::Map<const Eigen::VectorXd> rhs(l.r.data()->data(), static_cast<Eigen::Index>(3 * n));
-    Eigen::Map<Eigen::VectorXd>(l.u.data()->data(), static_cast<Eigen::Index>(3 * n)) =
-        coarsest_->solve(rhs);
+    coarsest_.solve(l.r, l.u);
     return;
   }
   Smoother& s = l.smoother;
