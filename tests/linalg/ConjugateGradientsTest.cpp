@@ -182,7 +182,8 @@ TEST(ConjugateGradients, FailuresAreStatuses) {
 }
 
 TEST(ConjugateGradients, MultigridThroughTheInterfaceIsBitIdenticalAtOneAndTwoThreads) {
-  // A chain of 2000 rows along x, so that the multigrid has coarse levels.
+  // A chain of 2000 rows along x, and a coarsest level of at most 200 rows, so that the
+  // multigrid has coarse levels (a chain's factor has no fill: it could be the coarsest).
   const std::size_t rows = 2000;
   const ChainSystem c = chainSystem(static_cast<int>(rows));
   std::vector<Index3> coords(rows);
@@ -193,7 +194,9 @@ TEST(ConjugateGradients, MultigridThroughTheInterfaceIsBitIdenticalAtOneAndTwoTh
     const ThreadLimit limit(threads);
     const BlockMatrixView a = c.sp.view(c.blocks);
     Multigrid multigrid;
-    multigrid.build(a, coords, MultigridParams{}, true);
+    MultigridParams params;
+    params.coarsestRows = 200;
+    multigrid.build(a, coords, params, true);
     ConjugateGradients cg;
     cg.setOperator(a, true);
     cg.setPreconditioner(multigrid);

@@ -191,6 +191,23 @@ TEST(Multigrid, VCycleIsSymmetricPositiveDefinite) {
   EXPECT_GT(dot(y, my), 0.0);
 }
 
+TEST(Multigrid, CoarsestIsTheFirstLevelWhoseFactorIsSmall) {
+  // 1,728 rows, within coarsestRows: a 3D grid's factor fills in far beyond maxCoarsestFill,
+  // so the hierarchy coarsens on; allowed any fill, the matrix is its own coarsest level and
+  // the V-cycle is its exact inverse.
+  const GridSystem s = springGrid(12, 1e-3);
+  const BlockMatrixView a = s.matrix.view();
+  MultigridParams params;
+  Multigrid mg;
+  mg.build(a, s.coords, params, true);
+  EXPECT_GT(mg.levelCount(), 1u);
+  params.maxCoarsestFill = 1e9;
+  mg.build(a, s.coords, params, true);
+  ASSERT_TRUE(mg.setup(a, true));
+  EXPECT_EQ(mg.levelCount(), 1u);
+  EXPECT_EQ(solve(a, mg, randomVector(a.rows, 7)), 1);
+}
+
 TEST(Multigrid, IterationsBarelyGrowWithSize) {
   // Stiff springs, light mass: the condition number grows with the square of the size.
   int iterations[2] = {};

@@ -1,7 +1,6 @@
 #include "voxcut/linalg/Multigrid.h"
 
 #include <Eigen/Cholesky>
-#include <Eigen/Sparse>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -57,17 +56,27 @@ bool choleskyInPlace(double* a, int n) {
   return true;
 }
 
-/// Solves L L^T x = b in place with the factor of choleskyInPlace.
+/// Solves L L^T x = b in place with the factor of choleskyInPlace. The forward substitution
+/// runs by columns of L (contiguous, and no chain of dependent sums), in the same order of
+/// terms as by rows; the backward one by rows of L^T, which are columns of L, with two partial
+/// sums.
 void choleskySolve(const double* l, int n, double* x) {
-  for (int i = 0; i < n; ++i) {
-    double s = x[i];
-    for (int k = 0; k < i; ++k) s -= l[k * n + i] * x[k];
-    x[i] = s / l[i * n + i];
+  for (int k = 0; k < n; ++k) {
+    const double* col = l + static_cast<std::ptrdiff_t>(k) * n;
+    const double xk = x[k] / col[k];
+    x[k] = xk;
+    for (int i = k + 1; i < n; ++i) x[i] -= col[i] * xk;
   }
   for (int i = n - 1; i >= 0; --i) {
-    double s = x[i];
-    for (int k = i + 1; k < n; ++k) s -= l[i * n + k] * x[k];
-    x[i] = s / l[i * n + i];
+    const double* col = l + static_cast<std::ptrdiff_t>(i) * n;
+    double s0 = 0.0, s1 = 0.0;
+    int k = i + 1;
+    for (; k + 1 < n; k += 2) {
+      s0 += col[k] * x[k];
+      s1 += col[k + 1] * x[k + 1];
+    }
+    if (k < n) s0 += col[k] * x[k];
+    x[i] = (x[i] - (s0 + s1)) / col[i];
   }
 }
 
@@ -247,13 +256,13 @@ Multigrid& Multigrid::operator=(const Multigrid& other) {
   params_ = other.params_;
   levels_.clear();
   for (const auto& l : other.levels_) levels_.push_back(std::make_unique<Level>(*l));
-  coarsest_.reset();
-  analysed_ = false;
-  valid_ = false;
+  coarsest_ = other.coarsest_;
+  coarsestPattern_ = other.coarsestPattern_;
+  coarsestBlocks_ = other.coarsestBlocks_;
+  analysed_ = other.analysed_;
+  // A single-level hierarchy factorises the caller's matrix at its next setup.
+  valid_ = other.valid_ && levels_.size() > 1;
   operator_ = {};
-  // The coarsest factor is remade from the copied matrix (the same factor, bit for bit);
-  // a single-level hierarchy factorises the caller's matrix at its next setup.
-  if (other.valid_ && levels_.size() > 1) valid_ = factorCoarsest(levels_.back()->matrix.view());
   return *this;
 }
 
@@ -274,7 +283,8 @@ void Multigrid::build(const BlockMatrixView& fine, const std::vector<Index3>& co
   (void)threaded;
   params_ = params;
   levels_.clear();
-  coarsest_.reset();
+  coarsest_ = BlockCholesky{};
+  coarsestBlocks_.clear();
   analysed_ = false;
   valid_ = false;
   operator_ = {};
@@ -289,7 +299,7 @@ void Multigrid::build(const BlockMatrixView& fine, const std::vector<Index3>& co
   while (levels_.size() < static_cast<std::size_t>(params_.maxLevels)) {
     Level& f = *levels_.back();
     const BlockMatrixView a = levels_.size() == 1 ? fine : f.matrix.view();
-    if (a.rows <= params_.coarsestRows) break;
+    if (a.rows <= params_.coarsestRows && analyseCoarsest(a, fine.rowStart[fine.rows])) break;
     // The smallest cell size, twice the last or more, that coarsens enough.
     Coarsening c;
     bool found = false;
@@ -606,30 +616,25 @@ void Multigrid::arrangeInterpolation(std::size_t level) {
   }
 }
 
-bool Multigrid::factorCoarsest(const BlockMatrixView& a) {
-  // The lower triangle, scalar entries.
-  const Eigen::Index n = static_cast<Eigen::Index>(3 * a.rows);
-  std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(9 * a.rowStart[a.rows] / 2 + 9 * a.rows);
-  for (std::size_t i = 0; i < a.rows; ++i)
-    for (std::uint32_t slot = a.rowStart[i]; slot < a.rowStart[i + 1]; ++slot) {
-      const std::uint32_t j = a.column[slot];
-      if (j > i) continue;
-      for (int p = 0; p < 3; ++p)
-        for (int q = 0; q < 3; ++q)
-          if (3 * i + static_cast<std::size_t>(p) >= 3 * j + static_cast<std::size_t>(q))
-            entries.emplace_back(static_cast<Eigen::Index>(3 * i + p),
-                                 static_cast<Eigen::Index>(3 * j + q), a.blocks[slot](p, q));
-    }
-  Eigen::SparseMatrix<double> lower(n, n);
-  lower.setFromTriplets(entries.begin(), entries.end());
-  if (!coarsest_) coarsest_ = std::make_unique<Factor>();
-  if (!analysed_) {
-    coarsest_->analyzePattern(lower);
-    analysed_ = true;
-  }
-  coarsest_->factorize(lower);
-  return coarsest_->info() == Eigen::Success;
+bool Multigrid::analyseCoarsest(const BlockMatrixView& a, std::size_t fineBlocks) {
+  coarsestPattern_.rowStart.assign(a.rowStart, a.rowStart + a.rows + 1);
+  coarsestPattern_.column.assign(a.column, a.column + a.rowStart[a.rows]);
+  coarsestPattern_.diagonal.assign(a.diagonal, a.diagonal + a.rows);
+  coarsest_.analyse(coarsestPattern_);
+  analysed_ = true;
+  return static_cast<double>(coarsest_.offDiagonalBlocks()) <=
+         params_.maxCoarsestFill * static_cast<double>(fineBlocks);
+}
+
+bool Multigrid::factorCoarsest(const BlockMatrixView& a, bool threaded) {
+  if (!analysed_ || coarsest_.rows() != a.rows) (void)analyseCoarsest(a, 0);
+  // The last level's own blocks, or a copy of the fine ones (a hierarchy of one level).
+  const std::vector<Eigen::Matrix3d>* blocks = &coarsestBlocks_;
+  if (levels_.size() > 1)
+    blocks = &levels_.back()->matrix.blocks;
+  else
+    coarsestBlocks_.assign(a.blocks, a.blocks + a.rowStart[a.rows]);
+  return coarsest_.factorise(coarsestPattern_, *blocks, threaded);
 }
 
 bool Multigrid::setup(const BlockMatrixView& fine, bool threaded) {
@@ -649,7 +654,7 @@ bool Multigrid::setup(const BlockMatrixView& fine, bool threaded) {
   }
   for (std::size_t l = 0; l + 1 < levels_.size(); ++l) arrangeInterpolation(l);
   const BlockMatrixView last = levels_.size() == 1 ? fine : levels_.back()->matrix.view();
-  valid_ = factorCoarsest(last);
+  valid_ = factorCoarsest(last, threaded);
   return valid_;
 }
 
@@ -657,38 +662,17 @@ bool Multigrid::updateFine(const BlockMatrixView& fine, bool threaded) {
   operator_ = fine;
   threaded_ = threaded;
   if (levels_.empty() || fine.rows == 0) return valid_ = false;
-  if (levels_.size() == 1) return valid_ = factorCoarsest(fine);
+  if (levels_.size() == 1) return valid_ = factorCoarsest(fine, threaded);
   Smoother& s = levels_[0]->smoother;
   copyBlocks(fine, s, threaded);
   return valid_ = factorSmoother(fine, s);
 }
 
-namespace {
-
-/// Row p's share of a product with single-precision blocks over slots [begin, end), summed in
-/// double.
-inline Vec3d floatRowProduct(const Eigen::Matrix3f* blocks, const std::uint32_t* column,
-                             const Vec3d* x, std::uint32_t begin, std::uint32_t end) {
-  double s0 = 0.0, s1 = 0.0, s2 = 0.0;
-  for (std::uint32_t slot = begin; slot < end; ++slot) {
-    const float* a = blocks[slot].data();
-    const double* v = x[column[slot]].data();
-    s0 += a[0] * v[0] + a[3] * v[1] + a[6] * v[2];
-    s1 += a[1] * v[0] + a[4] * v[1] + a[7] * v[2];
-    s2 += a[2] * v[0] + a[5] * v[1] + a[8] * v[2];
-  }
-  return Vec3d(s0, s1, s2);
-}
-
-}  // namespace
-
 void Multigrid::cycle(std::size_t level, bool threaded) {
   Level& l = *levels_[level];
   const std::size_t n = l.r.size();
   if (level + 1 == levels_.size()) {
-    Eigen::Map<const Eigen::VectorXd> rhs(l.r.data()->data(), static_cast<Eigen::Index>(3 * n));
-    Eigen::Map<Eigen::VectorXd>(l.u.data()->data(), static_cast<Eigen::Index>(3 * n)) =
-        coarsest_->solve(rhs);
+    coarsest_.solve(l.r, l.u);
     return;
   }
   Smoother& s = l.smoother;
@@ -701,14 +685,18 @@ void Multigrid::cycle(std::size_t level, bool threaded) {
     const double* f = s.factor.data() + s.factorStart[g];
     if (end - begin == 1) {
       const Vec3d res =
-          l.r[begin] - floatRowProduct(blocks, column, l.u.data(), first(begin), last(begin));
-      l.u[begin] += Eigen::Map<const Eigen::Matrix3d>(f) * res;
+          l.r[begin] - blockRowProduct(blocks, column, l.u.data(), first(begin), last(begin));
+      // f is the inverse of the diagonal block (column-major), written out: this runs once
+      // per row and sweep.
+      l.u[begin] += Vec3d(f[0] * res[0] + f[3] * res[1] + f[6] * res[2],
+                          f[1] * res[0] + f[4] * res[1] + f[7] * res[2],
+                          f[2] * res[0] + f[5] * res[1] + f[8] * res[2]);
       return;
     }
     const int count = static_cast<int>(end - begin);
     std::array<double, 3 * kMaxGroupRows> rhs;
     for (std::uint32_t p = begin; p < end; ++p) {
-      const Vec3d res = l.r[p] - floatRowProduct(blocks, column, l.u.data(), first(p), last(p));
+      const Vec3d res = l.r[p] - blockRowProduct(blocks, column, l.u.data(), first(p), last(p));
       for (int c = 0; c < 3; ++c) rhs[3 * (p - begin) + static_cast<std::size_t>(c)] = res[c];
     }
     choleskySolve(f, 3 * count, rhs.data());
@@ -743,7 +731,7 @@ void Multigrid::cycle(std::size_t level, bool threaded) {
       0, n, kGrain,
       [&](std::size_t b, std::size_t e) {
         for (std::size_t p = b; p < e; ++p)
-          l.t[p] = -floatRowProduct(blocks, column, l.u.data(), s.upperStart[p], s.rowStart[p + 1]);
+          l.t[p] = -blockRowProduct(blocks, column, l.u.data(), s.upperStart[p], s.rowStart[p + 1]);
       },
       threaded);
   const Interpolation& ip = l.cycleInterpolation;

@@ -36,7 +36,8 @@
 /// in parallel. Each level keeps a single-precision copy of its matrix renumbered colour by
 /// colour, so the forward sweep from zero reads only the blocks before a row's group and the
 /// residual after it only those after (sums stay in double; the cycle is symmetric to the
-/// single-precision rounding). The coarsest level is factorised (sparse Cholesky).
+/// single-precision rounding). The coarsest level is factorised (block Cholesky,
+/// BlockCholesky.h).
 ///
 /// Determinism: the sweeps run rows in order; products, restrictions and prolongations are
 /// parallel with fixed per-row sums, so results do not depend on the thread count.
@@ -44,21 +45,28 @@
 /// Thread-safety: one call at a time per object (it owns scratch vectors).
 
 #include <Eigen/Core>
-#include <Eigen/SparseCholesky>
 #include <cstdint>
 #include <memory>
 #include <vector>
 
 #include "voxcut/core/Types.h"
+#include "voxcut/linalg/BlockCholesky.h"
 #include "voxcut/linalg/BlockMatrix.h"
+#include "voxcut/linalg/BlockSparsity.h"
 #include "voxcut/linalg/LinearPreconditioner.h"
 
 namespace voxcut {
 
 /// Settings of the hierarchy.
 struct MultigridParams {
-  /// Stop coarsening at this many rows or fewer (the coarsest level is factorised).
-  std::size_t coarsestRows = 200;
+  /// The coarsest level (factorised) is the first with at most coarsestRows rows whose
+  /// factor has at most maxCoarsestFill blocks below the diagonal per block of the fine
+  /// matrix: its two triangular solves then cost about as much as one or two fine products.
+  /// Levels of a hundred or two rows (cells of 64 voxels on the bunny) no longer carry the
+  /// body's shape; factorising the level above them saves iterations (docs/performance.md,
+  /// "Deformation solver at scale").
+  std::size_t coarsestRows = 2000;
+  double maxCoarsestFill = 0.75;
   /// A cell size is accepted when its coarse level has at most this fraction of the rows.
   double maxCoarseRatio = 0.6;
   /// A row is weak when the trace of its diagonal block is below this fraction of the largest
@@ -148,16 +156,21 @@ class Multigrid final : public LinearPreconditioner {
   bool factorSmoother(const BlockMatrixView& a, Smoother& s) const;
   void copyBlocks(const BlockMatrixView& a, Smoother& s, bool threaded) const;
   void arrangeInterpolation(std::size_t level);
-  bool factorCoarsest(const BlockMatrixView& a);
+  /// Analyses `a` as the coarsest level; whether its factor is small enough against a fine
+  /// matrix of `fineBlocks` blocks (MultigridParams::maxCoarsestFill).
+  bool analyseCoarsest(const BlockMatrixView& a, std::size_t fineBlocks);
+  bool factorCoarsest(const BlockMatrixView& a, bool threaded);
   void groupRows(const BlockMatrixView& a, Smoother& s) const;
   void galerkin(std::size_t level, bool threaded);
   void cycle(std::size_t level, bool threaded);
 
   MultigridParams params_;
   std::vector<std::unique_ptr<Level>> levels_;
-  /// The coarsest level's factor (on the heap: Eigen's sparse factors cannot be moved).
-  using Factor = Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower>;
-  std::unique_ptr<Factor> coarsest_;
+  /// The coarsest level's factor, its pattern (analysed once per hierarchy) and, for a
+  /// hierarchy of one level, a copy of the fine blocks it was made from.
+  BlockCholesky coarsest_;
+  BlockSparsity coarsestPattern_;
+  std::vector<Eigen::Matrix3d> coarsestBlocks_;
   bool analysed_ = false;
   bool valid_ = false;
   const BlockMatrixView* fine_ = nullptr;  ///< level 0's matrix during setup() and apply()
