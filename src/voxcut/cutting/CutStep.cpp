@@ -316,10 +316,10 @@ bool hullMeets(const CullBox& box, const Vec3d* p, int n) {
   return true;
 }
 
-// An active voxel near the sweeps: its entry in the active voxels, its position, and the
+// An active voxel near the sweeps: its index in the grid, its position, and the
 // sweeps whose enlarged boxes hold it (sweepCount indices from firstSweep in the element's list).
 struct Candidate {
-  std::uint32_t entry;
+  std::size_t voxel;
   std::uint32_t firstSweep;
   std::uint32_t sweepCount;
   Vec3d position;
@@ -343,7 +343,7 @@ void collectCandidates(const CutBody& b, std::uint32_t e, const std::vector<Cull
   const Index3 first = el.firstVoxel();
   const Index3 dims = b.grid.dims();
   const double inv = el.inverseSize();
-  const std::uint32_t* activeIndex = b.activity.activeIndex.data();
+  const VoxelOctree& oct = b.activity;
   // Per depth of the recursion, the boxes the block there meets (a block's list is read while
   // its children fill the next depth's): depth k's list is met[k * nb .. k * nb + metCount[k]).
   const std::size_t nb = boxes.size();
@@ -387,8 +387,7 @@ void collectCandidates(const CutBody& b, std::uint32_t e, const std::vector<Cull
         detail::RowSegment row{Vec3d::Zero(), Vec3d::Zero()};
         for (int x = lo[0]; x <= hi[0]; ++x) {
           const std::size_t v = b.grid.index(Index3{first[0] + x, first[1] + y, first[2] + z});
-          const std::uint32_t i = activeIndex[v];
-          if (i == kNoActive || d.owner(v) != e) continue;
+          if (!oct.voxelActive(v) || d.owner(v) != e) continue;
           if (!haveRow) {
             row = detail::rowSegment(d.positions(), el.nodes, (y + 0.5) * inv, (z + 0.5) * inv);
             haveRow = true;
@@ -398,7 +397,7 @@ void collectCandidates(const CutBody& b, std::uint32_t e, const std::vector<Cull
           for (std::uint32_t j = 0; j < count; ++j)
             if (hullMeets(boxes[here[j]], &p, 1)) out.sweeps.push_back(boxes[here[j]].sweep);
           const auto holding = static_cast<std::uint32_t>(out.sweeps.size()) - firstSweep;
-          if (holding > 0) out.voxels.push_back({i, firstSweep, holding, p});
+          if (holding > 0) out.voxels.push_back({v, firstSweep, holding, p});
         }
       }
   };
@@ -460,13 +459,9 @@ struct LinkTestResult {
 // Intersection test: each active connected link (v, a) whose low voxel v is a candidate, once.
 // The far end is positioned on the way.
 LinkTestResult testCandidateLinks(CutBody& b, const std::vector<BladeSweep>& sweeps,
-                                  const SweepCull& cull,
                                   const std::vector<ElementCandidates>& candidates, bool threaded) {
   VoxelGrid& g = b.grid;
-  const std::vector<std::uint32_t>& active = b.activity.activeVoxels;
-  const auto nActive = static_cast<std::uint32_t>(active.size());
-  const std::vector<std::array<std::uint32_t, 3>>& next = b.activity.activeNext;
-  const std::size_t n = cull.elements.size();
+  const std::size_t n = candidates.size();
   std::vector<std::vector<LinkCut>> found(n);
   std::vector<std::size_t> tested(n, 0);
   // With the octree, the sweeps' boundary (for the subdivision) is found meanwhile, as one
@@ -486,10 +481,9 @@ LinkTestResult testCandidateLinks(CutBody& b, const std::vector<BladeSweep>& swe
         for (std::size_t c = j0 - side; c < j1 - side; ++c) {
           for (const Candidate& cand : candidates[c].voxels) {
             const std::uint32_t* which = candidates[c].sweeps.data() + cand.firstSweep;
-            const std::size_t v = active[cand.entry];
+            const std::size_t v = cand.voxel;
             for (int a = 0; a < 3; ++a) {
-              const std::uint32_t j = next[cand.entry][static_cast<std::size_t>(a)];
-              if (j >= nActive || !g.connected(v, a)) continue;
+              if (!b.activity.linkActive(v, a) || !g.connected(v, a)) continue;
               ++tested[c];
               if (const auto h = testLink(b, sweeps, v, a, cand.position,
                                           b.deformation.voxelPosition(v + g.stride(a)), which,
@@ -591,7 +585,7 @@ CutStepResult cutStepLeavingUpdates(CutBody& b, const std::vector<BladeSweep>& s
   r.positionUpdateMs = timer.ms();
 
   timer.restart();
-  LinkTestResult found = testCandidateLinks(b, sweeps, cull, candidates, threaded);
+  LinkTestResult found = testCandidateLinks(b, sweeps, candidates, threaded);
   r.testedLinks = found.tested;
   r.cuts = std::move(found.cuts);
   applyCuts(b, r.cuts);
