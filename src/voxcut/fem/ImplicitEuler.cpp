@@ -494,10 +494,13 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
         [&](std::size_t b, std::size_t e) {
           for (std::size_t i = b; i < e; ++i) {
             const bool translationExact = freePiece_[piece[i]] != 0;
-            for (int k = 0; k < 6; ++k)
-              rigidProducts_[static_cast<std::size_t>(k)][i] =
-                  translationExact && k < 3 ? Vec3d(massRow_[i] * rigid_.mode(k)[i])
-                                            : multiply(rigid_.mode(k), i);
+            const std::array<Vec3d, 6> az =
+                rigid_.rowProducts(blocks, column, rowStart[i], rowStart[i + 1]);
+            for (std::size_t k = 0; k < 6; ++k)
+              rigidProducts_[k][i] =
+                  translationExact && k < 3
+                      ? Vec3d(massRow_[i] * rigid_.mode(static_cast<int>(k))[i])
+                      : az[k];
           }
         },
         threaded);

@@ -67,6 +67,33 @@ void RigidModes::setup(const BlockSparsity& sparsity, std::uint64_t revision,
   }
 }
 
+std::array<Vec3d, 6> RigidModes::rowProducts(const Eigen::Matrix3d* blocks,
+                                             const std::uint32_t* column, std::uint32_t begin,
+                                             std::uint32_t end) const {
+  // t: the sums of the blocks' entries (column a of their sum is the product with e_a); r:
+  // the rotations' products, three rows each. Blocks are column-major: row q of a block
+  // times v is a[q] v0 + a[q + 3] v1 + a[q + 6] v2.
+  std::array<double, 9> t{};
+  std::array<double, 9> r{};
+  const Vec3d* rx = modes_[3].data();
+  const Vec3d* ry = modes_[4].data();
+  const Vec3d* rz = modes_[5].data();
+  for (std::uint32_t slot = begin; slot < end; ++slot) {
+    const double* a = blocks[slot].data();
+    for (std::size_t j = 0; j < 9; ++j) t[j] += a[j];
+    const double* u = rx[column[slot]].data();  // (0, u1, u2)
+    const double* v = ry[column[slot]].data();  // (v0, 0, v2)
+    const double* w = rz[column[slot]].data();  // (w0, w1, 0)
+    for (std::size_t q = 0; q < 3; ++q) {
+      r[q] += a[q + 3] * u[1] + a[q + 6] * u[2];
+      r[3 + q] += a[q] * v[0] + a[q + 6] * v[2];
+      r[6 + q] += a[q] * w[0] + a[q + 3] * w[1];
+    }
+  }
+  return {Vec3d(t[0], t[1], t[2]), Vec3d(t[3], t[4], t[5]), Vec3d(t[6], t[7], t[8]),
+          Vec3d(r[0], r[1], r[2]), Vec3d(r[3], r[4], r[5]), Vec3d(r[6], r[7], r[8])};
+}
+
 void RigidModes::setOperator(std::array<std::vector<Vec3d>, 6>& az) {
   const std::size_t rows = piece_.size();
   for (const auto& v : az) VOXCUT_ASSERT(v.size() == rows, "one product per free node");

@@ -50,6 +50,16 @@ class RigidModes {
     return modes_[static_cast<std::size_t>(k)];
   }
 
+  /// Row i of A mode(k) for the six modes, A's blocks `blocks` with columns `column` over slots
+  /// [begin, end) (row i of a BlockSparsity's pattern). One pass over the row's blocks, and
+  /// no multiplication by the modes' known zeros: a translation is a unit vector, and the
+  /// rotation about axis a, e_a x d, has component a zero. Each sum is blockRowProduct's (its
+  /// terms in the same order) less those terms, which are exactly zero, so the products are
+  /// the same as blockRowProduct's. After setup().
+  [[nodiscard]] std::array<Vec3d, 6> rowProducts(const Eigen::Matrix3d* blocks,
+                                                 const std::uint32_t* column, std::uint32_t begin,
+                                                 std::uint32_t end) const;
+
   /// Takes az[k] = A mode(k) (#free each; swapped in, so `az` gets the previous buffers
   /// back for reuse) and inverts each piece's 6x6 Z^T A Z
   /// (a pseudo-inverse: the modes of a piece with too few free nodes to span them all are
