@@ -257,6 +257,9 @@ void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree&
   const std::vector<std::uint32_t>& mirror = sp.mirror;
   const auto massBase = static_cast<std::uint32_t>(64 * model.elementCount());
   const bool block = params_.preconditioner != PreconditionerKind::Jacobi;
+  const auto sourceEnd = static_cast<std::uint32_t>(sp.source.size());
+  const auto slotEnd = static_cast<std::uint32_t>(mirror.size());
+  constexpr std::uint32_t kGatherAhead = 16;
   parallelFor(
       0, model.freeNodeCount(), 128,
       [&](std::size_t b, std::size_t end) {
@@ -272,6 +275,18 @@ void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree&
           for (std::uint32_t slot = sp.diagonal[i]; slot < sp.rowStart[i + 1]; ++slot) {
             Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
             for (std::uint32_t k = sp.sourceStart[slot]; k < sp.sourceStart[slot + 1]; ++k) {
+              // The element blocks are read in an order the hardware cannot foresee: ask for
+              // the one a few sources ahead now.
+              if (k + kGatherAhead < sourceEnd) {
+                const std::uint32_t ahead = sp.source[k + kGatherAhead];
+                if (ahead < massBase) {
+                  const auto* p = reinterpret_cast<const char*>(
+                      elementBlocks_[36 * (ahead >> 6) + kUpperBlock[(ahead >> 3) & 7u][ahead & 7u]]
+                          .data());
+                  __builtin_prefetch(p);
+                  __builtin_prefetch(p + 64);
+                }
+              }
               const std::uint32_t src = sp.source[k];
               if (src < massBase) {  // element src / 64, corners (src / 8) % 8 and src % 8
                 const std::uint32_t a = (src >> 3) & 7u, c = src & 7u;
@@ -299,8 +314,15 @@ void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree&
       0, model.freeNodeCount(), 256,
       [&](std::size_t b, std::size_t end) {
         for (std::size_t i = b; i < end; ++i)
-          for (std::uint32_t slot = sp.rowStart[i]; slot < sp.diagonal[i]; ++slot)
+          for (std::uint32_t slot = sp.rowStart[i]; slot < sp.diagonal[i]; ++slot) {
+            if (slot + kGatherAhead < slotEnd) {  // as above: mirrors lie anywhere
+              const auto* p =
+                  reinterpret_cast<const char*>(blocks_[mirror[slot + kGatherAhead]].data());
+              __builtin_prefetch(p);
+              __builtin_prefetch(p + 64);
+            }
             blocks_[slot] = blocks_[mirror[slot]].transpose();
+          }
       },
       threaded);
 }
@@ -497,10 +519,9 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
             const std::array<Vec3d, 6> az =
                 rigid_.rowProducts(blocks, column, rowStart[i], rowStart[i + 1]);
             for (std::size_t k = 0; k < 6; ++k)
-              rigidProducts_[k][i] =
-                  translationExact && k < 3
-                      ? Vec3d(massRow_[i] * rigid_.mode(static_cast<int>(k))[i])
-                      : az[k];
+              rigidProducts_[k][i] = translationExact && k < 3
+                                         ? Vec3d(massRow_[i] * rigid_.mode(static_cast<int>(k))[i])
+                                         : az[k];
           }
         },
         threaded);

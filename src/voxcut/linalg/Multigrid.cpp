@@ -1,8 +1,8 @@
 #include "voxcut/linalg/Multigrid.h"
 
-#include <Eigen/Cholesky>
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <limits>
 
@@ -37,6 +37,26 @@ std::uint32_t findSlot(const BlockMatrixView& a, std::size_t row, std::uint32_t 
   const std::uint32_t* last = a.column + a.rowStart[row + 1];
   const std::uint32_t* it = std::lower_bound(first, last, col);
   return it != last && *it == col ? static_cast<std::uint32_t>(it - a.column) : kNone;
+}
+
+/// The inverse of the symmetric 3x3 block `d` (its lower triangle read) into `out`
+/// (column-major) by cofactors; false unless d is positive definite (positive leading minors,
+/// Sylvester's criterion) and the inverse finite.
+bool symmetricInverse(const Eigen::Matrix3d& d, double* out) {
+  const double a = d(0, 0), b = d(1, 0), c = d(2, 0), e = d(1, 1), f = d(2, 1), i = d(2, 2);
+  const double c00 = e * i - f * f, c01 = c * f - b * i, c02 = b * f - e * c;
+  const double c11 = a * i - c * c, c12 = b * c - a * f, c22 = a * e - b * b;
+  const double det = a * c00 + b * c01 + c * c02;
+  if (!(a > 0.0) || !(c22 > 0.0) || !(det > 0.0)) return false;
+  const double s = 1.0 / det;
+  const double v[9] = {c00 * s, c01 * s, c02 * s, c01 * s, c11 * s,
+                       c12 * s, c02 * s, c12 * s, c22 * s};
+  bool finite = true;
+  for (int k = 0; k < 9; ++k) {
+    out[k] = v[k];
+    finite = finite && std::isfinite(v[k]);
+  }
+  return finite;
 }
 
 /// In-place Cholesky factor (lower, column-major n x n); false when not positive definite.
@@ -547,32 +567,35 @@ void Multigrid::copyBlocks(const BlockMatrixView& a, Smoother& s, bool threaded)
       threaded);
 }
 
-bool Multigrid::factorSmoother(const BlockMatrixView& a, Smoother& s) const {
-  bool ok = true;
-  for (std::size_t g = 0; g < s.groups() && ok; ++g) {
-    const std::uint32_t* rows = s.order.data() + s.groupStart[g];
-    const int count = static_cast<int>(s.groupStart[g + 1] - s.groupStart[g]);
-    double* f = s.factor.data() + s.factorStart[g];
-    if (count == 1) {
-      const Eigen::Matrix3d& d = a.blocks[a.diagonal[rows[0]]];
-      Eigen::LLT<Eigen::Matrix3d> llt(d);
-      if (llt.info() != Eigen::Success) return false;
-      Eigen::Map<Eigen::Matrix3d> inverse(f);
-      inverse = llt.solve(Eigen::Matrix3d::Identity());
-      ok = inverse.allFinite();
-      continue;
-    }
-    const int dim = 3 * count;
-    Eigen::Map<Eigen::MatrixXd> m(f, dim, dim);
-    m.setZero();
-    for (int p = 0; p < count; ++p)
-      for (int q = 0; q < count; ++q) {
-        const std::uint32_t slot = findSlot(a, rows[p], rows[q]);
-        if (slot != kNone) m.block<3, 3>(3 * p, 3 * q) = a.blocks[slot];
-      }
-    ok = choleskyInPlace(f, dim);
-  }
-  return ok;
+bool Multigrid::factorSmoother(const BlockMatrixView& a, Smoother& s, bool threaded) const {
+  // Each group writes only its own factor: the groups run in parallel.
+  std::atomic<bool> failed = false;
+  parallelFor(
+      0, s.groups(), 256,
+      [&](std::size_t begin, std::size_t end) {
+        for (std::size_t g = begin; g < end && !failed.load(std::memory_order_relaxed); ++g) {
+          const std::uint32_t* rows = s.order.data() + s.groupStart[g];
+          const int count = static_cast<int>(s.groupStart[g + 1] - s.groupStart[g]);
+          double* f = s.factor.data() + s.factorStart[g];
+          bool ok = false;
+          if (count == 1) {
+            ok = symmetricInverse(a.blocks[a.diagonal[rows[0]]], f);
+          } else {
+            const int dim = 3 * count;
+            Eigen::Map<Eigen::MatrixXd> m(f, dim, dim);
+            m.setZero();
+            for (int p = 0; p < count; ++p)
+              for (int q = 0; q < count; ++q) {
+                const std::uint32_t slot = findSlot(a, rows[p], rows[q]);
+                if (slot != kNone) m.block<3, 3>(3 * p, 3 * q) = a.blocks[slot];
+              }
+            ok = choleskyInPlace(f, dim);
+          }
+          if (!ok) failed.store(true, std::memory_order_relaxed);
+        }
+      },
+      threaded);
+  return !failed.load();
 }
 
 void Multigrid::arrangeInterpolation(std::size_t level) {
@@ -650,7 +673,7 @@ bool Multigrid::setup(const BlockMatrixView& fine, bool threaded) {
     Smoother& s = levels_[l]->smoother;
     groupRows(a, s);
     copyBlocks(a, s, threaded);
-    if (!factorSmoother(a, s)) return false;
+    if (!factorSmoother(a, s, threaded)) return false;
   }
   for (std::size_t l = 0; l + 1 < levels_.size(); ++l) arrangeInterpolation(l);
   const BlockMatrixView last = levels_.size() == 1 ? fine : levels_.back()->matrix.view();
@@ -665,7 +688,7 @@ bool Multigrid::updateFine(const BlockMatrixView& fine, bool threaded) {
   if (levels_.size() == 1) return valid_ = factorCoarsest(fine, threaded);
   Smoother& s = levels_[0]->smoother;
   copyBlocks(fine, s, threaded);
-  return valid_ = factorSmoother(fine, s);
+  return valid_ = factorSmoother(fine, s, threaded);
 }
 
 void Multigrid::cycle(std::size_t level, bool threaded) {

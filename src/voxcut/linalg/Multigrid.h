@@ -153,7 +153,7 @@ class Multigrid final : public LinearPreconditioner {
  private:
   struct Level;
   struct Smoother;
-  bool factorSmoother(const BlockMatrixView& a, Smoother& s) const;
+  bool factorSmoother(const BlockMatrixView& a, Smoother& s, bool threaded) const;
   void copyBlocks(const BlockMatrixView& a, Smoother& s, bool threaded) const;
   void arrangeInterpolation(std::size_t level);
   /// Analyses `a` as the coarsest level; whether its factor is small enough against a fine
