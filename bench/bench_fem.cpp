@@ -9,8 +9,9 @@
 //    tolerance 1e-4, 400 iterations).
 //  - BunnyScaling: the bunny at resolutions 173, 241 and 301 (about 3.1k, 6.3k and 10.3k
 //    nodes), E 1e5 Pa, nu 0.3, dt 10 ms, relative tolerance 1e-6, one thread, with Jacobi,
-//    TwoLevel, Cholesky and Multigrid (arguments: resolution, preconditioner): how the step
-//    grows with the size of the body;
+//    TwoLevel, Cholesky and Multigrid, each with the start projected onto the last 8
+//    solutions (the default) and from the previous step's dv alone (arguments: resolution,
+//    preconditioner, solutions kept): how the step grows with the size of the body;
 //  - DirectSolvers: our block Cholesky against CHOLMOD (SuiteSparse) on the scaling case's
 //    reduced matrix, one factorisation and solve per iteration (arguments: resolution,
 //    solver);
@@ -132,12 +133,14 @@ FemCase cantileverCase() {
   return c;
 }
 
-void runSteps(benchmark::State& state, const FemCase& base, long threadsArg, long preconditioner) {
+void runSteps(benchmark::State& state, const FemCase& base, long threadsArg, long preconditioner,
+              long projectionHistory = ImplicitEulerParams{}.projectionHistory) {
   const int threads = static_cast<int>(threadsArg);
   const ThreadLimit limit(threads);
   DeformationOctree octree = base.octree;
   ImplicitEulerParams params = base.params;
   params.preconditioner = static_cast<PreconditionerKind>(preconditioner);
+  params.projectionHistory = static_cast<int>(projectionHistory);
   ImplicitEuler solver(params);
   for (int s = 0; s < 20; ++s) (void)solver.step(base.model, octree);
   double iterations = 0, assembly = 0, solve = 0, failed = 0, steps = 0;
@@ -159,6 +162,7 @@ void runSteps(benchmark::State& state, const FemCase& base, long threadsArg, lon
   state.counters["assembly_ms"] = assembly / steps;
   state.counters["solve_ms"] = solve / steps;
   state.counters["not_converged"] = failed;
+  state.counters["projection"] = params.projectionHistory;
   state.SetLabel(preconditionerName(params.preconditioner));
 }
 
@@ -188,13 +192,15 @@ FemCase scalingCase(int resolution) {
   return c;
 }
 
-/// Arguments: resolution, preconditioner; one thread.
+/// Arguments: resolution, preconditioner, solutions kept for the start's projection
+/// (ImplicitEulerParams::projectionHistory: 8, the default, or 0 for the previous step's dv
+/// alone, the warm start Jacobi-PCG solvers such as Vega's use); one thread.
 void BunnyScaling(benchmark::State& state) {
   static std::map<int, FemCase> cases;
   const int resolution = static_cast<int>(state.range(0));
   if (!cases.contains(resolution)) cases.emplace(resolution, scalingCase(resolution));
   state.counters["nodes"] = static_cast<double>(cases.at(resolution).octree.nodeCount());
-  runSteps(state, cases.at(resolution), 1, state.range(1));
+  runSteps(state, cases.at(resolution), 1, state.range(1), state.range(2));
 }
 
 /// The direct solvers on the scaling case's reduced matrix after 20 steps: our block
@@ -285,7 +291,7 @@ void Constraints(benchmark::State& state) {
 }
 
 BENCHMARK(BunnyScaling)
-    ->ArgsProduct({{173, 241, 301}, {0, 4, 5, 6}})
+    ->ArgsProduct({{173, 241, 301}, {0, 4, 5, 6}, {8, 0}})
     ->UseManualTime()
     ->Unit(benchmark::kMillisecond)
     ->MinTime(0.3);

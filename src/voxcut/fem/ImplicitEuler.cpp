@@ -97,6 +97,9 @@ void ImplicitEuler::setContacts(std::vector<PointContact> contacts) {
 void ImplicitEuler::reset() {
   velocity_.clear();
   lastDv_.clear();
+  projection_.clear();
+  projectionByNode_ = false;
+  projecting_ = false;
 }
 
 void ImplicitEuler::updateTopology(const TopologyChange& change) {
@@ -115,8 +118,22 @@ void ImplicitEuler::updateTopology(const TopologyChange& change) {
   };
   remap(velocity_);
   remap(lastDv_);
+  // The kept solutions follow as the velocities do, by node (their free rows are known at the
+  // next solve).
+  if (!projectionByNode_) projectionToNodes();
+  projection_.transform(remap);
   bridge_.update(change);
   bridgeRevision_ = 0;
+}
+
+void ImplicitEuler::projectionToNodes() {
+  projection_.transform([&](std::vector<Vec3d>& h) {
+    std::vector<Vec3d> byNode(lastNodeCount_, Vec3d::Zero());
+    for (std::size_t i = 0; i < h.size() && i < lastFreeNodes_.size(); ++i)
+      byNode[lastFreeNodes_[i]] = h[i];
+    h = std::move(byNode);
+  });
+  projectionByNode_ = projection_.size() > 0;
 }
 
 double ImplicitEuler::kineticEnergy(const ElasticModel& model) const {
@@ -485,6 +502,21 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
   // piece. The warm start is split the same way, into its free pieces' mass-weighted means
   // (shift_) and what is left.
   std::fill(shift_.begin(), shift_.end(), Vec3d::Zero());
+  // out_i: the mass-weighted mean of v over row i's piece where that piece is free (no
+  // anchored row, no contact), else zero.
+  auto freePieceMeans = [&](const std::vector<Vec3d>& v, std::vector<Vec3d>& out) {
+    const std::vector<std::uint32_t>& piece = rigid_.piece();
+    std::vector<Vec3d> mean(rigid_.pieceCount(), Vec3d::Zero());
+    std::vector<double> weight(rigid_.pieceCount(), 0.0);
+    for (std::size_t i = 0; i < rows; ++i) {
+      mean[piece[i]] += massRow_[i] * v[i];
+      weight[piece[i]] += massRow_[i];
+    }
+    for (std::size_t i = 0; i < rows; ++i)
+      out[i] = freePiece_[piece[i]] && weight[piece[i]] > 0.0
+                   ? Vec3d(mean[piece[i]] / weight[piece[i]])
+                   : Vec3d::Zero();
+  };
   if (correctRigid) {
     rigid_.setup(sp, model.sparsityRevision(), freePositions_, freeMasses_);
     if (anchoredRevision_ != model.sparsityRevision() || anchoredRow_.size() != rows) {
@@ -501,15 +533,7 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
       for (std::uint32_t n : model.elementNodes()[pc.element])
         for (std::uint32_t k = pr.start[n]; k < pr.start[n + 1]; ++k)
           freePiece_[piece[pr.index[k]]] = 0;
-    std::vector<Vec3d> mean(rigid_.pieceCount(), Vec3d::Zero());
-    std::vector<double> weight(rigid_.pieceCount(), 0.0);
-    for (std::size_t i = 0; i < rows; ++i) {
-      mean[piece[i]] += massRow_[i] * x_[i];
-      weight[piece[i]] += massRow_[i];
-    }
-    for (std::size_t i = 0; i < rows; ++i)
-      if (freePiece_[piece[i]] && weight[piece[i]] > 0.0)
-        shift_[i] = mean[piece[i]] / weight[piece[i]];
+    freePieceMeans(x_, shift_);
     for (auto& v : rigidProducts_) v.resize(rows);
     parallelFor(
         0, rows, 256,
@@ -534,6 +558,35 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
         for (std::size_t i = b; i < e; ++i) q_[i] = x_[i] - shift_[i];
       },
       threaded);
+  // The earlier solutions are kept less their free pieces' means, as q is: the start's part
+  // other than the shift is their best combination for A q = b - A shift.
+  const std::vector<std::uint32_t>& freeNodes = model.freeNodes();
+  // Kept on other rows (other fixed nodes, or a topology change): by node, then these rows.
+  if (!projectionByNode_ && projectionRevision_ != model.sparsityRevision()) {
+    if (lastNodeCount_ == model.nodeCount())
+      projectionToNodes();
+    else
+      projection_.clear();
+  }
+  projectionRevision_ = model.sparsityRevision();
+  if (projectionByNode_) {
+    projection_.transform([&](std::vector<Vec3d>& h) {
+      std::vector<Vec3d> byRow(rows);
+      for (std::size_t i = 0; i < rows; ++i)
+        byRow[i] = freeNodes[i] < h.size() ? h[freeNodes[i]] : Vec3d::Zero();
+      h = std::move(byRow);
+    });
+    projectionByNode_ = false;
+  }
+  projection_.setCapacity(static_cast<std::size_t>(std::max(params_.projectionHistory, 0)));
+  bool projected = false;
+  if (params_.warmStart && projecting_ && projection_.size() > 0) {
+    projectionRhs_.resize(rows);
+    for (std::size_t i = 0; i < rows; ++i) projectionRhs_[i] = b_[i] - massRow_[i] * shift_[i];
+    projected = projection_.project(view, projectionRhs_, q_, threaded);
+    if (projected)
+      for (std::size_t i = 0; i < rows; ++i) x_[i] = shift_[i] + q_[i];
+  }
   parallelFor(
       0, rows, 256,
       [&](std::size_t b, std::size_t e) {
@@ -555,6 +608,16 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
   if (correctRigid && cg.finite) {
     rigid_.correct(x_, r_);
     for (const Vec3d& v : x_) status.finite = status.finite && v.allFinite();
+  }
+  const int history = params_.projectionHistory;
+  projecting_ = projected ? 2 * cg.iterations >= history : cg.iterations > history;
+  if (status.finite && history > 0) {
+    // Kept less its free pieces' means (q_ is free now).
+    if (correctRigid) freePieceMeans(x_, shift_);
+    for (std::size_t i = 0; i < rows; ++i) q_[i] = x_[i] - shift_[i];
+    projection_.add(q_);
+    lastFreeNodes_ = freeNodes;
+    lastNodeCount_ = model.nodeCount();
   }
   return status;
 }

@@ -73,4 +73,26 @@ std::pair<double, double> chunkedSum2(std::size_t rows, std::vector<double>& par
   return {sum, sum2};
 }
 
+/// `count` sums at once: body(i, out) adds row i's term of sum m to out[m] (m < count); each
+/// sum is chunked as chunkedSum chunks one. `partial` is resized to chunks * count.
+template <class Body>
+std::vector<double> chunkedSums(std::size_t rows, std::size_t count, std::vector<double>& partial,
+                                bool threaded, Body&& body) {
+  const std::size_t chunks = (rows + kSumChunk - 1) / kSumChunk;
+  partial.assign(chunks * count, 0.0);
+  parallelFor(
+      0, chunks, 1,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t c = b; c < e; ++c) {
+          const std::size_t end = std::min(rows, (c + 1) * kSumChunk);
+          for (std::size_t i = c * kSumChunk; i < end; ++i) body(i, partial.data() + c * count);
+        }
+      },
+      threaded);
+  std::vector<double> sum(count, 0.0);
+  for (std::size_t c = 0; c < chunks; ++c)
+    for (std::size_t m = 0; m < count; ++m) sum[m] += partial[c * count + m];
+  return sum;
+}
+
 }  // namespace voxcut
