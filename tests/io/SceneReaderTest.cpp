@@ -179,7 +179,7 @@ TEST(SceneReader, ReadsEveryKey) {
   const Scene scene = parse(R"({
     "description": "every key",
     "time_step": 0.002, "gravity": [0, 0, -9.8], "frames": 50,
-    "solver": {"tolerance": 1e-5, "max_iterations": 250},
+    "solver": {"tolerance": 1e-5, "max_iterations": 250, "projection_history": 3},
     "bodies": [{
       "model": "liver", "resolution": 64, "element_level": 2, "finest_level": 1,
       "materials": {
@@ -198,6 +198,7 @@ TEST(SceneReader, ReadsEveryKey) {
   EXPECT_EQ(scene.gravity, Vec3d(0, 0, -9.8));
   EXPECT_EQ(scene.frames, 50);
   EXPECT_EQ(scene.solver.tolerance, 1e-5);
+  EXPECT_EQ(scene.solver.projectionHistory, 3);
   EXPECT_EQ(scene.solver.maxIterations, 250);
   const SceneBody& b = scene.bodies[0];
   EXPECT_EQ(b.resolution, 64);
@@ -426,6 +427,10 @@ TEST(SceneReaderErrors, OutOfRangeNamesTheKeyPathAndTheValue) {
   expectError(withTop(R"("solver": {"tolerance": -1e-3})"), "solver.tolerance: must be > 0");
   expectError(withTop(R"("solver": {"max_iterations": 0})"),
               "solver.max_iterations: must be an integer in 1..");
+  expectError(withTop(R"("solver": {"projection_history": -1})"),
+              "solver.projection_history: must be an integer in 0..64");
+  expectError(withTop(R"("solver": {"projection_history": 2.5})"),
+              "solver.projection_history: must be an integer in 0..64");
   expectError(
       withTop(R"("solver": {"preconditioner": "amg"})"),
       R"(solver.preconditioner: unknown preconditioner "amg" (expected one of: "jacobi", "block_jacobi", "symmetric_gauss_seidel", "incomplete_cholesky", "two_level", "cholesky", "multigrid"))");

@@ -613,11 +613,20 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
   projecting_ = projected ? 2 * cg.iterations >= history : cg.iterations > history;
   if (status.finite && history > 0) {
     // Kept less its free pieces' means (q_ is free now).
-    if (correctRigid) freePieceMeans(x_, shift_);
-    for (std::size_t i = 0; i < rows; ++i) q_[i] = x_[i] - shift_[i];
-    projection_.add(q_);
-    lastFreeNodes_ = freeNodes;
-    lastNodeCount_ = model.nodeCount();
+    const bool anyFree = correctRigid && std::any_of(freePiece_.begin(), freePiece_.end(),
+                                                     [](std::uint8_t f) { return f != 0; });
+    if (anyFree) {
+      freePieceMeans(x_, shift_);
+      for (std::size_t i = 0; i < rows; ++i) q_[i] = x_[i] - shift_[i];
+      projection_.add(q_);
+    } else {
+      projection_.add(x_);
+    }
+    if (lastFreeRevision_ != model.sparsityRevision() || lastNodeCount_ != model.nodeCount()) {
+      lastFreeNodes_ = freeNodes;
+      lastNodeCount_ = model.nodeCount();
+      lastFreeRevision_ = model.sparsityRevision();
+    }
   }
   return status;
 }

@@ -175,7 +175,7 @@ const Json& list(const Reader& r, const Json& v, const std::string& path) {
 
 SolverSettings readSolver(const Reader& r, const Json& v, const std::string& path) {
   expectObject(r, v, path);
-  checkKeys(r, v, path, {"tolerance", "max_iterations", "preconditioner"});
+  checkKeys(r, v, path, {"tolerance", "max_iterations", "preconditioner", "projection_history"});
   SolverSettings s;
   if (v.contains("preconditioner")) {
     const Json& p = v["preconditioner"];
@@ -196,6 +196,9 @@ SolverSettings readSolver(const Reader& r, const Json& v, const std::string& pat
     s.tolerance = positive(r, v["tolerance"], child(path, "tolerance"), 1.0, "1");
   if (v.contains("max_iterations"))
     s.maxIterations = integer(r, v["max_iterations"], child(path, "max_iterations"), 1, 1000000);
+  if (v.contains("projection_history"))
+    s.projectionHistory =
+        integer(r, v["projection_history"], child(path, "projection_history"), 0, 64);
   return s;
 }
 

@@ -24,6 +24,9 @@ struct SolverSettings {
   double tolerance = 1e-3;  ///< relative residual at which PCG stops, > 0
   int maxIterations = 100;  ///< PCG iteration cap, >= 1
   PreconditionerKind preconditioner = PreconditionerKind::Cholesky;  ///< ImplicitEuler.h
+  /// Earlier solutions a solve's start is projected onto, 0 for none
+  /// (ImplicitEulerParams::projectionHistory)
+  int projectionHistory = ImplicitEulerParams{}.projectionHistory;
 };
 
 /// A material's physical and voxel-octree parameters. The defaults are a soft tissue (about

@@ -421,6 +421,7 @@ std::size_t World::addBody(VoxelGrid grid, const BodySettings& settings) {
     solver.gravity = ws.gravity;
     solver.tolerance = ws.solver.tolerance;
     solver.maxIterations = ws.solver.maxIterations;
+    solver.projectionHistory = ws.solver.projectionHistory;
     solver.preconditioner = ws.solver.preconditioner;
     b.solver = ImplicitEuler(solver);
     w.rebuildModel(b);
