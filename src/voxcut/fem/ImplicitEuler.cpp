@@ -561,14 +561,19 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
   // The earlier solutions are kept less their free pieces' means, as q is: the start's part
   // other than the shift is their best combination for A q = b - A shift.
   const std::vector<std::uint32_t>& freeNodes = model.freeNodes();
-  // Kept on other rows (other fixed nodes, or a topology change): by node, then these rows.
-  if (!projectionByNode_ && projectionRevision_ != model.sparsityRevision()) {
-    if (lastNodeCount_ == model.nodeCount())
-      projectionToNodes();
-    else
-      projection_.clear();
+  // Kept on other rows (other fixed nodes, or a topology change): by node, then these rows,
+  // which are from now on those of the kept solutions.
+  if (projectionRevision_ != model.sparsityRevision()) {
+    if (!projectionByNode_) {
+      if (lastNodeCount_ == model.nodeCount())
+        projectionToNodes();
+      else
+        projection_.clear();
+    }
+    projectionRevision_ = model.sparsityRevision();
+    lastFreeNodes_ = freeNodes;
+    lastNodeCount_ = model.nodeCount();
   }
-  projectionRevision_ = model.sparsityRevision();
   if (projectionByNode_) {
     projection_.transform([&](std::vector<Vec3d>& h) {
       std::vector<Vec3d> byRow(rows);
@@ -621,11 +626,6 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
       projection_.add(q_);
     } else {
       projection_.add(x_);
-    }
-    if (lastFreeRevision_ != model.sparsityRevision() || lastNodeCount_ != model.nodeCount()) {
-      lastFreeNodes_ = freeNodes;
-      lastNodeCount_ = model.nodeCount();
-      lastFreeRevision_ = model.sparsityRevision();
     }
   }
   return status;

@@ -275,7 +275,6 @@ class ImplicitEuler {
   bool projecting_ = false;                   ///< whether the next solve starts projected
   std::vector<std::uint32_t> lastFreeNodes_;  ///< the rows of the kept solutions
   std::size_t lastNodeCount_ = 0;
-  std::uint64_t lastFreeRevision_ = 0;  ///< sparsity lastFreeNodes_ was copied from
   std::vector<Vec3d> projectionRhs_;
   std::uint64_t multigridRevision_ = 0;  ///< sparsity the hierarchy was built for
   bool multigridRefreshed_ = false;      ///< the last step made the coarse levels anew
