@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdlib>
+#include <limits>
 #include <string>
 #include <unordered_map>
 #include <unordered_set>
@@ -196,30 +198,90 @@ void TopologyEditor::split(std::uint64_t first) {
   }
 }
 
+const CubeParts& TopologyEditor::cachedParts(std::uint64_t key) {
+  auto it = partCache_.find(key);
+  if (it == partCache_.end()) it = partCache_.emplace(key, partition(key)).first;
+  return it->second;
+}
+
+namespace {
+
+/// The part of occupied voxel v in a cube's parts (its voxels ascending).
+std::uint32_t partOf(const CubeParts& parts, std::size_t v) {
+  const auto it = std::lower_bound(parts.voxels.begin(), parts.voxels.end(),
+                                   static_cast<std::uint32_t>(v));
+  VOXCUT_ASSERT(it != parts.voxels.end() && *it == v, "voxel outside its leaf");
+  return parts.part[static_cast<std::size_t>(it - parts.voxels.begin())];
+}
+
+}  // namespace
+
+bool TopologyEditor::glued(std::uint64_t a, std::uint64_t b, std::size_t v, std::size_t w,
+                           int axis) {
+  const std::uint32_t partV = partOf(cachedParts(a), v);
+  if (a == b) return partV == partOf(cachedParts(a), w);
+  const std::uint32_t partW = partOf(cachedParts(b), w);
+  const CubeParts& pa = cachedParts(a);
+  const CubeParts& pb = cachedParts(b);
+  // The layer of a's voxels on the face it shares with b (w lies across it from v).
+  const Index3 fa = keyFirstVoxel(a), fb = keyFirstVoxel(b), gd = grid_.dims();
+  const int sa = 1 << keyLevel(a), sb = 1 << keyLevel(b);
+  const int u = (axis + 1) % 3, t = (axis + 2) % 3;
+  Index3 c = grid_.coord(v);
+  const int uHi = std::min({fa[u] + sa, fb[u] + sb, gd[u]});
+  const int tHi = std::min({fa[t] + sa, fb[t] + sb, gd[t]});
+  for (c[t] = std::max(fa[t], fb[t]); c[t] < tHi; ++c[t])
+    for (c[u] = std::max(fa[u], fb[u]); c[u] < uHi; ++c[u]) {
+      const std::size_t x = grid_.index(c);
+      if (!grid_.occupied(x) || !grid_.connected(x, axis)) continue;
+      const std::size_t y = x + grid_.stride(axis);
+      if (grid_.occupied(y) && partOf(pa, x) == partV && partOf(pb, y) == partW) return true;
+    }
+  return false;
+}
+
 void TopologyEditor::seedCuts(const std::vector<std::uint64_t>& links, int finest) {
-  std::vector<std::uint32_t> seeds;
-  for (std::uint64_t id : links) {
+  std::vector<std::uint64_t> sorted(links);
+  std::sort(sorted.begin(), sorted.end());
+  sorted.erase(std::unique(sorted.begin(), sorted.end()), sorted.end());
+  for (std::uint64_t id : sorted) {
     const std::size_t v = static_cast<std::size_t>(id / 3);
     const int a = static_cast<int>(id % 3);
     VOXCUT_ASSERT(v < grid_.voxelCount() && grid_.hasLink(v, a), "link id out of range");
-    for (std::size_t u : {v, v + grid_.stride(a)})
-      if (grid_.occupied(u)) seeds.push_back(static_cast<std::uint32_t>(u));
-  }
-  std::sort(seeds.begin(), seeds.end());
-  seeds.erase(std::unique(seeds.begin(), seeds.end()), seeds.end());
-  for (std::uint32_t u : seeds) {
-    const Index3 p = grid_.coord(u);
-    buildTile(p);
-    for (;;) {
+    const std::size_t w = v + grid_.stride(a);
+    const Index3 pv = grid_.coord(v), pw = grid_.coord(w);
+    const bool both = grid_.occupied(v) && grid_.occupied(w);
+    if (both) {
+      // Refine while the cut cannot open: the coarser leaf first, both when equal.
+      for (;;) {
+        buildTile(pv);
+        buildTile(pw);
+        const std::uint64_t ka = leafOf(pv), kb = leafOf(pw);
+        VOXCUT_ASSERT(ka != kNoKey && kb != kNoKey, "occupied voxel outside every element");
+        if (!glued(ka, kb, v, w, a)) break;
+        const int la = keyLevel(ka), lb = keyLevel(kb);
+        bool refined = false;
+        if (la >= lb && la > finest) {
+          split(ka);
+          refined = true;
+        }
+        if (kb != ka && lb >= la && lb > finest) {
+          split(kb);
+          refined = true;
+        }
+        if (!refined) break;
+      }
+    }
+    for (std::size_t u : {v, w}) {
+      if (!grid_.occupied(u)) continue;
+      const Index3 p = grid_.coord(u);
+      buildTile(p);
       const std::uint64_t k = leafOf(p);
       VOXCUT_ASSERT(k != kNoKey, "occupied voxel outside every element");
-      if (keyLevel(k) <= finest) {
-        makeDirty(k);
-        break;
-      }
-      split(k);
+      makeDirty(k);
     }
   }
+  partCache_.clear();
 }
 
 void TopologyEditor::seedAll() {
@@ -253,7 +315,7 @@ CubeParts TopologyEditor::partition(std::uint64_t key) const {
     NewCopy nc;
     nc.key = key;
     nc.minVoxel = v;
-    nc.origin = origin(o);
+    nc.origin = oldElementOf(v);
     if (o < oldElements_ && oc_.elements_[o].level == 0) nc.sameAs = o;
     out.voxels.push_back(v);
     out.part.push_back(0);
@@ -298,7 +360,7 @@ CubeParts TopologyEditor::partition(std::uint64_t key) const {
       NewCopy nc;
       nc.key = key;
       nc.minVoxel = out.voxels[i];
-      nc.origin = origin(oc_.embedding_[out.voxels[i]].element);
+      nc.origin = oldElementOf(out.voxels[i]);
       out.part[i] = static_cast<std::uint32_t>(out.parts.size());
       out.parts.push_back(nc);
       count.push_back(0);
@@ -321,6 +383,26 @@ CubeParts TopologyEditor::partition(std::uint64_t key) const {
     for (std::uint32_t v : out.voxels) held += oc_.embedding_[v].element == o;
     if (held == count[p]) out.parts[p].sameAs = o;
   }
+  // A cube coarser than the old elements it is made of (a merge): each corner's node comes
+  // from the old element of the part's voxel nearest that corner.
+  const int L = keyLevel(key);
+  for (std::size_t p = 0; p < out.parts.size(); ++p) {
+    if (oc_.elements_[out.parts[p].origin].level >= L) continue;
+    std::array<int, 8> best;
+    best.fill(std::numeric_limits<int>::max());
+    for (std::size_t i = 0; i < out.voxels.size(); ++i) {
+      if (out.part[i] != p) continue;
+      const Index3 c = grid_.coord(out.voxels[i]);
+      for (int k = 0; k < 8; ++k) {
+        const Index3 corner = cornerPoint(f, s - 1, k);
+        const int d = std::abs(c.x - corner.x) + std::abs(c.y - corner.y) + std::abs(c.z - corner.z);
+        if (d < best[static_cast<std::size_t>(k)]) {
+          best[static_cast<std::size_t>(k)] = d;
+          out.parts[p].cornerOrigin[static_cast<std::size_t>(k)] = oldElementOf(out.voxels[i]);
+        }
+      }
+    }
+  }
   return out;
 }
 
@@ -335,6 +417,12 @@ void TopologyEditor::partitionPending() {
         for (std::size_t i = b; i < e; ++i) res[i] = partition(keys[i]);
       },
       threaded_);
+  // The old owners of the voxels about to point at provisional copies.
+  for (const CubeParts& r : res)
+    for (std::uint32_t v : r.voxels) {
+      const std::uint32_t e = oc_.embedding_[v].element;
+      if (e < oldElements_) oldOwner_.emplace(v, e);
+    }
   std::vector<std::uint32_t> base(keys.size());
   for (std::size_t i = 0; i < keys.size(); ++i) {
     base[i] = oldElements_ + static_cast<std::uint32_t>(copies_.size());
@@ -372,6 +460,10 @@ TopologyChange updateCutTopology(DeformationOctree& octree, const VoxelGrid& gri
   TopologyEditor editor(octree, grid, params.threaded);
   editor.seedCuts(newCutLinks, params.finestLevel);
   if (editor.anythingDirty()) return editor.run();
+  return identityChange(octree);
+}
+
+TopologyChange identityChange(const DeformationOctree& octree) {
   TopologyChange same;
   same.elementSource.resize(octree.elementCount());
   for (std::size_t e = 0; e < octree.elementCount(); ++e)

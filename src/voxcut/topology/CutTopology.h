@@ -42,15 +42,22 @@ namespace voxcut {
 
 /// Settings of the topology update after a cut.
 struct CutTopologyParams {
-  int finestLevel = 0;   ///< elements holding a voxel of a new cut link are refined to this level
+  /// Where a cut link's two voxels stay glued (see updateCutTopology), their elements are
+  /// refined down to this level at most.
+  int finestLevel = 0;
   bool threaded = true;  ///< run the per-cube and per-point loops in parallel
 };
 
-/// After a cut: refines the elements that hold a voxel of any newly cut link (link id
-/// 3*v + axis, VoxelGrid::linkId) down to params.finestLevel, restoring 2:1 around them, then
-/// duplicates elements per connected voxel part and nodes per connected group in the changed
-/// region (the cubes refined or holding a cut voxel, and the nodes on them and on the cubes
-/// touching those nodes). The links must already be disconnected in `grid`.
+/// After a cut (docs/algorithms.md, "Cut topology"): the elements holding a voxel of a newly
+/// cut link (link id 3*v + axis, VoxelGrid::linkId) keep their level unless the link's two
+/// voxels stay *glued* there: in one connected part of their element's cube, or (two cubes)
+/// in parts that another connected link joins across the cubes' shared face, so that the two
+/// sides share their nodes and the cut could not open. Those are refined, the coarser cube
+/// first, until the voxels come apart or params.finestLevel is reached, restoring 2:1 around
+/// them; so refinement follows the cut's front (its boundary inside the material), not its
+/// area. Then elements are duplicated per connected voxel part and nodes per connected group
+/// in the changed region (the cubes refined or holding a cut voxel, and the nodes on them and
+/// on the cubes touching those nodes). The links must already be disconnected in `grid`.
 ///
 /// Elements that did not change keep their index and data; new elements fill the slots of the
 /// removed ones (ascending) in order of their lowest voxel index, then are appended. Nodes away
@@ -68,6 +75,42 @@ struct CutTopologyParams {
 TopologyChange updateCutTopology(DeformationOctree& octree, const VoxelGrid& grid,
                                  const std::vector<std::uint64_t>& newCutLinks,
                                  const CutTopologyParams& params = {});
+
+/// The octree's unchanged map (every element and node its own source).
+[[nodiscard]] TopologyChange identityChange(const DeformationOctree& octree);
+
+/// Settings of coarsening after cuts.
+struct CoarsenParams {
+  int startLevel = 3;    ///< the body's start level: no merge makes an element coarser
+  /// The build's surface level (initialFinestLevel): a parent up to this level may always
+  /// form; above it only one at least half full, as the build decides.
+  int surfaceLevel = 3;
+  /// A merge that would put both voxels of a cut link in one part (closing a cut's front
+  /// inside the element) goes no coarser than this level.
+  int frontLevel = 1;
+  bool threaded = true;
+};
+
+/// What coarsening did: the change, and the regions where a merge was refused only because a
+/// finer neighbour (2:1) forbade it, worth trying again later.
+struct CoarsenResult {
+  TopologyChange change;
+  std::vector<std::uint64_t> blocked;
+};
+
+/// Undoes refinement away from the tools (docs/algorithms.md, "Coarsening after cuts"):
+/// inside each region (a cube key, DeformationOctree::cubeKey, normally of the start level),
+/// the leaves merge bottom up into their parent where (1) the parent is no coarser than
+/// params.startLevel and, above params.surfaceLevel, at least half full; (2) no leaf touching
+/// the parent is two levels finer (2:1); (3) above params.frontLevel, no cut link inside the
+/// parent has both voxels in one of its connected parts. The merged cubes are duplicated per
+/// part and their nodes regrouped by the node rule, as after a cut; a new corner node takes
+/// its state from the node at that point of the old element holding the part's voxel nearest
+/// that corner. Cost: proportional to the regions' voxels and points. Throws InputError for
+/// levels outside [0, 7].
+CoarsenResult coarsenCutTopology(DeformationOctree& octree, const VoxelGrid& grid,
+                                 const std::vector<std::uint64_t>& regions,
+                                 const CoarsenParams& params = {});
 
 /// The load-time rule: every element whose voxels form several connected parts becomes one
 /// copy per part, and nodes are regrouped by the rule above at every node-grid point (a few

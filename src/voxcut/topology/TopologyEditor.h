@@ -83,6 +83,11 @@ struct NewCopy {
   std::uint32_t minVoxel = 0;
   std::uint32_t origin = kNoElement;  ///< old element whose part held these voxels
   std::uint32_t sameAs = kNoElement;  ///< old element with the same cube and voxels
+  /// For a cube made by merging finer old elements: per corner, the old element of the part's
+  /// voxel nearest that corner, whose node (or map) gives the new corner node's state;
+  /// kNoElement elsewhere (the node then comes from `origin`'s map).
+  std::array<std::uint32_t, 8> cornerOrigin{kNoElement, kNoElement, kNoElement, kNoElement,
+                                            kNoElement, kNoElement, kNoElement, kNoElement};
   bool alive = true;
 };
 
@@ -122,6 +127,13 @@ struct TempNode {
   std::uint32_t coarse = kNoElement;
 };
 
+/// When the leaves below a cube may merge into it (CutTopology.h, CoarsenParams).
+struct CoarsenRule {
+  int startLevel = 3;    ///< no merge makes a leaf coarser than this
+  int surfaceLevel = 3;  ///< up to this level any parent merges; above, only half-full ones
+  int frontLevel = 1;    ///< merges that glue a cut link's voxels stop at this level
+};
+
 /// What the phases of TopologyEditor::finalize hand on to each other.
 struct Finalization {
   std::vector<TempNode> temp;          ///< the nodes made by this update
@@ -133,6 +145,7 @@ struct Finalization {
   std::vector<std::uint32_t> holes;    ///< node slots left free, to fill with the last nodes
   std::uint32_t appended = 0;          ///< elements added after the old ones
   std::uint32_t appendedNodes = 0;     ///< nodes added after the old ones
+  std::vector<std::uint32_t> elementHoles;  ///< element slots left free (after merges)
   std::size_t nodeCount = 0;           ///< nodes after the update
   std::vector<std::uint64_t> cubes;    ///< the partitioned cubes, ascending
   bool changed = false;                ///< anything differs from the old octree
@@ -163,8 +176,16 @@ class TopologyEditor {
     tileIndex_.assign(static_cast<std::size_t>(tileDims_.x) * tileDims_.y * tileDims_.z, -1);
   }
 
-  /// Refines the leaves holding a voxel of a cut link down to `finest`; marks them dirty.
+  /// Marks the leaves holding a voxel of a cut link dirty, first refining them (the coarser
+  /// of the link's two leaves first, down to `finest`) while the link's two voxels stay glued
+  /// there: in one part of their leaf, or in parts of two leaves joined by another connected
+  /// link across their shared face (docs/algorithms.md, "Cut topology").
   void seedCuts(const std::vector<std::uint64_t>& links, int finest);
+  /// Merges, bottom up, the leaves inside each region cube (a cube key) into their parents
+  /// where the rule allows (docs/algorithms.md, "Coarsening after cuts"); returns the regions
+  /// where a merge was refused only because a finer neighbour breaks 2:1 there.
+  std::vector<std::uint64_t> seedMerges(const std::vector<std::uint64_t>& regions,
+                                        const topology_detail::CoarsenRule& rule);
   /// Marks every leaf dirty (the load-time rule).
   void seedAll();
   /// Partitions, groups, refines ambiguous cubes until none is left, then writes the octree.
@@ -183,6 +204,38 @@ class TopologyEditor {
   void setLeafLevels(const Index3& first, int size, int level);
   void makeDirty(std::uint64_t key);
   void split(std::uint64_t key);
+  /// The parts of leaf `key` as they are now (cached by key while it stays a leaf).
+  const topology_detail::CubeParts& cachedParts(std::uint64_t key);
+  /// Whether cut link v-w (w = v + stride(axis)) in leaves a (holding v) and b (holding w)
+  /// still holds its voxels together: the same part of one leaf, or parts of two leaves that
+  /// another connected link joins across their shared face.
+  [[nodiscard]] bool glued(std::uint64_t a, std::uint64_t b, std::size_t v, std::size_t w,
+                           int axis);
+  /// How the cube `key` stands after coarsening below it.
+  enum class Below { kEmpty, kLeaf, kInner };
+  Below coarsenBelow(std::uint64_t key, const topology_detail::CoarsenRule& rule, bool& blocked);
+  /// Whether the 8 children of `key` (leaves or empty) may become one leaf; sets `blocked`
+  /// when only a finer neighbour (2:1) forbids it.
+  bool mayMerge(std::uint64_t key, const topology_detail::CoarsenRule& rule, bool& blocked);
+  /// Whether one leaf over cube `key` would hold the two voxels of a cut link in one part.
+  [[nodiscard]] bool mergeGlues(std::uint64_t key) const;
+  /// Replaces the child leaves of `key` by one dirty leaf.
+  void merge(std::uint64_t key);
+  /// The old element that held voxel v before this update.
+  [[nodiscard]] std::uint32_t oldElementOf(std::size_t v) const {
+    const std::uint32_t e = oc_.embedding_[v].element;
+    if (e < oldElements_) return e;
+    const auto it = oldOwner_.find(static_cast<std::uint32_t>(v));
+    return it != oldOwner_.end() ? it->second : origin(e);
+  }
+  /// The old element a new corner node of `copy` at its corner c takes its state from.
+  [[nodiscard]] std::uint32_t originAt(std::uint32_t copy, int c) const {
+    if (copy >= oldElements_) {
+      const std::uint32_t o = copies_[copy - oldElements_].cornerOrigin[static_cast<std::size_t>(c)];
+      if (o != kNoElement) return o;
+    }
+    return origin(copy);
+  }
   void copiesOf(std::uint64_t key, std::vector<std::uint32_t>& out) const;
   [[nodiscard]] std::uint32_t origin(std::uint32_t copy) const {
     return copy < oldElements_ ? copy : copies_[copy - oldElements_].origin;
@@ -217,6 +270,7 @@ class TopologyEditor {
   void fillNodeHoles(topology_detail::Finalization& state, std::vector<HangingNode>& hanging);
   void writeHangingNodes(topology_detail::Finalization& state, std::vector<HangingNode> hanging);
   void writeElementSources(topology_detail::Finalization& state) const;
+  void fillElementHoles(topology_detail::Finalization& state);
 
   DeformationOctree& oc_;
   const VoxelGrid& grid_;
@@ -243,6 +297,10 @@ class TopologyEditor {
   std::vector<std::uint64_t> lastPoints_;                 ///< keys of points_, ascending
   std::vector<std::array<std::uint64_t, 8>> lastAround_;  ///< their leaves
   std::unordered_map<std::uint32_t, std::array<std::uint32_t, 8>> cornerNodes_;
+  /// Old owners of voxels whose embedding this update has pointed at provisional copies.
+  std::unordered_map<std::uint32_t, std::uint32_t> oldOwner_;
+  /// Parts of leaves looked at by seedCuts, by cube key.
+  std::unordered_map<std::uint64_t, topology_detail::CubeParts> partCache_;
   /// (point, its group's first member) of each node made by this update.
   std::vector<std::pair<std::uint32_t, std::uint32_t>> tempNodes_;
 };

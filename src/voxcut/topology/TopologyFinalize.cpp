@@ -26,6 +26,7 @@ TopologyChange TopologyEditor::finalize() {
   fillNodeHoles(state, hanging);
   writeHangingNodes(state, std::move(hanging));
   writeElementSources(state);
+  fillElementHoles(state);
   state.change.changed = state.changed;
   return std::move(state.change);
 }
@@ -54,7 +55,7 @@ std::vector<TempNode> TopologyEditor::makeTempNodes() const {
         continue;
       }
       const std::uint32_t copy = gm.copy;
-      const OctreeElement& oe = E[origin(copy)];
+      const OctreeElement& oe = E[originAt(copy, gm.corner)];
       if (interiorAxes(oe.firstVoxel(), oe.size(), pg.p) == 0) {
         tn.src.count = 1;
         tn.src.nodes[0] =
@@ -62,7 +63,7 @@ std::vector<TempNode> TopologyEditor::makeTempNodes() const {
         tn.src.weights[0] = 1.0;
         break;
       }
-      if (fallback == kNoElement) fallback = origin(copy);
+      if (fallback == kNoElement) fallback = originAt(copy, gm.corner);
       if (gm.last) break;
     }
     if (tn.src.count == 0) {
@@ -115,7 +116,9 @@ void TopologyEditor::assignElementSlots(Finalization& state) const {
     state.changed = true;
     finalId[i] = next < freeSlots.size() ? freeSlots[next++] : oldElements_ + state.appended++;
   }
-  VOXCUT_ASSERT(next == freeSlots.size(), "fewer element copies than before");
+  // Fewer copies than freed slots (after merges): the last elements fill the holes at the end.
+  state.elementHoles.assign(freeSlots.begin() + static_cast<std::ptrdiff_t>(next), freeSlots.end());
+  state.changed = state.changed || !state.elementHoles.empty();
 }
 
 // Node slots: nodes at the regrouped points are freed; a new node reuses the slot of its single
@@ -328,6 +331,58 @@ void TopologyEditor::writeElementSources(Finalization& state) const {
     tc.elementSource[e] = e < oldElements_ && !state.freedElement[e] ? e : kNewElement;
   for (std::uint32_t i : state.alive)
     if (copies_[i].sameAs != kNoElement) tc.elementSource[state.finalId[i]] = copies_[i].sameAs;
+}
+
+// Fills the element slots left free with the last elements (after merges), renumbering the
+// embedding of their voxels, the cube index and the hanging nodes' coarse elements.
+void TopologyEditor::fillElementHoles(Finalization& state) {
+  if (state.elementHoles.empty()) return;
+  std::vector<OctreeElement>& E = oc_.elements_;
+  std::vector<std::uint32_t>& source = state.change.elementSource;
+  std::size_t count = E.size();
+  std::vector<std::uint32_t> remap(count);
+  for (std::uint32_t e = 0; e < count; ++e) remap[e] = e;
+  std::vector<char> hole(count, 0);
+  for (std::uint32_t h : state.elementHoles) hole[h] = 1;
+  std::vector<std::uint64_t> movedCubes;
+  for (std::uint32_t h : state.elementHoles) {
+    while (count > 0 && hole[count - 1]) --count;
+    if (h >= count) break;
+    const std::size_t last = count - 1;
+    E[h] = E[last];
+    source[h] = source[last];
+    remap[last] = h;
+    hole[h] = 0;
+    hole[last] = 1;
+    --count;
+    movedCubes.push_back(DeformationOctree::cubeKey(E[h].level, E[h].coord));
+  }
+  while (count > 0 && hole[count - 1]) --count;
+  // The moved elements' voxels, and their cubes' chains of copies (ascending ids).
+  std::sort(movedCubes.begin(), movedCubes.end());
+  movedCubes.erase(std::unique(movedCubes.begin(), movedCubes.end()), movedCubes.end());
+  const Index3 gd = grid_.dims();
+  for (std::uint64_t k : movedCubes) {
+    std::vector<std::uint32_t> ids;
+    for (std::uint32_t e = oc_.cubeFirst_.at(k); e != kNoElement; e = oc_.nextCopy_[e])
+      ids.push_back(remap[e]);
+    std::sort(ids.begin(), ids.end());
+    oc_.cubeFirst_[k] = ids.front();
+    for (std::size_t j = 0; j < ids.size(); ++j)
+      oc_.nextCopy_[ids[j]] = j + 1 < ids.size() ? ids[j + 1] : kNoElement;
+    const Index3 f = keyFirstVoxel(k);
+    const int s = 1 << keyLevel(k);
+    for (int z = f.z; z < std::min(f.z + s, gd.z); ++z)
+      for (int y = f.y; y < std::min(f.y + s, gd.y); ++y)
+        for (int x = f.x; x < std::min(f.x + s, gd.x); ++x) {
+          VoxelEmbedding& em = oc_.embedding_[grid_.index(x, y, z)];
+          if (em.element != kNoElement) em.element = remap[em.element];
+        }
+  }
+  E.resize(count);
+  oc_.nextCopy_.resize(count);
+  source.resize(count);
+  for (HangingNode& hn : oc_.hanging_) hn.element = remap[hn.element];
 }
 
 }  // namespace voxcut
