@@ -65,6 +65,7 @@ void checkOutputFolder(const std::string& path, const std::string& option) {
 
 PendingFile::PendingFile(std::string path, std::string option)
     : path_(std::move(path)), temporary_(path_ + ".tmp"), option_(std::move(option)) {
+  guard_.emplace(temporary_);
   out_.open(temporary_, std::ios::trunc);
   if (!out_)
     throw InputError(option_ + ": cannot create '" + temporary_ + "' (" + std::strerror(errno) +
@@ -93,6 +94,7 @@ void PendingFile::commit() {
     throw InputError(option_ + ": cannot rename '" + temporary_ + "' to '" + path_ + "' (" +
                      ec.message() + ")");
   committed_ = true;
+  guard_.reset();
 }
 
 void prepareStandardOutput() {

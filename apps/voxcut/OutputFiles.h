@@ -3,7 +3,10 @@
 // all, and standard output checked for write errors.
 
 #include <fstream>
+#include <optional>
 #include <string>
+
+#include "Interrupt.h"
 
 namespace voxcut::app {
 
@@ -19,8 +22,9 @@ void checkOutputFolder(const std::string& path, const std::string& option);
 
 /// A text file written as `path + ".tmp"` and renamed to `path` by commit(); the temporary is
 /// removed when the object dies uncommitted (an error on the way), so a failed run leaves no
-/// partial file and never clobbers an earlier `path`. Every line written is flushed to the
-/// temporary at once, so what was committed holds whole lines only.
+/// partial file and never clobbers an earlier `path`; a signal that ends the program at once
+/// removes it too (TemporaryFileGuard). Every line written is flushed to the temporary at
+/// once, so what was committed holds whole lines only.
 class PendingFile {
  public:
   /// Creates the temporary. Throws InputError naming `option` when it cannot.
@@ -37,6 +41,7 @@ class PendingFile {
 
  private:
   std::string path_, temporary_, option_;
+  std::optional<TemporaryFileGuard> guard_;  ///< until the temporary is renamed or removed
   std::ofstream out_;
   bool committed_ = false;
 };

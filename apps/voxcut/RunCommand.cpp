@@ -122,7 +122,10 @@ class Exporter {
         std::snprintf(name, sizeof name, "frame_%05d.obj", sim.frame());
       else
         std::snprintf(name, sizeof name, "body%zu_frame_%05d.obj", b, sim.frame());
-      writeSurface(sim.surfaceMesh(b), folder_.file(name));
+      const std::string path = folder_.file(name);
+      // writeSurface writes beside the file first; a forced end must not leave that behind.
+      const TemporaryFileGuard temporary(path + ".tmp");
+      writeSurface(sim.surfaceMesh(b), path);
     }
   }
   void keep() { folder_.keep(); }
@@ -152,7 +155,9 @@ class Pictures {
     }
     char name[64];
     std::snprintf(name, sizeof name, "frame_%05d.png", sim.frame());
-    view::writePng(renderer_->capture(data, camera_, false), folder_.file(name));
+    const std::string path = folder_.file(name);
+    const TemporaryFileGuard temporary(path + ".part.png");  // writePng's temporary
+    view::writePng(renderer_->capture(data, camera_, false), path);
   }
   void keep() { folder_.keep(); }
 
@@ -296,7 +301,8 @@ void addRunCommand(CLI::App& app, RunOptions& opt, CLI::App*& cmd) {
       "run",
       "Run a scene: deformable bodies cut by key-framed blades and pushed by probes and "
       "obstacles, frame by frame; Ctrl-C or "
-      "SIGTERM stops it at the next frame boundary with a summary of the frames run (exit 130)");
+      "SIGTERM stops it at the next frame boundary with a summary of the frames run (exit 130); "
+      "a third signal ends it at once");
   cmd->add_option("scene", opt.scene, "Scene file (JSON; format in docs/scenes.md)")->required();
   cmd->add_option("--frames", opt.frames,
                   "Frames to run (default: the scene's \"frames\", else 100)")

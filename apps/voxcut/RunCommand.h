@@ -27,7 +27,8 @@ void addRunCommand(CLI::App& app, RunOptions& opt, CLI::App*& cmd);
 /// Runs the scene. Output paths are checked before any work. SIGINT and SIGTERM stop the run
 /// at the next frame boundary (or during voxelization): the CSV keeps a whole row per finished
 /// frame, exported frames are whole files, the summary covers the frames run and says
-/// "interrupted", and the status is 130; a --record file holds the frames run. A run that fails
+/// "interrupted", and the status is 130; a --record file holds the frames run. A second signal
+/// changes nothing; a third ends the program at once, leaving no temporary file. A run that fails
 /// leaves no CSV and removes the surfaces it exported (each is written to a temporary and renamed
 /// when complete). Returns the exit status (0 or 130); throws InputError on errors.
 int runRun(const RunOptions& opt);

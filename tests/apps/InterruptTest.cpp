@@ -1,6 +1,7 @@
-// `voxcut run` interrupted mid-run by SIGINT or SIGTERM: it stops at a frame boundary with
-// status 130, the CSV holds one whole row per finished frame, every exported OBJ is complete,
-// no temporary file is left, and the summary covers the frames run and says "interrupted".
+// `voxcut run` interrupted mid-run by SIGINT or SIGTERM, once or twice: it stops at a frame
+// boundary with status 130, the CSV holds one whole row per finished frame, every exported OBJ
+// is complete, no temporary file is left, and the summary covers the frames run and says
+// "interrupted". A third signal ends it at once, and still leaves no temporary file.
 // Also: `info box:0.1,0.1,0.1 --resolution 1024` refused at once, naming the memory.
 
 #include <gtest/gtest.h>
@@ -75,8 +76,10 @@ void expectCompleteObj(const std::string& path) {
   EXPECT_TRUE(inRange) << path << ": a face index out of range or a face cut short";
 }
 
-/// Starts the long run, signals it after a few frames, and checks everything it left.
-void interruptRun(int signal, bool json) {
+/// Starts the long run, signals it after a few frames (`times` signals at once, as `timeout`
+/// sends one to its command and one to the command's process group), and checks everything it
+/// left.
+void interruptRun(int signal, bool json, int times = 1) {
   const TempFolder folder("interrupt");
   const std::string scene = folder.write("long.json", kLongScene);
   const std::string csv = folder.file("run.csv"), dir = folder.file("frames");
@@ -88,7 +91,7 @@ void interruptRun(int signal, bool json) {
   VoxcutProcess run(args, options);
   // The CSV is written beside its name until the run ends; a header and 5 rows mean 5 frames.
   ASSERT_TRUE(waitForLines(csv + ".tmp", 6, 100)) << "the run did not get going";
-  run.signal(signal);
+  for (int k = 0; k < times; ++k) run.signal(signal);
   const ProcessResult r = run.wait();
   ASSERT_EQ(r.status, 130) << describe(args, r);
   EXPECT_LT(r.seconds, 100);
@@ -135,6 +138,46 @@ TEST(CliInterrupt, SigintStopsRunAtAFrameBoundary) {
 
 TEST(CliInterrupt, SigtermStopsRunAtAFrameBoundary) {
   interruptRun(SIGTERM, false);
+}
+
+TEST(CliInterrupt, SigtermTwiceStillStopsAtAFrameBoundaryWithNoTemporaryLeft) {
+  interruptRun(SIGTERM, false, 2);
+}
+
+/// A scene of slow frames (about 100 ms on one thread): three signals 1 ms apart land within
+/// one frame.
+const char* kSlowScene =
+    R"({"frames": 100000, "bodies": [{"model": "sphere:0.05", "resolution": 48,
+        "element_level": 0}]})";
+
+TEST(CliInterrupt, ThirdSignalEndsAtOnceAndLeavesNoTemporary) {
+  const TempFolder folder("interrupt_forced");
+  const std::string scene = folder.write("slow.json", kSlowScene);
+  const std::string csv = folder.file("run.csv"), dir = folder.file("frames");
+  const std::vector<std::string> args{"run",   scene, "--export",  dir,
+                                      "--csv", csv,   "--threads", "1"};
+  ProcessOptions options;
+  options.workingFolder = folder.path().string();
+  options.timeLimitSeconds = 120;
+  VoxcutProcess run(args, options);
+  ASSERT_TRUE(waitForLines(csv + ".tmp", 3, 100)) << "the run did not get going";
+  for (int k = 0; k < 3; ++k) {
+    run.signal(SIGTERM);
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  const ProcessResult r = run.wait();
+  // Ended by the signal itself (or, where a frame boundary came between the signals, stopped
+  // there): either way no temporary is left, and a CSV, if the run got to write one, is whole.
+  EXPECT_TRUE(r.status == 128 + SIGTERM || r.status == 130) << describe(args, r);
+  EXPECT_NE(r.err.find("signal once more to end at once"), std::string::npos) << r.err;
+  for (const std::string& name : folder.entries())
+    EXPECT_EQ(name.find(".tmp"), std::string::npos) << "temporary left: " << name;
+  for (const auto& e : fs::directory_iterator(dir)) expectCompleteObj(e.path().string());
+  if (fs::exists(csv)) {
+    EXPECT_EQ(readText(csv).back(), '\n');
+    const std::vector<std::string> rows = lines(readText(csv));
+    for (const std::string& row : rows) EXPECT_EQ(fieldCount(row), fieldCount(rows.front()));
+  }
 }
 
 TEST(CliMemory, Resolution1024BoxRefusedAtOnceNamingTheMemory) {
