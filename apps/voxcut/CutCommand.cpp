@@ -180,6 +180,7 @@ void addBenchCommand(CLI::App& app, BenchOptions& opt, CLI::App*& cmd) {
   cmd->add_option("--deform", opt.deform, "Prescribed deformation: none, rigid, bend, twist");
   addMaxMemoryOption(*cmd, opt.maxMemory);
   addComplexBenchCommand(*bench, opt.complex);
+  addSoakBenchCommand(*bench, opt.soak);
 }
 
 int runBench(const BenchOptions& opt) {

@@ -1,7 +1,7 @@
 #pragma once
 // `voxcut cut`: the paper's single-frame cutting test. `voxcut bench single-frame`: its
 // Tables 3 and 4, with and without the octree at 1, 2 and 3 threads; `voxcut bench complex`
-// (ComplexBench.h) is registered beside it.
+// (ComplexBench.h) and `voxcut bench soak` (SoakBench.h) are registered beside it.
 
 #include <CLI/CLI.hpp>
 #include <string>
@@ -9,6 +9,7 @@
 
 #include "ComplexBench.h"
 #include "ModelOptions.h"
+#include "SoakBench.h"
 
 namespace voxcut::app {
 
@@ -32,6 +33,7 @@ struct BenchOptions {
   std::string deform = "none";
   std::string maxMemory;        // --max-memory SIZE; empty: the available memory
   ComplexBenchOptions complex;  // `bench complex` (ComplexBench.h)
+  SoakBenchOptions soak;        // `bench soak` (SoakBench.h)
 };
 
 void addBenchCommand(CLI::App& app, BenchOptions& opt, CLI::App*& cmd);

@@ -134,6 +134,7 @@ int run(int argc, char** argv) {
   if (cut->parsed()) return runCut(cutOpt);
   if (bench->parsed()) return runBench(benchOpt);
   if (benchOpt.complex.selected) return runComplexBench(benchOpt.complex);
+  if (benchOpt.soak.selected) return runSoakBench(benchOpt.soak);
   if (runCmd->parsed()) return runRun(runOpt);
   ModelOptions& opt = info->parsed() ? infoOpt : surfOpt;
   ThreadLimit limit(opt.threads);
@@ -166,7 +167,7 @@ int main(int argc, char** argv) {
   mallopt(M_TOP_PAD, 16 << 20);
   // Exit status: 0 success; 2 any error, reported as one "voxcut: error:" line (bad input or
   // usage, a file that cannot be read or written, out of memory, or an internal error, which
-  // its line names as such); 130 interrupted (SIGINT or SIGTERM during `run`).
+  // its line names as such); 130 interrupted (SIGINT or SIGTERM during `run` or a benchmark).
   try {
     voxcut::app::prepareStandardOutput();
     const int status = voxcut::app::run(argc, argv);
