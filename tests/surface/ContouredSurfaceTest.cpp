@@ -6,6 +6,7 @@
 #include <set>
 #include <tuple>
 
+#include "CanonicalMesh.h"
 #include "RandomGrids.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/io/ModelSource.h"
@@ -20,7 +21,9 @@
 namespace voxcut {
 namespace {
 
+using test::canonical;
 using test::randomCutGrid;
+using test::VertexKey;
 using test::randomHermite;
 
 // Connected links, sorted.
@@ -50,33 +53,6 @@ void applyCuts(VoxelGrid& g, const VoxelGrid& source, const std::vector<std::uin
     ASSERT_NE(h, nullptr);
     g.hermite().set(id, *h);
   }
-}
-
-// A mesh up to vertex and triangle order: vertices as (exact position, voxel), triangles as
-// their vertices' keys rotated so that the smallest comes first (orientation kept).
-using VertexKey = std::tuple<double, double, double, std::uint64_t>;
-struct Canonical {
-  std::vector<VertexKey> vertices;
-  std::vector<std::array<VertexKey, 3>> triangles;
-  bool operator==(const Canonical&) const = default;
-};
-
-Canonical canonical(const SurfaceMesh& m) {
-  Canonical c;
-  auto key = [&](int v) {
-    const Vec3d& p = m.positions[static_cast<std::size_t>(v)];
-    return VertexKey{p[0], p[1], p[2], m.vertexVoxel[static_cast<std::size_t>(v)]};
-  };
-  for (std::size_t v = 0; v < m.positions.size(); ++v)
-    c.vertices.push_back(key(static_cast<int>(v)));
-  for (const auto& t : m.triangles) {
-    std::array<VertexKey, 3> k = {key(t[0]), key(t[1]), key(t[2])};
-    std::rotate(k.begin(), std::min_element(k.begin(), k.end()), k.end());
-    c.triangles.push_back(k);
-  }
-  std::sort(c.vertices.begin(), c.vertices.end());
-  std::sort(c.triangles.begin(), c.triangles.end());
-  return c;
 }
 
 // Vertex and triangle slots of a surface, to check a delta against.
@@ -273,6 +249,69 @@ TEST(ContouredSurface, RandomCutSequencesEqualRebuilds) {
   }
   EXPECT_GT(ringOnlyChanges, 0u);
   EXPECT_GT(splitPolygons, 0u);
+}
+
+// Sealed links of a grid (cut links whose sheets would share every vertex), sorted.
+std::vector<std::uint64_t> sealedLinks(const VoxelGrid& g) {
+  std::vector<std::uint64_t> out;
+  for (std::size_t v = 0; v < g.voxelCount(); ++v)
+    for (int a = 0; a < 3; ++a)
+      if (isSealedLink(g, v, a)) out.push_back(VoxelGrid::linkId(v, a));
+  return out;
+}
+
+// Cuts and reconnections inside mostly connected material, where many cut links are sealed
+// and stop or start being sealed as links around them change: each update equals a rebuild.
+TEST(ContouredSurface, SealedLinksComingAndGoingEqualRebuilds) {
+  std::size_t sealedSeen = 0, gained = 0, lost = 0;
+  for (unsigned seed = 1; seed <= 6; ++seed) {
+    std::mt19937 rng(seed * 104729);
+    VoxelGrid g = randomCutGrid(12, 0.9, 0.97, seed);
+    ContouredSurface s = ContouredSurface::build(g);
+    for (int round = 0; round < 12; ++round) {
+      const std::vector<std::uint64_t> sealedBefore = sealedLinks(g);
+      std::vector<std::uint64_t> conn = connectedLinks(g), open;
+      for (std::size_t v = 0; v < g.voxelCount(); ++v)
+        for (int a = 0; a < 3; ++a)
+          if (g.hasLink(v, a) && !g.connected(v, a) && g.occupied(v) &&
+              g.occupied(v + g.stride(a)))
+            open.push_back(VoxelGrid::linkId(v, a));
+      std::shuffle(conn.begin(), conn.end(), rng);
+      std::shuffle(open.begin(), open.end(), rng);
+      std::vector<std::uint64_t> changed;
+      const std::size_t nCut = std::min<std::size_t>(conn.size(), 1 + rng() % 12);
+      const std::size_t nJoin = std::min<std::size_t>(open.size(), rng() % 6);
+      for (std::size_t i = 0; i < nCut; ++i) {
+        g.setConnected(static_cast<std::size_t>(conn[i] / 3), static_cast<int>(conn[i] % 3), false);
+        g.hermite().set(conn[i], randomHermite(static_cast<int>(conn[i] % 3), rng));
+        changed.push_back(conn[i]);
+      }
+      for (std::size_t i = 0; i < nJoin; ++i) {
+        g.setConnected(static_cast<std::size_t>(open[i] / 3), static_cast<int>(open[i] % 3), true);
+        g.hermite().erase(open[i]);
+        changed.push_back(open[i]);
+      }
+      const std::vector<std::uint64_t> sealedAfter = sealedLinks(g);
+      sealedSeen += sealedAfter.size();
+      for (const std::uint64_t id : sealedAfter)
+        if (!std::binary_search(sealedBefore.begin(), sealedBefore.end(), id) &&
+            !std::count(changed.begin(), changed.end(), id))
+          ++gained;
+      for (const std::uint64_t id : sealedBefore)
+        if (!std::binary_search(sealedAfter.begin(), sealedAfter.end(), id) &&
+            !std::count(changed.begin(), changed.end(), id))
+          ++lost;
+      const Snapshot before = snapshot(s);
+      const SurfaceDelta d = s.update(g, changed);
+      expectExactUpdate(before, s, d, g,
+                        "seed " + std::to_string(seed) + " round " + std::to_string(round));
+      if (HasFatalFailure()) return;
+    }
+  }
+  // Sealed links abound, and links that did not change became sealed or stopped being so.
+  EXPECT_GT(sealedSeen, 100u);
+  EXPECT_GT(gained, 0u);
+  EXPECT_GT(lost, 0u);
 }
 
 // Voxels emptied (their 6 links cut, listed) also update exactly.

@@ -177,12 +177,38 @@ SurfaceDelta ContouredSurface::update(const VoxelGrid& grid,
 
   // Solve them again; keep the cells whose vertices or patches changed.
   std::vector<std::uint64_t> changedCells, links;
+  // Cells around the cut links (both sides occupied) of re-solved cells, with whether each
+  // such link is sealed now: the 4 cells around a link decide that together, so a cell whose
+  // own links did not change loses or regains a sealed link's patch when a cell across the
+  // link changed.
+  struct SealCheck {
+    std::uint64_t cell;
+    std::int8_t slot;
+    bool sealed;
+    bool operator<(const SealCheck& o) const { return cell < o.cell; }
+  };
+  std::vector<SealCheck> sealChecks;
   auto solve = [&](std::uint64_t cell) {
     const Index3 m = grid.coord(static_cast<std::size_t>(cell));
     std::array<FaceSegments, 6> seg;
     std::uint8_t ring = 0;
     const DualCellVertices cv = dualCellVertices(grid, m, qefThreshold_, &seg, &ring);
     ++delta.solvedCells;
+    const DualCell dc = gatherDualCell(grid, m);
+    for (int e = 0; e < 12; ++e) {
+      if (((dc.connected >> e) & 1) || !((dc.occupied >> edgeCorner(e, 0)) & 1) ||
+          !((dc.occupied >> edgeCorner(e, 1)) & 1))
+        continue;
+      const std::uint64_t link = edgeLink(grid, cell, e);
+      std::array<std::size_t, 4> around;
+      std::array<int, 4> edges;
+      cellsAroundLink(grid, static_cast<std::size_t>(link / 3), static_cast<int>(link % 3), around,
+                      edges);
+      for (int k = 0; k < 4; ++k)
+        if (around[k] != cell)
+          sealChecks.push_back({around[k], static_cast<std::int8_t>(2 * edges[k]),
+                                cv.patch[2 * e] < 0});
+    }
     const int edges = applyCell(cell, cv, seg, ring, delta);
     if (edges < 0) return;
     changedCells.push_back(cell);
@@ -190,13 +216,37 @@ SurfaceDelta ContouredSurface::update(const VoxelGrid& grid,
       if ((edges >> e) & 1) links.push_back(edgeLink(grid, cell, e));
   };
   for (const std::uint64_t cell : direct) solve(cell);
+  std::vector<std::uint64_t> solvedReaders;
   for (const std::uint64_t cell : ringReaders) {
     if (std::binary_search(direct.begin(), direct.end(), cell)) continue;
     const Index3 m = grid.coord(static_cast<std::size_t>(cell));
     std::array<std::int8_t, 24> patch;
-    (void)dualCellPatches(gatherDualCell(grid, m), patch, gridNeighbour(grid, m));
-    if (cells_.find(cell)->patch != patch) solve(cell);
+    const int n = dualCellPatches(gatherDualCell(grid, m), patch, gridNeighbour(grid, m));
+    (void)dropSealedPatches(grid, m, patch, n);
+    if (cells_.find(cell)->patch != patch) {
+      solve(cell);
+      solvedReaders.push_back(cell);
+    }
   }
+  // Cells not solved yet whose record disagrees with whether a link is sealed now: their
+  // patch of it dropped (-1) exactly when it is not sealed, or no record at all (every patch
+  // sealed) while it is not. The checks their own solves add need no answer: a link of theirs
+  // whose 4 cells hold no re-solved cell kept its state.
+  std::sort(sealChecks.begin(), sealChecks.end());
+  std::sort(solvedReaders.begin(), solvedReaders.end());
+  std::vector<std::uint64_t> stale;
+  for (std::size_t i = 0; i < sealChecks.size();) {
+    const std::uint64_t cell = sealChecks[i].cell;
+    const CellRecord* rec = cells_.find(cell);
+    bool differs = false;
+    for (; i < sealChecks.size() && sealChecks[i].cell == cell; ++i)
+      differs = differs || (rec ? (rec->patch[sealChecks[i].slot] < 0) != sealChecks[i].sealed
+                                : !sealChecks[i].sealed);
+    if (differs && !std::binary_search(direct.begin(), direct.end(), cell) &&
+        !std::binary_search(solvedReaders.begin(), solvedReaders.end(), cell))
+      stale.push_back(cell);
+  }
+  for (const std::uint64_t cell : stale) solve(cell);
 
   // Split vertices on the faces of changed cells (only faces that have or had them).
   std::vector<std::uint64_t> faces;
@@ -345,14 +395,22 @@ void ContouredSurface::refreshLink(const VoxelGrid& grid, std::uint64_t v, int a
   const bool open = !grid.connected(vi, a);
   LinkRing ring;
   ring.sheet = {open && grid.occupied(vi), open && grid.occupied(vi + grid.stride(a))};
+  std::array<std::size_t, 4> cells{};
+  std::array<int, 4> edges{};
   if (ring.sheet[0] || ring.sheet[1]) {
     const Index3 c = grid.coord(vi);
     const int u = (a + 1) % 3, w = (a + 2) % 3;
     VOXCUT_ASSERT(c[u] >= 1 && c[w] >= 1 && c[u] + 1 < dims_[u] && c[w] + 1 < dims_[w],
                   "material in the padding layer");
-    std::array<std::size_t, 4> cells;
-    std::array<int, 4> edges;
     cellsAroundLink(grid, vi, a, cells, edges);
+  }
+  if (ring.sheet[0] && ring.sheet[1]) {
+    // A sealed link: its patches have no vertices (its cells may have none at all), and it
+    // has no sheets.
+    const CellRecord* first = cells_.find(cells[0]);
+    if (!first || first->patch[2 * edges[0]] < 0) ring.sheet = {false, false};
+  }
+  if (ring.sheet[0] || ring.sheet[1]) {
     std::array<const CellRecord*, 4> rec;
     for (int k = 0; k < 4; ++k) {
       rec[k] = cells_.find(cells[k]);

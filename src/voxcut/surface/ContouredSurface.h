@@ -13,7 +13,10 @@
 ///
 /// What an update re-solves: the 4 cells around each changed link (their occupancy,
 /// connectivity or Hermite data changed), and those of their face neighbours whose ring rule
-/// (dualCellPatches) read one of them, when their patches now differ. Split vertices are
+/// (dualCellPatches) read one of them, when their patches now differ, and the cells around a
+/// cut link of a re-solved cell whose record disagrees with whether that link is now sealed
+/// (isSealedLink: its 4 cells decide it together, so a cell whose own links did not change
+/// can lose or regain a sealed link's patch). Split vertices are
 /// re-derived on the faces of every cell whose record changed (faces with two or more surface
 /// segments, or that had split vertices), and the sheets of the links with incidences in such
 /// a cell (or on a face whose split vertices changed) are rebuilt. A vertex of a re-solved cell

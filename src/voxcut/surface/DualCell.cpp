@@ -173,6 +173,76 @@ NeighbourCell gridNeighbour(const VoxelGrid& grid, const Index3& m) {
 
 namespace {
 
+// Whether the patch of edge e's incidences is exactly those two: both faces of the cell that
+// hold e join them to each other (each incidence has one segment on each of its two faces, so
+// the patches are cycles).
+bool crackTip(const std::array<std::int8_t, 24>& patch, int e) {
+  const int p = patch[2 * e];
+  if (p < 0 || patch[2 * e + 1] != p) return false;
+  for (int s = 0; s < 24; ++s)
+    if (patch[s] == p && s / 2 != e) return false;
+  return true;
+}
+
+// Whether edge e of the cell with min corner m is a crack tip there (m inside the grid).
+bool crackTipIn(const VoxelGrid& grid, const Index3& m, int e) {
+  std::array<std::int8_t, 24> patch;
+  (void)dualCellPatches(gatherDualCell(grid, m), patch, gridNeighbour(grid, m));
+  return crackTip(patch, e);
+}
+
+bool cellInGrid(const VoxelGrid& grid, const Index3& m) {
+  for (int a = 0; a < 3; ++a)
+    if (m[a] < 0 || m[a] + 1 >= grid.dims()[a]) return false;
+  return true;
+}
+
+}  // namespace
+
+bool isSealedLink(const VoxelGrid& grid, std::size_t v, int a) {
+  if (!grid.hasLink(v, a) || grid.connected(v, a) || !grid.occupied(v) ||
+      !grid.occupied(v + grid.stride(a)))
+    return false;
+  const int u = (a + 1) % 3, w = (a + 2) % 3;
+  const Index3 c = grid.coord(v);
+  Index3 m0 = c;
+  m0[u] -= 1;
+  m0[w] -= 1;
+  if (!cellInGrid(grid, m0) || !cellInGrid(grid, c)) return false;
+  // Cells 0 and 2 around the link hold all 4 faces around it between them.
+  return crackTipIn(grid, m0, 4 * a + 3) && crackTipIn(grid, c, 4 * a);
+}
+
+int dropSealedPatches(const VoxelGrid& grid, const Index3& m, std::array<std::int8_t, 24>& patch,
+                      int count) {
+  std::array<bool, 12> sealed{};
+  bool any = false;
+  for (int e = 0; e < 12; ++e) {
+    if (!crackTip(patch, e)) continue;
+    // This cell holds 2 of the 4 faces around the link; the cell diagonally across the link
+    // holds the other 2.
+    const int a = e / 4, u = (a + 1) % 3, w = (a + 2) % 3, ou = e & 1, ow = (e >> 1) & 1;
+    Index3 across = m;
+    across[u] += 2 * ou - 1;
+    across[w] += 2 * ow - 1;
+    if (!cellInGrid(grid, across) || !crackTipIn(grid, across, 4 * a + (1 - ou) + 2 * (1 - ow)))
+      continue;
+    sealed[static_cast<std::size_t>(patch[2 * e])] = true;
+    any = true;
+  }
+  if (!any) return count;
+  // Patches are numbered in order of their lowest slot; dropping some keeps that order.
+  std::array<std::int8_t, 12> renumber;
+  int n = 0;
+  for (int p = 0; p < count; ++p)
+    renumber[static_cast<std::size_t>(p)] = static_cast<std::int8_t>(sealed[p] ? -1 : n++);
+  for (int s = 0; s < 24; ++s)
+    if (patch[s] >= 0) patch[s] = renumber[static_cast<std::size_t>(patch[s])];
+  return n;
+}
+
+namespace {
+
 // QEF vertex of one patch, in cell-local coordinates.
 Vec3d solveQef(const Eigen::Matrix3d& ata, const Vec3d& atb, const Vec3d& mass, double threshold) {
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
@@ -210,6 +280,7 @@ DualCellVertices dualCellVertices(const VoxelGrid& grid, const Index3& m, double
     out.count = dualCellPatches(cell, out.patch, gridNeighbour(grid, m), segments);
   }
   VOXCUT_ASSERT(out.count <= 12, "a dual cell has at most 12 patches");
+  out.count = dropSealedPatches(grid, m, out.patch, out.count);
   const std::size_t base = grid.index(m);
   for (int p = 0; p < out.count; ++p) {
     Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
@@ -277,7 +348,7 @@ int doubledSegments(const FaceSegments& fs, int a, const std::array<std::int8_t,
   for (int r = 1; r < fs.count; ++r)
     for (int q = 0; q < r; ++q) {
       const int s0 = fs.slots[r][0], t0 = fs.slots[q][0];
-      if (lower[s0] != lower[t0] || upper[slotAcross(s0, a)] != upper[slotAcross(t0, a)]) continue;
+      if (lower[s0] < 0 || lower[s0] != lower[t0] || upper[slotAcross(s0, a)] != upper[slotAcross(t0, a)]) continue;
       out[n++] = {fs.slots[r], lower[s0], upper[slotAcross(s0, a)]};
       break;
     }

@@ -73,16 +73,32 @@ int dualCellPatches(const DualCell& cell, std::array<std::int8_t, 24>& patch,
 // ---- Pieces of dual contouring shared by dualContour and ContouredSurface ------------------
 // Both must produce bit-identical vertices and triangles, so each step is written once here.
 
-/// Dual-contouring vertices of one cell: one per surface patch.
+/// Dual-contouring vertices of one cell: one per surface patch, sealed links' excepted.
 struct DualCellVertices {
-  std::array<std::int8_t, 24> patch{};    ///< patch of each incidence slot, -1 for none
+  std::array<std::int8_t, 24> patch{};    ///< patch of each incidence slot, -1 for none or sealed
   int count = 0;                          ///< number of patches (at most 12)
   std::array<Vec3d, 12> position;         ///< per patch: rest-frame position (metres)
   std::array<std::uint64_t, 12> voxel{};  ///< per patch: lowest material voxel of its incidences
 };
 
-/// Patches of the cell with min corner `m` (all 8 corners inside `grid`) and one vertex each:
-/// the QEF minimiser of the patch's Hermite planes (points and outward normals of its
+/// Whether link (v, a) is *sealed*: cut with material on both sides, and on each of the 4
+/// faces around it (those between consecutive cells of cellsAroundLink) the surface joins its
+/// two incidences to each other, so that in each of its 4 cells the patch of its two
+/// incidences holds nothing else. Both its sheets would then use the same 4 vertices: a
+/// closed surface of zero volume that no deformation can open. A sealed link has no sheets
+/// and its patches no vertices (docs/algorithms.md, "Sealed links"). Reads only the 4 cells
+/// around the link (the ring rule on those faces reads nothing else). False for a link
+/// without both voxels inside the grid's interior. Thread-safe (reads `grid` only).
+[[nodiscard]] bool isSealedLink(const VoxelGrid& grid, std::size_t v, int a);
+
+/// Drops from `patch`, the `count` patches of the cell with min corner `m`, the patches of
+/// sealed links (isSealedLink), setting their slots to -1 and renumbering the others, still in
+/// order of their lowest slot. Returns the new count. Thread-safe (reads `grid` only).
+int dropSealedPatches(const VoxelGrid& grid, const Index3& m, std::array<std::int8_t, 24>& patch,
+                      int count);
+
+/// Patches of the cell with min corner `m` (all 8 corners inside `grid`), less those of sealed
+/// links (dropSealedPatches), and one vertex each: the QEF minimiser of the patch's Hermite planes (points and outward normals of its
 /// incidences), solved in cell coordinates (cell size 1) as x = c + (AᵀA)⁺(Aᵀb − AᵀA c) with
 /// c the mass point and eigenvalues below `qefThreshold` x the largest dropped; c when x
 /// leaves the cell by more than 1e-9. `segments`, when given, receives the face segments;
@@ -121,7 +137,8 @@ struct LinkFace {
 /// split vertex, at the middle of the two cells' vertices, owned by the lower cell's voxel.
 /// Lists those segments of the +a face of a cell with patches `lower`, whose neighbour across
 /// the face has patches `upper`; `fs` are the lower cell's segments on that face. Returns the
-/// count; out[i] = {segment's two slots (lower cell), lower patch, upper patch}.
+/// count; out[i] = {segment's two slots (lower cell), lower patch, upper patch}. Segments of a
+/// sealed link (patch -1) are skipped: they carry no surface.
 struct DoubledSegment {
   std::array<std::int8_t, 2> slots;
   int lowerPatch;
@@ -131,7 +148,7 @@ int doubledSegments(const FaceSegments& fs, int a, const std::array<std::int8_t,
                     const std::array<std::int8_t, 24>& upper, std::array<DoubledSegment, 4>& out);
 
 /// Vertices around one disconnected link: for each side s (0: the low voxel v, 1: v + e_a)
-/// that holds material, the vertex of the side's patch in each cell of cellsAroundLink, and
+/// that holds material (and neither when the link is sealed), the vertex of the side's patch in each cell of cellsAroundLink, and
 /// the split vertex on the face between cells k and k+1, or -1.
 struct LinkRing {
   std::array<bool, 2> sheet{};

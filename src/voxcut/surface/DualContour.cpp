@@ -50,9 +50,11 @@ void splitDoubledSegments(const VoxelGrid& grid, ContourCells& cc, SurfaceMesh& 
           for (std::size_t o = c * kChunk; o < std::min(n, (c + 1) * kChunk); ++o) {
             const std::size_t cell = cc.cell[o];
             const Index3 m = grid.coord(cell);
-            std::array<std::int8_t, 24> patch;
+            std::array<std::int8_t, 24> raw;
             std::array<FaceSegments, 6> seg;
-            (void)dualCellPatches(gatherDualCell(grid, m), patch, gridNeighbour(grid, m), &seg);
+            (void)dualCellPatches(gatherDualCell(grid, m), raw, gridNeighbour(grid, m), &seg);
+            // The vertices' patches (sealed links' dropped), not the raw ones.
+            const std::array<std::int8_t, 24>& patch = cc.patches[o];
             for (int a = 0; a < 3; ++a) {
               const FaceSegments& fs = seg[2 * a + 1];
               if (fs.count < 2) continue;
@@ -215,6 +217,9 @@ SurfaceMesh dualContour(const VoxelGrid& grid, const DualContourParams& params) 
                 std::array<std::size_t, 4> cells;
                 std::array<int, 4> edges;
                 cellsAroundLink(grid, v, a, cells, edges);
+                // A sealed link's patches have no vertices, and it has no sheets.
+                if (occ[0] && occ[1] && cc.patches[cc.ordinal[cells[0]]][2 * edges[0]] < 0)
+                  continue;
                 LinkRing ring;
                 for (int side = 0; side < 2; ++side) {
                   ring.sheet[side] = occ[side];

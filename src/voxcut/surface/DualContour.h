@@ -10,6 +10,10 @@
 /// gives one quad per side that holds material, through the 4 cells around it, wound so its
 /// normal points out of that side's material; a cut link thus gives two coincident sheets of
 /// opposite winding. Quads are split along the diagonal whose two triangles bend least.
+/// A *sealed* link (isSealedLink: cut, yet on all 4 faces around it the surface joins its two
+/// incidences to each other) has no sheets and its patches no vertices: both sheets would use
+/// the same 4 vertices, a closed surface of zero volume that can never open. Every edge of
+/// such a pair of sheets is used by the pair alone, so dropping it keeps the rest closed.
 /// The result is closed and 2-manifold whatever the link states.
 
 #include "voxcut/surface/SurfaceMesh.h"
