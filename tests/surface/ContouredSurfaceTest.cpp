@@ -23,8 +23,8 @@ namespace {
 
 using test::canonical;
 using test::randomCutGrid;
-using test::VertexKey;
 using test::randomHermite;
+using test::VertexKey;
 
 // Connected links, sorted.
 std::vector<std::uint64_t> connectedLinks(const VoxelGrid& g) {
@@ -273,8 +273,7 @@ TEST(ContouredSurface, SealedLinksComingAndGoingEqualRebuilds) {
       std::vector<std::uint64_t> conn = connectedLinks(g), open;
       for (std::size_t v = 0; v < g.voxelCount(); ++v)
         for (int a = 0; a < 3; ++a)
-          if (g.hasLink(v, a) && !g.connected(v, a) && g.occupied(v) &&
-              g.occupied(v + g.stride(a)))
+          if (g.hasLink(v, a) && !g.connected(v, a) && g.occupied(v) && g.occupied(v + g.stride(a)))
             open.push_back(VoxelGrid::linkId(v, a));
       std::shuffle(conn.begin(), conn.end(), rng);
       std::shuffle(open.begin(), open.end(), rng);

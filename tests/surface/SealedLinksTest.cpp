@@ -87,10 +87,10 @@ TEST(SealedLinks, SlitsInsideMaterialAddNoSurface) {
   ContouredSurface s = ContouredSurface::build(g);
   const test::Canonical uncut = canonical(s.mesh());
   const std::vector<std::vector<std::uint64_t>> slits = {
-      {link(g, 5, 5, 5, 0)},                                              // one link
-      {link(g, 9, 5, 5, 1), link(g, 9, 6, 5, 1), link(g, 9, 7, 5, 1)},    // a row, end to end
-      {link(g, 5, 9, 5, 2), link(g, 6, 9, 5, 2), link(g, 7, 9, 5, 2)},    // a row, side by side
-      {link(g, 5, 5, 9, 0), link(g, 5, 6, 9, 0), link(g, 5, 5, 10, 0)},   // an L in a plane
+      {link(g, 5, 5, 5, 0)},                                                // one link
+      {link(g, 9, 5, 5, 1), link(g, 9, 6, 5, 1), link(g, 9, 7, 5, 1)},      // a row, end to end
+      {link(g, 5, 9, 5, 2), link(g, 6, 9, 5, 2), link(g, 7, 9, 5, 2)},      // a row, side by side
+      {link(g, 5, 5, 9, 0), link(g, 5, 6, 9, 0), link(g, 5, 5, 10, 0)},     // an L in a plane
       {link(g, 10, 5, 9, 0), link(g, 11, 5, 9, 2), link(g, 11, 5, 10, 0)},  // a staircase
   };
   for (std::size_t k = 0; k < slits.size(); ++k) {
@@ -166,9 +166,8 @@ void stroke(CutBody& body, ContouredSurface& s, const BladePose& from, const Bla
 TEST(SealedLinks, SliverCutsLeaveEveryComponentEnclosingMaterial) {
   VoxelizeParams vp;
   vp.resolution.resolution = 26;
-  const std::vector<VoxelGrid> models = {
-      voxelize({{"b", makeBox(Vec3d(0.1, 0.08, 0.09))}}, vp),
-      voxelize({{"s", makeSphere(0.05, 4)}}, vp)};
+  const std::vector<VoxelGrid> models = {voxelize({{"b", makeBox(Vec3d(0.1, 0.08, 0.09))}}, vp),
+                                         voxelize({{"s", makeSphere(0.05, 4)}}, vp)};
   for (std::size_t mi = 0; mi < models.size(); ++mi) {
     CutBodyParams cp;
     cp.useOctree = false;

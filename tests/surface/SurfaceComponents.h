@@ -54,7 +54,8 @@ inline std::vector<SurfaceComponent> surfaceComponents(const SurfaceMesh& m, dou
     c.extent = std::max(c.extent, (m.positions[v] - m.positions[c.firstVertex]).norm() / h);
   }
   for (const auto& t : m.triangles) {
-    SurfaceComponent& c = out[static_cast<std::size_t>(label[find(static_cast<std::size_t>(t[0]))])];
+    SurfaceComponent& c =
+        out[static_cast<std::size_t>(label[find(static_cast<std::size_t>(t[0]))])];
     const Vec3d& o = m.positions[c.firstVertex];
     const Vec3d p0 = (m.positions[static_cast<std::size_t>(t[0])] - o) / h;
     const Vec3d p1 = (m.positions[static_cast<std::size_t>(t[1])] - o) / h;

@@ -206,8 +206,8 @@ SurfaceDelta ContouredSurface::update(const VoxelGrid& grid,
                       edges);
       for (int k = 0; k < 4; ++k)
         if (around[k] != cell)
-          sealChecks.push_back({around[k], static_cast<std::int8_t>(2 * edges[k]),
-                                cv.patch[2 * e] < 0});
+          sealChecks.push_back(
+              {around[k], static_cast<std::int8_t>(2 * edges[k]), cv.patch[2 * e] < 0});
     }
     const int edges = applyCell(cell, cv, seg, ring, delta);
     if (edges < 0) return;

@@ -348,7 +348,9 @@ int doubledSegments(const FaceSegments& fs, int a, const std::array<std::int8_t,
   for (int r = 1; r < fs.count; ++r)
     for (int q = 0; q < r; ++q) {
       const int s0 = fs.slots[r][0], t0 = fs.slots[q][0];
-      if (lower[s0] < 0 || lower[s0] != lower[t0] || upper[slotAcross(s0, a)] != upper[slotAcross(t0, a)]) continue;
+      if (lower[s0] < 0 || lower[s0] != lower[t0] ||
+          upper[slotAcross(s0, a)] != upper[slotAcross(t0, a)])
+        continue;
       out[n++] = {fs.slots[r], lower[s0], upper[slotAcross(s0, a)]};
       break;
     }

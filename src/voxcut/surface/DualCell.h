@@ -98,10 +98,11 @@ int dropSealedPatches(const VoxelGrid& grid, const Index3& m, std::array<std::in
                       int count);
 
 /// Patches of the cell with min corner `m` (all 8 corners inside `grid`), less those of sealed
-/// links (dropSealedPatches), and one vertex each: the QEF minimiser of the patch's Hermite planes (points and outward normals of its
-/// incidences), solved in cell coordinates (cell size 1) as x = c + (AᵀA)⁺(Aᵀb − AᵀA c) with
-/// c the mass point and eigenvalues below `qefThreshold` x the largest dropped; c when x
-/// leaves the cell by more than 1e-9. `segments`, when given, receives the face segments;
+/// links (dropSealedPatches), and one vertex each: the QEF minimiser of the patch's Hermite
+/// planes (points and outward normals of its incidences), solved in cell coordinates (cell
+/// size 1) as x = c + (AᵀA)⁺(Aᵀb − AᵀA c) with c the mass point and eigenvalues below
+/// `qefThreshold` x the largest dropped; c when x leaves the cell by more than 1e-9.
+/// `segments`, when given, receives the face segments (sealed links' included);
 /// `neighbourFaces`, when given, bit f set for each face f whose neighbour cell the ring rule
 /// read (the patches can change when that neighbour does). Thread-safe (reads `grid` only).
 [[nodiscard]] DualCellVertices dualCellVertices(const VoxelGrid& grid, const Index3& m,
@@ -148,8 +149,8 @@ int doubledSegments(const FaceSegments& fs, int a, const std::array<std::int8_t,
                     const std::array<std::int8_t, 24>& upper, std::array<DoubledSegment, 4>& out);
 
 /// Vertices around one disconnected link: for each side s (0: the low voxel v, 1: v + e_a)
-/// that holds material (and neither when the link is sealed), the vertex of the side's patch in each cell of cellsAroundLink, and
-/// the split vertex on the face between cells k and k+1, or -1.
+/// that holds material (and neither when the link is sealed), the vertex of the side's patch in
+/// each cell of cellsAroundLink, and the split vertex on the face between cells k and k+1, or -1.
 struct LinkRing {
   std::array<bool, 2> sheet{};
   std::array<std::array<int, 4>, 2> vertex{};
