@@ -355,7 +355,8 @@ void addSoakBenchCommand(CLI::App& bench, SoakBenchOptions& opt) {
                   "Starting level of the deformation octree, 0..6 (default 3)")
       ->check(CLI::Range(0, 6));
   cmd->add_option("--finest-level", opt.finestLevel,
-                  "Finest level refinement after cuts reaches, 0..element level (default 0)")
+                  "Finest level a resting cut front is refined to, 0..element level (default: "
+                  "element level - 2, at least 0)")
       ->check(CLI::Range(0, 6));
   cmd->add_option("--frames", opt.frames, "Frames per run, 4 ms each (default 600)")
       ->check(CLI::Range(1, 10000000));

@@ -14,7 +14,7 @@ struct SoakBenchOptions {
   std::string model = "bunny";
   int resolution = 64;
   int elementLevel = 3;
-  int finestLevel = 0;
+  int finestLevel = -1;  // -1: the library's default
   int frames = 600;
   std::uint64_t seed = 1;
   int seeds = 1;    // runs seeds seed .. seed + seeds - 1

@@ -162,7 +162,7 @@ TEST(SceneReader, DefaultsForAMinimalScene) {
   EXPECT_EQ(b.model, "bunny");
   EXPECT_FALSE(b.resolution.has_value());
   EXPECT_EQ(b.elementLevel, 3);
-  EXPECT_EQ(b.finestLevel, 0);
+  EXPECT_EQ(b.finestLevel, -1);
   EXPECT_TRUE(b.materials.empty());
   EXPECT_TRUE(b.fixed.empty());
   EXPECT_EQ(b.offset, Vec3d::Zero());

@@ -288,8 +288,8 @@ std::string readModel(const Reader& r, const Json& v, const std::string& path) {
 SceneBody readBody(const Reader& r, const Json& v, const std::string& path) {
   expectObject(r, v, path);
   checkKeys(r, v, path,
-            {"model", "resolution", "element_level", "finest_level", "surface_level", "materials",
-             "fixed", "offset"});
+            {"model", "resolution", "element_level", "finest_level", "front_level",
+             "surface_level", "materials", "fixed", "offset"});
   SceneBody b;
   b.model = readModel(r, required(r, v, path, "model"), child(path, "model"));
   if (v.contains("resolution"))
@@ -307,6 +307,15 @@ SceneBody readBody(const Reader& r, const Json& v, const std::string& path) {
                     std::to_string(out));
   };
   finerLevel("finest_level", b.finestLevel);
+  if (v.contains("front_level")) {
+    int front = 0;
+    finerLevel("front_level", front);
+    if (front < b.finestLevel)
+      r.fail(child(path, "front_level"), "must be >= finest_level (" +
+                                            std::to_string(b.finestLevel) + "), got " +
+                                            std::to_string(front));
+    b.frontLevel = front;
+  }
   finerLevel("surface_level", b.surfaceLevel);
   if (v.contains("materials")) {
     const std::string p = child(path, "materials");

@@ -59,7 +59,12 @@ struct SceneBody {
   std::string model;
   std::optional<int> resolution;  ///< voxels along the longest side; empty: the model's own
   int elementLevel = 3;           ///< starting level of the deformation octree, 0..6
-  int finestLevel = 0;            ///< finest level refinement after cuts reaches, <= elementLevel
+  /// Finest level refinement after cuts reaches, <= elementLevel; -1: elementLevel - 2, at
+  /// least 0 (BodySettings::finestLevel).
+  int finestLevel = -1;
+  /// Level a cut's front coarsens back to once the cuts have left it, in [finestLevel,
+  /// elementLevel]; -1: elementLevel (BodySettings::frontLevel).
+  int frontLevel = -1;
   /// Level down to which elements less than half full are split at the start, <= elementLevel;
   /// -1: defaultSurfaceLevel (topology/DeformationOctree.h).
   int surfaceLevel = -1;

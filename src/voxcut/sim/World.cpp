@@ -40,6 +40,20 @@ enum Stage : std::size_t {
 /// body (or of itself) are not found as contacts.
 constexpr int kRestDistanceBand = 3;
 
+/// Coarsening after cuts (docs/algorithms.md, "Coarsening after cuts"): a start-level region
+/// coarsens once no cut has touched it for this many frames, no blade's front lies in it and
+/// no neighbouring region is busy (the blade has moved on), at most this many regions a frame
+/// outside a quiet pass (so no frame stalls on it).
+constexpr int kCoarsenAfterFrames = 2;
+constexpr std::size_t kCoarsenRegionsPerFrame = 256;
+
+/// The level a body's resting fronts are refined to: its finest level, by default two below
+/// its start level (a quarter of an element's side).
+int finestLevelOf(const BodySettings& s) {
+  return s.finestLevel >= 0 ? std::min(s.finestLevel, s.elementLevel)
+                            : std::max(s.elementLevel - 2, 0);
+}
+
 /// Below this tangential speed (m/s) a contact's friction holds like a viscous stick; above it,
 /// it is the Coulomb force mu f_n against the sliding (docs/algorithms.md, "Friction").
 constexpr double kStickSpeed = 1e-3;
@@ -301,6 +315,19 @@ struct World::Impl {
                                                                   BladeEnds& ends) const;
   TopologyChange updateTopology(SimBody& body, const std::vector<std::uint64_t>& cut,
                                 const BladeEnds& ends);
+  /// At a frame's start: coarsens the body's regions that cuts have left (docs/algorithms.md,
+  /// "Coarsening after cuts"), with the model, solver, surface embedding and fronts.
+  void coarsenBody(SimBody& body, std::vector<double>& stageMs);
+  /// Notes the start-level regions holding new elements finer than the start level: as cut
+  /// now (`settled`), or, for refinement the node rule made while coarsening, as unsettled.
+  void noteRefinedRegions(SimBody& body, const TopologyChange& change, bool settled);
+  /// The start-level regions holding the body's blade fronts, ascending.
+  [[nodiscard]] std::vector<std::uint64_t> frontRegions(const SimBody& body) const;
+  /// At a frame's start: refines, down to the body's finest level, the elements where a
+  /// blade's front has rested since the last frame and a cut's two sides are still glued.
+  void refineRestingFronts(SimBody& body, std::vector<double>& stageMs);
+  /// Applies a topology change to the body's model and solver (fixed boxes re-applied).
+  void applyTopologyChange(SimBody& body, const TopologyChange& change);
   void embedSurfaceChange(SimBody& body, SurfaceDelta delta, const TopologyChange& change);
   void renumberVertexElements(SimBody& body, const TopologyChange& change) const;
   void recordSolve(const StepStatus& status, FrameReport& report) const;
@@ -382,6 +409,7 @@ World World::fromScene(const Scene& scene, std::vector<VoxelGrid> grids,
     BodySettings bs;
     bs.elementLevel = sb.elementLevel;
     bs.finestLevel = sb.finestLevel;
+    bs.frontLevel = sb.frontLevel;
     bs.surfaceLevel = sb.surfaceLevel;
     bs.materials = sb.materials;
     bs.fixed = sb.fixed;
@@ -1334,20 +1362,28 @@ TopologyChange World::Impl::updateTopology(SimBody& b, const std::vector<std::ui
   // topology change, which renumbers elements but moves no material).
   std::vector<std::vector<Vec3d>> still(tools.size());
   if (!cut.empty()) {
+    // The start-level regions cut in this frame wait before they coarsen.
+    const int S = b.settings.elementLevel;
+    for (std::uint64_t id : cut) {
+      const std::size_t v = static_cast<std::size_t>(id / 3);
+      for (std::size_t u : {v, v + b.cut.grid.stride(static_cast<int>(id % 3))}) {
+        const Index3 p = b.cut.grid.coord(u);
+        b.cutRegions[DeformationOctree::cubeKey(S, {p.x >> S, p.y >> S, p.z >> S})] = frame;
+      }
+    }
     for (std::size_t ti = 0; ti < tools.size(); ++ti)
       if (ends.points[ti].empty() && !b.fronts[ti].empty()) {
         std::vector<std::uint64_t> ids;
         frontStart(b.fronts[ti], b.cut.deformation, 0, still[ti], ids);
       }
+    // A cut refines nothing below the start level in its own frame: most fronts move on in
+    // the next (refineRestingFronts refines those that stay).
     change = updateCutTopology(b.cut.deformation, b.cut.grid, cut,
-                               CutTopologyParams{b.settings.finestLevel, settings.threaded});
+                               CutTopologyParams{S, settings.threaded});
     if (change.changed) {
-      // The fixed boxes, applied to the new nodes in the same rebuild of the constraints.
-      const std::vector<std::uint8_t> fixed =
-          b.settings.fixed.empty() ? std::vector<std::uint8_t>{} : fixedFlags(b);
-      b.model.updateTopology(b.cut.deformation, b.cut.grid, change,
-                             b.settings.fixed.empty() ? nullptr : &fixed);
-      b.solver.updateTopology(change);
+      applyTopologyChange(b, change);
+      noteRefinedRegions(b, change, true);
+      b.quietPassDone = false;
     }
   }
   for (std::size_t ti = 0; ti < tools.size(); ++ti) {
@@ -1356,7 +1392,215 @@ TopologyChange World::Impl::updateTopology(SimBody& b, const std::vector<std::ui
     else if (change.changed && !b.fronts[ti].empty())
       b.fronts[ti] = embedFront(still[ti], b.fronts[ti].ids, b.cut.deformation);
   }
+  // The regions the fronts rest in: where they were at the end of the last frame too.
+  std::vector<std::uint64_t> now = frontRegions(b);
+  b.restingRegions.clear();
+  std::set_intersection(now.begin(), now.end(), b.frontRegions.begin(), b.frontRegions.end(),
+                        std::back_inserter(b.restingRegions));
+  b.frontRegions = std::move(now);
   return change;
+}
+
+std::vector<std::uint64_t> World::Impl::frontRegions(const SimBody& b) const {
+  const int S = b.settings.elementLevel;
+  const DeformationOctree& d = b.cut.deformation;
+  std::vector<std::uint64_t> out;
+  for (const BladeFront& bf : b.fronts)
+    for (std::size_t i = 0; i < bf.element.size(); ++i) {
+      if (bf.element[i] == kNoElement) continue;
+      const OctreeElement& el = d.element(bf.element[i]);
+      const Index3 f = el.firstVoxel();
+      const Vec3d p = Vec3d(f.x, f.y, f.z) + el.size() * bf.local[i];
+      const Index3 v{std::clamp(static_cast<int>(p.x()), 0, d.gridDims().x - 1) >> S,
+                     std::clamp(static_cast<int>(p.y()), 0, d.gridDims().y - 1) >> S,
+                     std::clamp(static_cast<int>(p.z()), 0, d.gridDims().z - 1) >> S};
+      out.push_back(DeformationOctree::cubeKey(S, v));
+    }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+void World::Impl::refineRestingFronts(SimBody& b, std::vector<double>& ms) {
+  const int S = b.settings.elementLevel;
+  const int finest = finestLevelOf(b.settings);
+  if (b.restingRegions.empty() || finest >= S) return;
+  const Timer timer;
+  // The cut links near the front points in resting regions: within two finest elements of a
+  // point (other cuts' fronts in the region stay as they are).
+  const VoxelGrid& g = b.cut.grid;
+  const DeformationOctree& d = b.cut.deformation;
+  const Index3 gd = g.dims();
+  const int r = 2 << finest;
+  std::vector<std::uint64_t> links;
+  for (const BladeFront& bf : b.fronts)
+    for (std::size_t i = 0; i < bf.element.size(); ++i) {
+      if (bf.element[i] == kNoElement) continue;
+      const OctreeElement& el = d.element(bf.element[i]);
+      const Index3 f = el.firstVoxel();
+      const Vec3d p = Vec3d(f.x, f.y, f.z) + el.size() * bf.local[i];
+      const Index3 c{static_cast<int>(p.x()), static_cast<int>(p.y()), static_cast<int>(p.z())};
+      if (!std::binary_search(b.restingRegions.begin(), b.restingRegions.end(),
+                              DeformationOctree::cubeKey(S, {std::clamp(c.x, 0, gd.x - 1) >> S,
+                                                             std::clamp(c.y, 0, gd.y - 1) >> S,
+                                                             std::clamp(c.z, 0, gd.z - 1) >> S})))
+        continue;
+      for (int z = std::max(c.z - r, 0); z < std::min(c.z + r, gd.z); ++z)
+        for (int y = std::max(c.y - r, 0); y < std::min(c.y + r, gd.y); ++y)
+          for (int x = std::max(c.x - r, 0); x < std::min(c.x + r, gd.x); ++x) {
+            const std::size_t v = g.index(x, y, z);
+            if (!g.occupied(v)) continue;
+            for (int a = 0; a < 3; ++a)
+              if (g.hasLink(v, a) && !g.connected(v, a) && g.occupied(v + g.stride(a)))
+                links.push_back(VoxelGrid::linkId(v, a));
+          }
+    }
+  if (links.empty()) return;
+  std::vector<std::vector<Vec3d>> front(tools.size());
+  for (std::size_t ti = 0; ti < tools.size(); ++ti)
+    if (!b.fronts[ti].empty()) {
+      std::vector<std::uint64_t> ids;
+      frontStart(b.fronts[ti], b.cut.deformation, 0, front[ti], ids);
+    }
+  CutTopologyParams cp{finest, settings.threaded};
+  cp.refineOnly = true;
+  const TopologyChange change = updateCutTopology(b.cut.deformation, g, links, cp);
+  if (change.changed) {
+    applyTopologyChange(b, change);
+    renumberVertexElements(b, change);
+    b.selfCandidates.valid = false;
+    b.verticesByElement.valid = false;
+    for (std::size_t ti = 0; ti < tools.size(); ++ti)
+      if (!b.fronts[ti].empty())
+        b.fronts[ti] = embedFront(front[ti], b.fronts[ti].ids, b.cut.deformation);
+    noteRefinedRegions(b, change, true);
+    b.quietPassDone = false;
+  }
+  ms[kCutTopology] += timer.ms();
+}
+
+// The start-level regions holding new elements finer than the start level (refined around a
+// cut by the 2:1 rule or for an unambiguous hanging node, possibly outside the cut's own
+// regions) wait with the cut's before they coarsen.
+void World::Impl::noteRefinedRegions(SimBody& b, const TopologyChange& change, bool settled) {
+  const int S = b.settings.elementLevel;
+  const DeformationOctree& d = b.cut.deformation;
+  for (std::size_t e = 0; e < change.elementSource.size(); ++e) {
+    const OctreeElement& el = d.element(static_cast<std::uint32_t>(e));
+    if (change.elementSource[e] != kNewElement || el.level >= S) continue;
+    const Index3 f = el.firstVoxel();
+    const std::uint64_t key = DeformationOctree::cubeKey(S, {f.x >> S, f.y >> S, f.z >> S});
+    if (settled)
+      b.cutRegions.try_emplace(key, frame);
+    else if (b.cutRegions.count(key) == 0)
+      b.unsettledRegions.insert(key);
+  }
+}
+
+void World::Impl::applyTopologyChange(SimBody& b, const TopologyChange& change) {
+  // The fixed boxes, applied to the new nodes in the same rebuild of the constraints.
+  const std::vector<std::uint8_t> fixed =
+      b.settings.fixed.empty() ? std::vector<std::uint8_t>{} : fixedFlags(b);
+  b.model.updateTopology(b.cut.deformation, b.cut.grid, change,
+                         b.settings.fixed.empty() ? nullptr : &fixed);
+  b.solver.updateTopology(change);
+}
+
+void World::Impl::coarsenBody(SimBody& b, std::vector<double>& ms) {
+  if (b.cutRegions.empty()) return;
+  const Timer timer;
+  // Regions where a blade's front is stay as they are: the cut goes on there.
+  const int S = b.settings.elementLevel;
+  for (std::uint64_t key : b.frontRegions) {
+    const auto it = b.cutRegions.find(key);
+    if (it != b.cutRegions.end()) it->second = frame;
+  }
+  // Due: left alone long enough, and so are its neighbours among the regions cut. Merging
+  // next to a refined region that is still busy could leave a coarse cube whose parts meet
+  // only through the finer neighbour, which the node rule would refine again: the two merge
+  // together once both are due.
+  auto waiting = [&](std::uint64_t key) {
+    const auto it = b.cutRegions.find(key);
+    return it != b.cutRegions.end() && frame - it->second < kCoarsenAfterFrames;
+  };
+  std::vector<std::uint64_t> due;
+  // Nothing busy: every refined region at once, those the node rule refined again included
+  // (merged together, they leave no finer neighbour to refine them again). Once after each
+  // cut, so that a configuration the rule keeps refining costs one change.
+  bool busy = false;
+  for (const auto& [key, last] : b.cutRegions) busy = busy || frame - last < kCoarsenAfterFrames;
+  const bool quietPass = !busy && !b.quietPassDone;
+  if (quietPass) {
+    for (const auto& [key, last] : b.cutRegions) due.push_back(key);
+    due.insert(due.end(), b.unsettledRegions.begin(), b.unsettledRegions.end());
+    b.unsettledRegions.clear();
+    b.quietPassDone = true;
+  }
+  for (const auto& [key, last] : b.cutRegions) {
+    if (quietPass) break;
+    if (frame - last < kCoarsenAfterFrames) continue;
+    constexpr std::uint64_t m = (std::uint64_t{1} << 20) - 1;
+    const Index3 c{static_cast<int>((key >> 40) & m), static_cast<int>((key >> 20) & m),
+                   static_cast<int>(key & m)};
+    bool ready = true;
+    for (int n = 0; n < 27 && ready; ++n) {
+      const Index3 q{c.x + n % 3 - 1, c.y + (n / 3) % 3 - 1, c.z + n / 9 - 1};
+      if (n != 13 && q.x >= 0 && q.y >= 0 && q.z >= 0)
+        ready = !waiting(DeformationOctree::cubeKey(S, q));
+    }
+    if (ready) due.push_back(key);
+  }
+  if (due.empty()) {
+    ms[kCutTopology] += timer.ms();
+    return;
+  }
+  // The oldest regions first, a bounded number a frame (all of them in a quiet pass).
+  auto lastOf = [&](std::uint64_t k) {
+    const auto it = b.cutRegions.find(k);
+    return it != b.cutRegions.end() ? it->second : -1;
+  };
+  std::sort(due.begin(), due.end(), [&](std::uint64_t x, std::uint64_t y) {
+    const int fx = lastOf(x), fy = lastOf(y);
+    return fx != fy ? fx < fy : x < y;
+  });
+  due.erase(std::unique(due.begin(), due.end()), due.end());
+  if (!quietPass && due.size() > kCoarsenRegionsPerFrame) due.resize(kCoarsenRegionsPerFrame);
+  std::unordered_map<std::uint64_t, int> lastCut;
+  for (std::uint64_t k : due) {
+    lastCut.emplace(k, lastOf(k));
+    b.cutRegions.erase(k);
+  }
+  // The blades' fronts where they are now, to embed again in the new elements.
+  std::vector<std::vector<Vec3d>> front(tools.size());
+  for (std::size_t ti = 0; ti < tools.size(); ++ti)
+    if (!b.fronts[ti].empty()) {
+      std::vector<std::uint64_t> ids;
+      frontStart(b.fronts[ti], b.cut.deformation, 0, front[ti], ids);
+    }
+  CoarsenParams cp;
+  cp.startLevel = S;
+  const Index3 gd = b.cut.grid.dims();
+  cp.surfaceLevel = initialFinestLevel(S, b.settings.surfaceLevel, std::max({gd.x, gd.y, gd.z}));
+  cp.frontLevel = b.settings.frontLevel < 0 ? S : std::clamp(b.settings.frontLevel, 0, S);
+  cp.threaded = settings.threaded;
+  CoarsenResult res = coarsenCutTopology(b.cut.deformation, b.cut.grid, due, cp);
+  // Refused for a finer neighbour: tried again as it was (the neighbour may coarsen first).
+  // Refined again by the node rule: left as it is until a cut comes back, since trying again
+  // would refine again, every few frames.
+  for (std::uint64_t k : res.blocked)
+    if (!std::binary_search(res.unsettled.begin(), res.unsettled.end(), k))
+      b.cutRegions.emplace(k, lastCut.at(k));
+  b.unsettledRegions.insert(res.unsettled.begin(), res.unsettled.end());
+  if (res.change.changed) {
+    applyTopologyChange(b, res.change);
+    noteRefinedRegions(b, res.change, false);
+    renumberVertexElements(b, res.change);
+    b.selfCandidates.valid = false;
+    b.verticesByElement.valid = false;
+    for (std::size_t ti = 0; ti < tools.size(); ++ti)
+      if (!b.fronts[ti].empty()) b.fronts[ti] = embedFront(front[ti], b.fronts[ti].ids, b.cut.deformation);
+  }
+  ms[kCutTopology] += timer.ms();
 }
 
 // After a topology change, each surface vertex's element id: the new id of its element when
@@ -1554,6 +1798,10 @@ FrameReport World::step() {
   const std::size_t n = w.bodies.size();
   std::vector<std::vector<std::uint64_t>> cuts(n);
   std::vector<Impl::BladeEnds> ends(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    w.refineRestingFronts(w.bodies[i], report.stageMs);
+    w.coarsenBody(w.bodies[i], report.stageMs);
+  }
   for (std::size_t i = 0; i < n; ++i) {
     cuts[i] = w.cutBody(w.bodies[i], motion, ends[i], report.stageMs);
     report.cutLinks += cuts[i].size();

@@ -47,7 +47,14 @@ struct WorldSettings {
 /// How a body is discretised and what it is made of; SceneBody without the model's source.
 struct BodySettings {
   int elementLevel = 3;   ///< starting level of the deformation octree, 0..6
-  int finestLevel = 0;    ///< finest level refinement after cuts reaches, <= elementLevel
+  /// Finest level refinement reaches where a blade's front rests in an element whose cut
+  /// sides stay glued there (docs/algorithms.md, "Cut topology"), <= elementLevel; -1:
+  /// elementLevel - 2 (at least 0).
+  int finestLevel = -1;
+  /// Level a cut's front coarsens back to once the cuts have left it (docs/algorithms.md,
+  /// "Coarsening after cuts"), in [finestLevel, elementLevel]; -1: elementLevel (the front
+  /// then opens to within one start-level element of its end).
+  int frontLevel = -1;
   int surfaceLevel = -1;  ///< see SceneBody::surfaceLevel
   /// Materials by the grid's material names; the grid's others take SceneMaterial's defaults.
   std::vector<SceneMaterial> materials;

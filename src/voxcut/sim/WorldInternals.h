@@ -7,6 +7,8 @@
 #include <array>
 #include <cstdint>
 #include <deque>
+#include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include "voxcut/collision/RestDistance.h"
@@ -80,6 +82,17 @@ struct SimBody {
   SubdivisionWorkspace subdivision;        ///< the cutting step's buffers, kept between frames
   SelfCandidateCache selfCandidates;       ///< self collision's broad phase, kept between frames
   VerticesByElement verticesByElement;     ///< for object collision, kept between frames
+  /// Start-level cubes (DeformationOctree::cubeKey) cut since they last coarsened, with the
+  /// frame of their latest cut (the cut topology stage writes and coarsens them).
+  std::unordered_map<std::uint64_t, int> cutRegions;
+  /// Regions the node rule refined again while coarsening (written by the same stage); they
+  /// coarsen with all others once no region is busy.
+  std::unordered_set<std::uint64_t> unsettledRegions;
+  bool quietPassDone = true;  ///< no cut since the last pass over every refined region
+  /// Start-level regions holding a blade front at the end of the last frame, ascending, and
+  /// those of them that held one at the end of the frame before too (the cut stage writes
+  /// both; the next frame refines the resting ones).
+  std::vector<std::uint64_t> frontRegions, restingRegions;
 };
 
 /// The velocity (m/s) of the point with trilinear weights `weight` in element copy `element`

@@ -46,6 +46,14 @@ struct CutTopologyParams {
   /// refined down to this level at most.
   int finestLevel = 0;
   bool threaded = true;  ///< run the per-cube and per-point loops in parallel
+  /// Only refine where a link is glued, and repartition only what was refined: for links cut
+  /// in an earlier update (a blade's front resting in an element), whose other leaves are
+  /// partitioned already.
+  bool refineOnly = false;
+  /// Refine every element holding a voxel of a cut link down to finestLevel, glued or not:
+  /// the mesh then resolves the material around the whole new cut, which a blade cutting on
+  /// while a part loosens needs (docs/algorithms.md, "Cut topology").
+  bool refineAll = false;
 };
 
 /// After a cut (docs/algorithms.md, "Cut topology"): the elements holding a voxel of a newly
@@ -91,11 +99,14 @@ struct CoarsenParams {
   bool threaded = true;
 };
 
-/// What coarsening did: the change, and the regions where a merge was refused only because a
-/// finer neighbour (2:1) forbade it, worth trying again later.
+/// What coarsening did: the change; the regions where a merge was refused only because a
+/// finer neighbour (2:1) forbade it, worth trying again later; and the regions (of the start
+/// level) where a merge was undone because it made a hanging node ambiguous (a coarse cube
+/// whose parts meet only through finer neighbours), which trying again would only repeat.
 struct CoarsenResult {
   TopologyChange change;
   std::vector<std::uint64_t> blocked;
+  std::vector<std::uint64_t> unsettled;
 };
 
 /// Undoes refinement away from the tools (docs/algorithms.md, "Coarsening after cuts"):

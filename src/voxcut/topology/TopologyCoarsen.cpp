@@ -167,6 +167,7 @@ void TopologyEditor::merge(std::uint64_t key) {
   leaves_.set(key, kNoElement);
   setLeafLevels(f, 1 << L, L);
   pending_.insert(key);
+  merged_.insert(key);
 }
 
 CoarsenResult coarsenCutTopology(DeformationOctree& octree, const VoxelGrid& grid,
@@ -181,6 +182,18 @@ CoarsenResult coarsenCutTopology(DeformationOctree& octree, const VoxelGrid& gri
   out.blocked = editor.seedMerges(regions, rule);
   if (editor.anythingDirty()) {
     out.change = editor.run();
+    // The regions of merges the node rule undid: merging them again would be undone again.
+    for (std::uint64_t k : editor.unmerged()) {
+      const int L = keyLevel(k), up = params.startLevel - L;
+      if (up < 0) continue;
+      const Index3 f = keyFirstVoxel(k);
+      out.unsettled.push_back(DeformationOctree::cubeKey(
+          params.startLevel, {f.x >> params.startLevel, f.y >> params.startLevel,
+                              f.z >> params.startLevel}));
+    }
+    std::sort(out.unsettled.begin(), out.unsettled.end());
+    out.unsettled.erase(std::unique(out.unsettled.begin(), out.unsettled.end()),
+                        out.unsettled.end());
     return out;
   }
   out.change = identityChange(octree);

@@ -316,7 +316,10 @@ TopologyChange TopologyEditor::run() {
     assignTempNodes();
     const std::vector<std::uint64_t> ambiguous = ambiguousCubes();
     if (ambiguous.empty()) break;
-    for (std::uint64_t k : ambiguous) split(k);
+    for (std::uint64_t k : ambiguous) {
+      if (merged_.count(k) != 0) unmerged_.push_back(k);
+      split(k);
+    }
   }
   return finalize();
 }

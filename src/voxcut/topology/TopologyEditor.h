@@ -179,8 +179,10 @@ class TopologyEditor {
   /// Marks the leaves holding a voxel of a cut link dirty, first refining them (the coarser
   /// of the link's two leaves first, down to `finest`) while the link's two voxels stay glued
   /// there: in one part of their leaf, or in parts of two leaves joined by another connected
-  /// link across their shared face (docs/algorithms.md, "Cut topology").
-  void seedCuts(const std::vector<std::uint64_t>& links, int finest);
+  /// link across their shared face (docs/algorithms.md, "Cut topology"). With `refineOnly`,
+  /// leaves are not marked dirty, only refined (the refined ones are partitioned).
+  void seedCuts(const std::vector<std::uint64_t>& links, int finest, bool refineOnly = false,
+                bool refineAll = false);
   /// Merges, bottom up, the leaves inside each region cube (a cube key) into their parents
   /// where the rule allows (docs/algorithms.md, "Coarsening after cuts"); returns the regions
   /// where a merge was refused only because a finer neighbour breaks 2:1 there.
@@ -191,6 +193,8 @@ class TopologyEditor {
   /// Partitions, groups, refines ambiguous cubes until none is left, then writes the octree.
   TopologyChange run();
   [[nodiscard]] bool anythingDirty() const { return !pending_.empty() || !removed_.empty(); }
+  /// Cubes that seedMerges merged and run() then split again for an ambiguous hanging node.
+  [[nodiscard]] const std::vector<std::uint64_t>& unmerged() const { return unmerged_; }
 
  private:
   /// The leaf cube holding `voxel` whose level is at least minLevel, kNoKey when none. Reads
@@ -297,6 +301,8 @@ class TopologyEditor {
   std::vector<std::uint64_t> lastPoints_;                 ///< keys of points_, ascending
   std::vector<std::array<std::uint64_t, 8>> lastAround_;  ///< their leaves
   std::unordered_map<std::uint32_t, std::array<std::uint32_t, 8>> cornerNodes_;
+  std::unordered_set<std::uint64_t> merged_;  ///< cubes seedMerges made leaves
+  std::vector<std::uint64_t> unmerged_;       ///< of those, the ones run() split again
   /// Old owners of voxels whose embedding this update has pointed at provisional copies.
   std::unordered_map<std::uint32_t, std::uint32_t> oldOwner_;
   /// Parts of leaves looked at by seedCuts, by cube key.
