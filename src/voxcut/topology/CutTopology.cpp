@@ -241,7 +241,7 @@ bool TopologyEditor::glued(std::uint64_t a, std::uint64_t b, std::size_t v, std:
 }
 
 void TopologyEditor::seedCuts(const std::vector<std::uint64_t>& links, int finest,
-                              bool refineOnly, bool refineAll) {
+                              bool refineOnly) {
   std::vector<std::uint64_t> sorted(links);
   std::sort(sorted.begin(), sorted.end());
   sorted.erase(std::unique(sorted.begin(), sorted.end()), sorted.end());
@@ -259,7 +259,7 @@ void TopologyEditor::seedCuts(const std::vector<std::uint64_t>& links, int fines
         buildTile(pw);
         const std::uint64_t ka = leafOf(pv), kb = leafOf(pw);
         VOXCUT_ASSERT(ka != kNoKey && kb != kNoKey, "occupied voxel outside every element");
-        if (!refineAll && !glued(ka, kb, v, w, a)) break;
+        if (!glued(ka, kb, v, w, a)) break;
         const int la = keyLevel(ka), lb = keyLevel(kb);
         bool refined = false;
         if (la >= lb && la > finest) {
@@ -459,7 +459,7 @@ TopologyChange updateCutTopology(DeformationOctree& octree, const VoxelGrid& gri
   if (params.finestLevel < 0 || params.finestLevel > 7)
     throw InputError("finest level must be in [0, 7], got " + std::to_string(params.finestLevel));
   TopologyEditor editor(octree, grid, params.threaded);
-  editor.seedCuts(newCutLinks, params.finestLevel, params.refineOnly, params.refineAll);
+  editor.seedCuts(newCutLinks, params.finestLevel, params.refineOnly);
   if (editor.anythingDirty()) return editor.run();
   return identityChange(octree);
 }

@@ -50,10 +50,6 @@ struct CutTopologyParams {
   /// in an earlier update (a blade's front resting in an element), whose other leaves are
   /// partitioned already.
   bool refineOnly = false;
-  /// Refine every element holding a voxel of a cut link down to finestLevel, glued or not:
-  /// the mesh then resolves the material around the whole new cut, which a blade cutting on
-  /// while a part loosens needs (docs/algorithms.md, "Cut topology").
-  bool refineAll = false;
 };
 
 /// After a cut (docs/algorithms.md, "Cut topology"): the elements holding a voxel of a newly

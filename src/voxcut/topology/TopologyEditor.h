@@ -181,8 +181,7 @@ class TopologyEditor {
   /// there: in one part of their leaf, or in parts of two leaves joined by another connected
   /// link across their shared face (docs/algorithms.md, "Cut topology"). With `refineOnly`,
   /// leaves are not marked dirty, only refined (the refined ones are partitioned).
-  void seedCuts(const std::vector<std::uint64_t>& links, int finest, bool refineOnly = false,
-                bool refineAll = false);
+  void seedCuts(const std::vector<std::uint64_t>& links, int finest, bool refineOnly = false);
   /// Merges, bottom up, the leaves inside each region cube (a cube key) into their parents
   /// where the rule allows (docs/algorithms.md, "Coarsening after cuts"); returns the regions
   /// where a merge was refused only because a finer neighbour breaks 2:1 there.
