@@ -326,6 +326,12 @@ struct World::Impl {
   /// At a frame's start: refines, down to the body's finest level, the elements where a
   /// blade's front has rested since the last frame and a cut's two sides are still glued.
   void refineRestingFronts(SimBody& body, std::vector<double>& stageMs);
+  /// Where the body's blade fronts are now, per tool (empty for a tool without one).
+  [[nodiscard]] std::vector<std::vector<Vec3d>> frontPoints(const SimBody& body) const;
+  /// A topology change made at a frame's start: model, solver, the surface's embedding, the
+  /// caches that hold element ids, and the fronts embedded again where they were (`front`).
+  void applyFrameStartChange(SimBody& body, const TopologyChange& change,
+                             const std::vector<std::vector<Vec3d>>& front);
   /// Applies a topology change to the body's model and solver (fixed boxes re-applied).
   void applyTopologyChange(SimBody& body, const TopologyChange& change);
   void embedSurfaceChange(SimBody& body, SurfaceDelta delta, const TopologyChange& change);
@@ -1456,23 +1462,12 @@ void World::Impl::refineRestingFronts(SimBody& b, std::vector<double>& ms) {
           }
     }
   if (links.empty()) return;
-  std::vector<std::vector<Vec3d>> front(tools.size());
-  for (std::size_t ti = 0; ti < tools.size(); ++ti)
-    if (!b.fronts[ti].empty()) {
-      std::vector<std::uint64_t> ids;
-      frontStart(b.fronts[ti], b.cut.deformation, 0, front[ti], ids);
-    }
+  const std::vector<std::vector<Vec3d>> front = frontPoints(b);
   CutTopologyParams cp{finest, settings.threaded};
   cp.refineOnly = true;
   const TopologyChange change = updateCutTopology(b.cut.deformation, g, links, cp);
   if (change.changed) {
-    applyTopologyChange(b, change);
-    renumberVertexElements(b, change);
-    b.selfCandidates.valid = false;
-    b.verticesByElement.valid = false;
-    for (std::size_t ti = 0; ti < tools.size(); ++ti)
-      if (!b.fronts[ti].empty())
-        b.fronts[ti] = embedFront(front[ti], b.fronts[ti].ids, b.cut.deformation);
+    applyFrameStartChange(b, change, front);
     noteRefinedRegions(b, change, true);
     b.quietPassDone = false;
   }
@@ -1495,6 +1490,28 @@ void World::Impl::noteRefinedRegions(SimBody& b, const TopologyChange& change, b
     else if (b.cutRegions.count(key) == 0)
       b.unsettledRegions.insert(key);
   }
+}
+
+std::vector<std::vector<Vec3d>> World::Impl::frontPoints(const SimBody& b) const {
+  std::vector<std::vector<Vec3d>> out(tools.size());
+  for (std::size_t ti = 0; ti < tools.size(); ++ti)
+    if (!b.fronts[ti].empty()) {
+      std::vector<std::uint64_t> ids;
+      frontStart(b.fronts[ti], b.cut.deformation, 0, out[ti], ids);
+    }
+  return out;
+}
+
+void World::Impl::applyFrameStartChange(SimBody& b, const TopologyChange& change,
+                                        const std::vector<std::vector<Vec3d>>& front) {
+  applyTopologyChange(b, change);
+  renumberVertexElements(b, change);
+  // Both caches hold element ids.
+  b.selfCandidates.valid = false;
+  b.verticesByElement.valid = false;
+  for (std::size_t ti = 0; ti < tools.size(); ++ti)
+    if (!b.fronts[ti].empty())
+      b.fronts[ti] = embedFront(front[ti], b.fronts[ti].ids, b.cut.deformation);
 }
 
 void World::Impl::applyTopologyChange(SimBody& b, const TopologyChange& change) {
@@ -1571,12 +1588,7 @@ void World::Impl::coarsenBody(SimBody& b, std::vector<double>& ms) {
     b.cutRegions.erase(k);
   }
   // The blades' fronts where they are now, to embed again in the new elements.
-  std::vector<std::vector<Vec3d>> front(tools.size());
-  for (std::size_t ti = 0; ti < tools.size(); ++ti)
-    if (!b.fronts[ti].empty()) {
-      std::vector<std::uint64_t> ids;
-      frontStart(b.fronts[ti], b.cut.deformation, 0, front[ti], ids);
-    }
+  const std::vector<std::vector<Vec3d>> front = frontPoints(b);
   CoarsenParams cp;
   cp.startLevel = S;
   const Index3 gd = b.cut.grid.dims();
@@ -1592,13 +1604,8 @@ void World::Impl::coarsenBody(SimBody& b, std::vector<double>& ms) {
       b.cutRegions.emplace(k, lastCut.at(k));
   b.unsettledRegions.insert(res.unsettled.begin(), res.unsettled.end());
   if (res.change.changed) {
-    applyTopologyChange(b, res.change);
+    applyFrameStartChange(b, res.change, front);
     noteRefinedRegions(b, res.change, false);
-    renumberVertexElements(b, res.change);
-    b.selfCandidates.valid = false;
-    b.verticesByElement.valid = false;
-    for (std::size_t ti = 0; ti < tools.size(); ++ti)
-      if (!b.fronts[ti].empty()) b.fronts[ti] = embedFront(front[ti], b.fronts[ti].ids, b.cut.deformation);
   }
   ms[kCutTopology] += timer.ms();
 }
