@@ -38,7 +38,8 @@ def parse_args():
     p.add_argument("--seed", type=int, default=1, help="first seed (default 1)")
     p.add_argument("--frames", type=int, default=600, help="frames per run (default 600)")
     p.add_argument("--resolution", type=int, default=64, help="default 64")
-    p.add_argument("--finest-level", type=int, default=0, help="default 0")
+    p.add_argument("--finest-level", type=int, default=None,
+                   help="default: the library's (element level - 2, at least 0)")
     p.add_argument("--threads", type=int, default=0, help="default: all cores")
     p.add_argument("--self-collision", choices=["on", "off"], default="on")
     p.add_argument("--timeout", type=float, default=0,
@@ -62,9 +63,11 @@ def run_one(a, model, level, seed):
     """Runs the binary for one run; returns (folder, finished)."""
     folder = os.path.join(a.out, f"{model}-l{level}-s{seed}")
     cmd = [a.binary, "bench", "soak", "--model", model, "--resolution", str(a.resolution),
-           "--element-level", str(level), "--finest-level", str(min(a.finest_level, level)),
+           "--element-level", str(level),
            "--frames", str(a.frames), "--seed", str(seed), "--self-collision", a.self_collision,
            "--out", folder]
+    if a.finest_level is not None:
+        cmd += ["--finest-level", str(min(a.finest_level, level))]
     if a.threads > 0:
         cmd += ["--threads", str(a.threads)]
     start = time.time()
