@@ -7,6 +7,7 @@
 
 #include "voxcut/core/Parallel.h"
 #include "voxcut/core/Timer.h"
+#include "voxcut/cutting/SweepCull.h"
 
 namespace voxcut {
 namespace {
@@ -31,20 +32,40 @@ Vec3d pullBackNormal(const DeformationOctree& d, std::uint32_t e, const Vec3d& x
           lerp(lerp(dz00, dz10, xi[0]), lerp(dz01, dz11, xi[0]), xi[1])};
 }
 
+// Where a link crosses the sweeps: the smallest crossing parameter, and the sweep (the first
+// of those with that parameter).
+struct LinkHit {
+  double t = 0.0;
+  std::uint32_t sweep = 0;
+  [[nodiscard]] bool before(const LinkHit& o) const {
+    return t < o.t || (t == o.t && sweep < o.sweep);
+  }
+};
+
 // Blade test of link (v, a) whose ends are now at pv and pw; Hermite data in the rest frame.
-// Only the sweeps listed in `which` (ascending indices into sweeps; all when null) are tested:
-// a caller that knows the link is far from the others leaves them out.
+// Only the sweeps listed in `which` (indices into sweeps; all when null) are tested: a caller
+// that knows the link is far from the others leaves them out. With `where`, the hit's t and
+// sweep go there (to merge the hits of one link tested against different sweeps).
 std::optional<Hermite> testLink(const CutBody& b, const std::vector<BladeSweep>& sweeps,
                                 std::size_t v, int a, const Vec3d& pv, const Vec3d& pw,
-                                const std::uint32_t* which = nullptr, std::size_t count = 0) {
+                                const std::uint32_t* which = nullptr, std::size_t count = 0,
+                                LinkHit* where = nullptr) {
   const std::size_t w = v + b.grid.stride(a);
   std::optional<SweepHit> hit;
+  LinkHit first;
   const std::size_t tests = which != nullptr ? count : sweeps.size();
   for (std::size_t k = 0; k < tests; ++k) {
-    const BladeSweep& sweep = sweeps[which != nullptr ? which[k] : k];
-    if (const auto h = intersectSegment(sweep, pv, pw, v, w); h && (!hit || h->t < hit->t)) hit = h;
+    const auto index = static_cast<std::uint32_t>(which != nullptr ? which[k] : k);
+    if (const auto h = intersectSegment(sweeps[index], pv, pw, v, w)) {
+      const LinkHit here{h->t, index};
+      if (!hit || here.before(first)) {
+        hit = h;
+        first = here;
+      }
+    }
   }
   if (!hit) return std::nullopt;
+  if (where != nullptr) *where = first;
   // Pull the normal back with the element holding the nearer end.
   const std::size_t near = hit->t < 0.5 ? v : w;
   const std::uint32_t e = b.deformation.owner(near);
@@ -99,8 +120,10 @@ bool clipToBox(const Vec3d& p, const Vec3d& q, const Eigen::AlignedBox3d& box, d
 // that no other sweep shares (by its corners' ids), sampled every half voxel; each sample
 // inside an element is taken back to the rest grid through that element's map (every copy
 // that holds it), and the cubes over the unit cells around it (one cell either way on each
-// axis) are listed, ascending.
-SweepBoundary sweepBoundary(const CutBody& b, const std::vector<BladeSweep>& sweeps) {
+// axis) are listed, ascending. `under`: the elements under the sweeps (SweepCull); only they
+// can hold a point of a sweep.
+SweepBoundary sweepBoundary(const CutBody& b, const std::vector<BladeSweep>& sweeps,
+                            const std::vector<std::uint32_t>& under, std::size_t& samples) {
   struct Edge {
     std::uint64_t lo, hi;
     Vec3d p, q;
@@ -115,8 +138,6 @@ SweepBoundary sweepBoundary(const CutBody& b, const std::vector<BladeSweep>& swe
   std::sort(edges.begin(), edges.end(), [](const Edge& x, const Edge& y) {
     return std::tie(x.lo, x.hi) < std::tie(y.lo, y.hi);
   });
-  Eigen::AlignedBox3d all;
-  for (const auto& box : b.elementBoxes) all.extend(box);
   const DeformationOctree& d = b.deformation;
   const VoxelOctree& oct = b.activity;
   const Index3 dims = b.grid.dims();
@@ -124,6 +145,14 @@ SweepBoundary sweepBoundary(const CutBody& b, const std::vector<BladeSweep>& swe
   std::vector<std::uint8_t> listed(oct.cubes.size(), 0);
   SweepBoundary out;
   const Vec3d pad = Vec3d::Constant(1e-9 * h);
+  // Only a point in an element's box can be a sample that counts, so the edges are sampled in
+  // the box around the elements under the sweeps: a frame's samples follow the part of the
+  // blade near material, however far apart the body's pieces lie.
+  Eigen::AlignedBox3d all;
+  for (const std::uint32_t e : under) {
+    all.extend(b.elementBoxes[e].min() - pad);
+    all.extend(b.elementBoxes[e].max() + pad);
+  }
   const auto inBox = [&](std::uint32_t e, const Vec3d& x) {
     const Eigen::AlignedBox3d& box = b.elementBoxes[e];
     return (x.array() >= (box.min() - pad).array()).all() &&
@@ -161,6 +190,7 @@ SweepBoundary sweepBoundary(const CutBody& b, const std::vector<BladeSweep>& swe
   std::uint32_t hint = kNoElement;  // the element that held the previous sample, and where
   Vec3d hintT = Vec3d::Constant(0.5);
   const auto sample = [&](const Vec3d& x) {
+    ++samples;
     if (!all.contains(x)) return;
     Vec3d t;
     // Strictly inside the previous sample's element: the maps of the other cubes' elements
@@ -187,17 +217,21 @@ SweepBoundary sweepBoundary(const CutBody& b, const std::vector<BladeSweep>& swe
   for (std::size_t i = 0; i < edges.size();) {
     std::size_t j = i + 1;
     while (j < edges.size() && edges[j].lo == edges[i].lo && edges[j].hi == edges[i].hi) ++j;
-    // Only the part of the edge inside the elements' box can hold a sample that counts, so a
-    // blade far longer than the body costs no more than one that spans it.
+    // Only the part of the edge inside that box can hold a sample that counts, so a blade far
+    // longer than the body costs no more than one that spans the material near it. The points
+    // lie every half voxel along the whole edge, whatever part the box keeps.
     double t0 = 0.0, t1 = 1.0;
     if (j == i + 1 && clipToBox(edges[i].p, edges[i].q, all, t0, t1)) {
       const Edge& e = edges[i];
-      const Vec3d p = t0 > 0.0 ? Vec3d(e.p + t0 * (e.q - e.p)) : e.p;
-      const Vec3d q = t1 < 1.0 ? Vec3d(e.p + t1 * (e.q - e.p)) : e.q;
-      const double len = (q - p).norm();
-      const int n = std::isfinite(len) ? static_cast<int>(std::ceil(len / (0.5 * h))) : 0;
-      for (int k = 0; k <= std::min(n, 1 << 22); ++k)
-        sample(n > 0 ? Vec3d(p + (static_cast<double>(k) / n) * (q - p)) : p);
+      const double len = (e.q - e.p).norm();
+      const double n = std::isfinite(len) ? std::ceil(len / (0.5 * h)) : 0.0;
+      if (n == 0.0) {
+        sample(e.p);
+      } else {
+        const double k0 = std::floor(t0 * n), k1 = std::min(std::ceil(t1 * n), n);
+        for (double k = k0; k <= std::min(k1, k0 + (1 << 22)); ++k)
+          sample(k == n ? e.q : Vec3d(e.p + (k / n) * (e.q - e.p)));
+      }
     }
     i = j;
   }
@@ -250,223 +284,43 @@ CutStepResult cutStep(CutBody& b, const std::vector<BladeSweep>& sweeps, bool th
 
 namespace {
 
-// Culling (docs/algorithms.md, "Culling that follows the sweep"). A link crosses the swept
-// surface only when its low voxel lies within one link's length of it, so the candidates are
-// the active voxels inside the sweeps' OBBs enlarged by the longest a link can be this frame.
-// They are found from the top down: the elements whose boxes meet an enlarged OBB (through the
-// spatial hash), then, in each, blocks of voxels halved until they are small, a block kept
-// while the hull of its corner voxels' positions meets an enlarged OBB, then its voxels one by
-// one. The work follows the swept area, not the volume of the elements the sweep touches.
-struct CullBox {
-  Vec3d centre;
-  Eigen::Matrix3d axes;  // orthonormal columns
-  Vec3d halfExtents;
-  std::uint32_t sweep;         // the index of the sweep it encloses
-  Eigen::AlignedBox3d bounds;  // its axis-aligned bounds, a cheaper first test
-};
-
-// The longest any link can be now: along axis a, a voxel step inside an element moves by at
-// most its longest edge along a over its size (the derivative of the trilinear map along a
-// blends those 4 edges), and a link that crosses into a neighbour is two such pieces of the
-// same line, so the largest ratio over all elements bounds every link.
-double longestLink(const DeformationOctree& d, bool threaded) {
-  const std::size_t n = d.elementCount();
-  constexpr std::size_t kGrain = 2048;
-  std::vector<double> partial((n + kGrain - 1) / kGrain, 0.0);
-  const Vec3d* x = d.positions().data();
-  parallelFor(
-      0, partial.size(), 1,
-      [&](std::size_t c0, std::size_t c1) {
-        for (std::size_t c = c0; c < c1; ++c) {
-          double m = 0.0;
-          for (std::size_t e = c * kGrain; e < std::min(n, (c + 1) * kGrain); ++e) {
-            const OctreeElement& el = d.element(static_cast<std::uint32_t>(e));
-            double edge = 0.0;
-            for (int k = 0; k < 8; ++k)
-              for (int a = 0; a < 3; ++a)
-                if (((k >> a) & 1) == 0)
-                  edge = std::max(edge, (x[el.nodes[k | (1 << a)]] - x[el.nodes[k]]).squaredNorm());
-            m = std::max(m, std::sqrt(edge) * el.inverseSize());
-          }
-          partial[c] = m;
-        }
-      },
-      threaded);
-  double m = 0.0;
-  for (double p : partial) m = std::max(m, p);
-  return m;
-}
-
-// Whether the convex hull of points p[0..n) meets box (tested along the box's axes only:
-// it may keep a hull that misses, never drop one that meets).
-bool hullMeets(const CullBox& box, const Vec3d* p, int n) {
-  Eigen::AlignedBox3d hull;
-  for (int k = 0; k < n; ++k) hull.extend(p[k]);
-  if (!hull.intersects(box.bounds)) return false;
-  for (int i = 0; i < 3; ++i) {
-    const Vec3d axis = box.axes.col(i);
-    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-    for (int k = 0; k < n; ++k) {
-      const double s = axis.dot(p[k] - box.centre);
-      lo = std::min(lo, s);
-      hi = std::max(hi, s);
-    }
-    if (lo > box.halfExtents[i] || hi < -box.halfExtents[i]) return false;
-  }
-  return true;
-}
-
-// An active voxel near the sweeps: its index in the grid, its position, and the
-// sweeps whose enlarged boxes hold it (sweepCount indices from firstSweep in the element's list).
-struct Candidate {
-  std::size_t voxel;
-  std::uint32_t firstSweep;
-  std::uint32_t sweepCount;
-  Vec3d position;
-};
-
-// The candidates of one element and the sweep indices they list.
-struct ElementCandidates {
-  std::vector<Candidate> voxels;
-  std::vector<std::uint32_t> sweeps;
-};
-
-// The candidates among the active voxels that element e owns, in ascending voxel order within
-// each block and blocks in a fixed order: the voxel offsets [lo, lo + size) of e (size a power
-// of two), halved while the block is larger than kLeaf and its corner voxels' hull meets a box.
-// A block tests only the boxes its parent met, a voxel only those its block met.
-void collectCandidates(const CutBody& b, std::uint32_t e, const std::vector<CullBox>& boxes,
-                       ElementCandidates& out) {
-  constexpr int kLeaf = 4;
-  const DeformationOctree& d = b.deformation;
-  const OctreeElement& el = d.element(e);
-  const Index3 first = el.firstVoxel();
-  const Index3 dims = b.grid.dims();
-  const double inv = el.inverseSize();
-  const VoxelOctree& oct = b.activity;
-  // Per depth of the recursion, the boxes the block there meets (a block's list is read while
-  // its children fill the next depth's): depth k's list is met[k * nb .. k * nb + metCount[k]).
-  const std::size_t nb = boxes.size();
-  const auto depths = static_cast<std::size_t>(el.level) + 2;
-  std::vector<std::uint32_t> met(depths * nb), metCount(depths, 0);
-  for (std::size_t k = 0; k < nb; ++k) met[k] = static_cast<std::uint32_t>(k);
-  metCount[0] = static_cast<std::uint32_t>(nb);
-  const auto visit = [&](const auto& self, const Index3& lo, int size, std::size_t depth) -> void {
-    Index3 hi;  // last offset of the block inside the grid
-    for (int a = 0; a < 3; ++a) {
-      hi[a] = std::min(lo[a] + size, dims[a] - first[a]) - 1;
-      if (hi[a] < lo[a]) return;
-    }
-    Vec3d corners[8];
-    for (int k = 0; k < 8; ++k) {
-      const Vec3d t(((k & 1) ? hi[0] : lo[0]) + 0.5, ((k & 2) ? hi[1] : lo[1]) + 0.5,
-                    ((k & 4) ? hi[2] : lo[2]) + 0.5);
-      corners[k] = d.pointInElement(e, t * inv);
-    }
-    const std::uint32_t* parent = met.data() + depth * nb;
-    std::uint32_t* here = met.data() + (depth + 1) * nb;
-    std::uint32_t count = 0;
-    for (std::uint32_t j = 0; j < metCount[depth]; ++j)
-      if (hullMeets(boxes[parent[j]], corners, 8)) here[count++] = parent[j];
-    metCount[depth + 1] = count;
-    if (count == 0) return;
-    if (size > kLeaf) {
-      const int h = size / 2;
-      for (int k = 0; k < 8; ++k)
-        self(
-            self,
-            Index3{lo[0] + ((k & 1) ? h : 0), lo[1] + ((k & 2) ? h : 0), lo[2] + ((k & 4) ? h : 0)},
-            h, depth + 1);
-      return;
-    }
-    for (int z = lo[2]; z <= hi[2]; ++z)
-      for (int y = lo[1]; y <= hi[1]; ++y) {
-        // The row's segment through the element, once per row (bitwise voxelPosition: the
-        // voxel's offset in its owner is (x, y, z)).
-        bool haveRow = false;
-        detail::RowSegment row{Vec3d::Zero(), Vec3d::Zero()};
-        for (int x = lo[0]; x <= hi[0]; ++x) {
-          const std::size_t v = b.grid.index(Index3{first[0] + x, first[1] + y, first[2] + z});
-          if (!oct.voxelActive(v) || d.owner(v) != e) continue;
-          if (!haveRow) {
-            row = detail::rowSegment(d.positions(), el.nodes, (y + 0.5) * inv, (z + 0.5) * inv);
-            haveRow = true;
-          }
-          const Vec3d p = row.start + ((x + 0.5) * inv) * row.delta;
-          const auto firstSweep = static_cast<std::uint32_t>(out.sweeps.size());
-          for (std::uint32_t j = 0; j < count; ++j)
-            if (hullMeets(boxes[here[j]], &p, 1)) out.sweeps.push_back(boxes[here[j]].sweep);
-          const auto holding = static_cast<std::uint32_t>(out.sweeps.size()) - firstSweep;
-          if (holding > 0) out.voxels.push_back({v, firstSweep, holding, p});
-        }
-      }
-  };
-  visit(visit, Index3{0, 0, 0}, el.size(), 0);
-}
-
-// The elements under the sweeps (ascending) and the enlarged boxes their voxels are culled by.
-struct SweepCull {
-  std::vector<std::uint32_t> elements;
-  std::vector<CullBox> boxes;
-};
-
-SweepCull cullElements(CutBody& b, const std::vector<BladeSweep>& sweeps, bool threaded) {
-  if (threaded) wakeWorkers();  // the culling is serial, the candidates' search is not
-  b.deformation.updateElementBounds(b.elementBoxes, threaded);
-  b.hash.build(b.elementBoxes, threaded);
-  const double reach = longestLink(b.deformation, threaded);
-  SweepCull out;
-  std::vector<std::uint8_t> marked(b.elementBoxes.size(), 0);
-  for (const BladeSweep& sweep : sweeps) {
-    Obb obb = sweepObb(sweep, b.obbMargin);
-    // Enlarged by the longest link, and by a rounding allowance for the hull tests.
-    obb.halfExtents += Vec3d::Constant(reach * (1.0 + 1e-9) + 1e-9 * b.grid.voxelSize());
-    if (!obb.halfExtents.allFinite() || !obb.centre.allFinite()) continue;
-    Eigen::AlignedBox3d obbBounds;
-    for (int k = 0; k < 8; ++k) {
-      Vec3d corner = obb.centre;
-      for (int i = 0; i < 3; ++i)
-        corner += ((k >> i) & 1 ? 1.0 : -1.0) * obb.halfExtents[i] * obb.axes.col(i);
-      obbBounds.extend(corner);
-    }
-    // Padded by the rounding of the corners, so that the first test never drops what the
-    // box itself holds.
-    const double pad = 1e-9 * (obbBounds.diagonal().norm() + obb.centre.norm());
-    out.boxes.push_back({obb.centre, obb.axes, obb.halfExtents,
-                         static_cast<std::uint32_t>(&sweep - sweeps.data()),
-                         Eigen::AlignedBox3d(obbBounds.min() - Vec3d::Constant(pad),
-                                             obbBounds.max() + Vec3d::Constant(pad))});
-    // The elements of the cells the box meets whose own box meets it.
-    for (const std::uint32_t e : b.hash.elements(
-             obbBounds, [&](const Eigen::AlignedBox3d& cell) { return overlaps(obb, cell); }))
-      if (marked[e] == 0 && overlaps(obb, b.elementBoxes[e])) marked[e] = 1;
-  }
-  for (std::size_t e = 0; e < marked.size(); ++e)
-    if (marked[e] != 0) out.elements.push_back(static_cast<std::uint32_t>(e));
-  return out;
-}
-
-// What the intersection test finds: the crossed links (in the order of the elements under the
-// sweeps), how many links it tested, and with the octree the sweeps' boundary and the cubes
-// around the cuts (sub-step (1) of the subdivision).
+// What the intersection test finds: the crossed links (sorted by link id), how many links it
+// tested, and with the octree the sweeps' boundary and the cubes around the cuts (sub-step (1)
+// of the subdivision).
 struct LinkTestResult {
   std::vector<LinkCut> cuts;
   std::size_t tested = 0;
+  std::size_t boundarySamples = 0;
   SweepBoundary boundary;
   std::vector<std::uint8_t> cubeMarks;
 };
 
-// Intersection test: each active connected link (v, a) whose low voxel v is a candidate, once.
-// The far end is positioned on the way.
+// A crossed link as one element's task found it.
+struct FoundCut {
+  LinkCut cut;
+  LinkHit hit;
+};
+
+// Intersection test (SweepCull.h): every active connected link (u, a) of a candidate is tested
+// against the candidate's sweeps, from its low end u when u is a candidate, and from its high
+// end w too when u's element has the smaller reach: a link is no longer than the larger reach
+// of its ends' elements, so the end in the element with the larger reach lies within it of
+// every sweep the link crosses and is a candidate for that sweep. A link tested from both
+// ends against different sweeps takes the hit with the smallest t over both (ties: the first
+// sweep), as a test against all its sweeps at once would. The other end is positioned on the
+// way.
 LinkTestResult testCandidateLinks(CutBody& b, const std::vector<BladeSweep>& sweeps,
+                                  const SweepCull& cull,
                                   const std::vector<ElementCandidates>& candidates, bool threaded) {
   VoxelGrid& g = b.grid;
+  const DeformationOctree& d = b.deformation;
   const std::size_t n = candidates.size();
-  std::vector<std::vector<LinkCut>> found(n);
+  std::vector<std::vector<FoundCut>> found(n);
   std::vector<std::size_t> tested(n, 0);
   // With the octree, the sweeps' boundary (for the subdivision) is found meanwhile, as one
   // more task, the first: it reads none of what the test writes.
   SweepBoundary boundary;
+  std::size_t boundarySamples = 0;
   const std::size_t side = b.useOctree ? 1 : 0;
   // With the octree, sub-step (1) of the subdivision for these cuts: each element's task marks
   // the cubes around its cuts once it has tested its links.
@@ -475,38 +329,60 @@ LinkTestResult testCandidateLinks(CutBody& b, const std::vector<BladeSweep>& swe
       0, n + side, 1,
       [&](std::size_t j0, std::size_t j1) {
         if (j0 < side) {
-          boundary = sweepBoundary(b, sweeps);
+          boundary = sweepBoundary(b, sweeps, cull.elements, boundarySamples);
           ++j0;
         }
         for (std::size_t c = j0 - side; c < j1 - side; ++c) {
+          const double reach = cull.reach[cull.elements[c]];
+          const auto test = [&](std::size_t u, int a, const Vec3d& pu, const Vec3d& pw,
+                                const Candidate& cand) {
+            ++tested[c];
+            LinkHit hit;
+            if (const auto h = testLink(b, sweeps, u, a, pu, pw,
+                                        candidates[c].sweeps.data() + cand.firstSweep,
+                                        cand.sweepCount, &hit)) {
+              found[c].push_back({{VoxelGrid::linkId(u, a), *h, std::nullopt}, hit});
+              if (side) prefetchCubesAroundLink(b.activity, g, found[c].back().cut.link);
+            }
+          };
           for (const Candidate& cand : candidates[c].voxels) {
-            const std::uint32_t* which = candidates[c].sweeps.data() + cand.firstSweep;
             const std::size_t v = cand.voxel;
+            for (int a = 0; a < 3; ++a)
+              if (b.activity.linkActive(v, a) && g.connected(v, a))
+                test(v, a, cand.position, d.voxelPosition(v + g.stride(a)), cand);
+            // Downwards, where the low end's element reaches less far than this one.
+            const Index3 at = g.coord(v);
             for (int a = 0; a < 3; ++a) {
-              if (!b.activity.linkActive(v, a) || !g.connected(v, a)) continue;
-              ++tested[c];
-              if (const auto h = testLink(b, sweeps, v, a, cand.position,
-                                          b.deformation.voxelPosition(v + g.stride(a)), which,
-                                          cand.sweepCount)) {
-                found[c].push_back({VoxelGrid::linkId(v, a), *h, std::nullopt});
-                if (side) prefetchCubesAroundLink(b.activity, g, found[c].back().link);
-              }
+              if (at[a] == 0) continue;
+              const std::size_t u = v - g.stride(a);
+              if (!b.activity.linkActive(u, a) || !g.connected(u, a) ||
+                  !(cull.reach[d.owner(u)] < reach))
+                continue;
+              test(u, a, d.voxelPosition(u), cand.position, cand);
             }
           }
           if (side)
-            for (const LinkCut& lc : found[c])
-              markCubesAroundLink(b.activity, g, lc.link, cubeMarks);
+            for (const FoundCut& f : found[c])
+              markCubesAroundLink(b.activity, g, f.cut.link, cubeMarks);
         }
       },
       threaded);
 
   LinkTestResult out;
   out.boundary = std::move(boundary);
+  out.boundarySamples = boundarySamples;
   out.cubeMarks = std::move(cubeMarks);
+  std::vector<FoundCut> all;
   for (std::size_t c = 0; c < n; ++c) {
     out.tested += tested[c];
-    out.cuts.insert(out.cuts.end(), found[c].begin(), found[c].end());
+    all.insert(all.end(), found[c].begin(), found[c].end());
   }
+  // One cut per link: the first hit of those found for it.
+  std::sort(all.begin(), all.end(), [](const FoundCut& x, const FoundCut& y) {
+    return x.cut.link != y.cut.link ? x.cut.link < y.cut.link : x.hit.before(y.hit);
+  });
+  for (std::size_t i = 0; i < all.size(); ++i)
+    if (i == 0 || all[i].cut.link != all[i - 1].cut.link) out.cuts.push_back(all[i].cut);
   return out;
 }
 
@@ -568,8 +444,9 @@ CutStepResult cutStepLeavingUpdates(CutBody& b, const std::vector<BladeSweep>& s
   CutStepResult r;
   r.deferredMs = runDeferredUpdates(b, threaded);  // a previous step's, before this subdivision
   Timer timer;
-  const SweepCull cull = cullElements(b, sweeps, threaded);
+  const SweepCull cull = cullSweeps(b, sweeps, threaded);
   r.markedElements = cull.elements.size();
+  for (const std::uint32_t e : cull.elements) r.linkReach = std::max(r.linkReach, cull.reach[e]);
   const double cullMs = timer.ms();
 
   // Voxel position update: the candidates near the sweep, positioned.
@@ -579,14 +456,19 @@ CutStepResult cutStepLeavingUpdates(CutBody& b, const std::vector<BladeSweep>& s
       0, cull.elements.size(), 1,
       [&](std::size_t k0, std::size_t k1) {
         for (std::size_t k = k0; k < k1; ++k)
-          collectCandidates(b, cull.elements[k], cull.boxes, candidates[k]);
+          collectCandidates(b, cull, k, candidates[k]);
       },
       threaded);
   r.positionUpdateMs = timer.ms();
+  for (const ElementCandidates& c : candidates) {
+    r.positionedVoxels += c.positioned;
+    r.candidateVoxels += c.voxels.size();
+  }
 
   timer.restart();
-  LinkTestResult found = testCandidateLinks(b, sweeps, candidates, threaded);
+  LinkTestResult found = testCandidateLinks(b, sweeps, cull, candidates, threaded);
   r.testedLinks = found.tested;
+  r.boundarySamples = found.boundarySamples;
   r.cuts = std::move(found.cuts);
   applyCuts(b, r.cuts);
   r.intersectionMs = cullMs + timer.ms();

@@ -3,11 +3,12 @@
 /// The cutting tool's collision for one frame (paper §3.1-3.2; docs/algorithms.md, "Blade sweep"):
 /// voxel position update and intersection test of the blade sweep against the active connected
 /// links near it (culled by the spatial hash of element AABBs, then by blocks of voxels and
-/// single voxels against the sweep's OBB enlarged by the longest link: docs/algorithms.md,
-/// "Culling that follows the sweep"), then, with
+/// single voxels against the sweep's OBB enlarged by each element's longest voxel step:
+/// cutting/SweepCull.h; docs/algorithms.md, "Culling that follows the sweep"), then, with
 /// the octree, subdivision of the cubes the new cuts touch; the deferred updates follow.
 /// The baseline ("previous method") is the same code with every link active and no octree.
 
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -56,10 +57,34 @@ void setActivity(CutBody& body, bool useOctree, const OctreeParams& octree, bool
 struct CutStepResult {
   std::vector<LinkCut> cuts;  ///< every link cut this frame, sorted by link id
   double positionUpdateMs = 0, intersectionMs = 0, subdivisionMs = 0, deferredMs = 0;
-  std::size_t markedElements = 0;
-  std::size_t testedLinks = 0;  ///< in the intersection test
+  std::size_t markedElements = 0;     ///< elements under the sweeps' enlarged boxes
+  std::size_t positionedVoxels = 0;   ///< active voxels positioned by the culling
+  std::size_t candidateVoxels = 0;    ///< of which inside an enlarged box (their links tested)
+  std::size_t testedLinks = 0;        ///< in the intersection test
+  std::size_t boundarySamples = 0;    ///< points of the sweeps' boundary sampled (with the octree)
+  double linkReach = 0.0;             ///< the largest reach of the elements under the sweeps (m)
   SubdivisionStats subdivision;
   [[nodiscard]] double totalMs() const { return positionUpdateMs + intersectionMs + subdivisionMs; }
+};
+
+/// The work of a frame's cutting tool collisions, summed over its steps (counts of
+/// CutStepResult; the reach is the largest).
+struct CutWork {
+  std::size_t steps = 0;
+  std::size_t markedElements = 0, positionedVoxels = 0, candidateVoxels = 0, testedLinks = 0;
+  std::size_t boundarySamples = 0;
+  std::size_t subdivisionTestedLinks = 0;  ///< links the octree subdivision examined
+  double linkReach = 0.0;
+  void add(const CutStepResult& r) {
+    ++steps;
+    markedElements += r.markedElements;
+    positionedVoxels += r.positionedVoxels;
+    candidateVoxels += r.candidateVoxels;
+    testedLinks += r.testedLinks;
+    boundarySamples += r.boundarySamples;
+    subdivisionTestedLinks += r.subdivision.testedLinks;
+    linkReach = std::max(linkReach, r.linkReach);
+  }
 };
 
 /// Runs one frame of cutting tool collision on `body` for the blade sweep. Cut links are

@@ -1273,6 +1273,7 @@ double World::Impl::deepestPenetration(const SimBody& b, const ContactShapes& sh
 std::vector<std::uint64_t> World::Impl::cutBody(SimBody& b, const Motion& motion, BladeEnds& ends,
                                                 std::vector<double>& ms) {
   std::vector<LinkCut> frameCuts;
+  b.cutWork = {};
   ends.points.assign(tools.size(), {});
   ends.ids.assign(tools.size(), {});
   for (std::size_t ti = 0; ti < tools.size(); ++ti) {
@@ -1280,6 +1281,7 @@ std::vector<std::uint64_t> World::Impl::cutBody(SimBody& b, const Motion& motion
     const std::optional<std::vector<BladeSweep>> moving = toolSweeps(b, ti, motion, ends);
     if (!moving || moving->empty()) continue;
     CutStepResult r = cutStepLeavingUpdates(b.cut, *moving, b.subdivision, settings.threaded);
+    b.cutWork.add(r);
     ms[kPositionUpdate] += r.positionUpdateMs;
     ms[kIntersectionTest] += r.intersectionMs;
     ms[kOctreeSubdivision] += r.subdivisionMs;
@@ -1813,6 +1815,9 @@ FrameReport World::step() {
     cuts[i] = w.cutBody(w.bodies[i], motion, ends[i], report.stageMs);
     report.cutLinks += cuts[i].size();
     w.bodies[i].cutLinks += cuts[i].size();
+    report.positionedVoxels += w.bodies[i].cutWork.positionedVoxels;
+    report.testedLinks +=
+        w.bodies[i].cutWork.testedLinks + w.bodies[i].cutWork.subdivisionTestedLinks;
   }
   // The octrees' deferred updates run beside the rest of the frame (the paper's figure 3):
   // they touch only each body's voxel octree, which nothing after the cut reads.

@@ -127,6 +127,11 @@ struct FrameReport {
   std::vector<double> stageMs;   ///< per frameStageNames() entry, wall-clock ms
   double totalMs = 0.0;          ///< wall-clock ms of the whole frame
   std::size_t cutLinks = 0;      ///< links cut in this frame
+  /// The cutting tool collision's work this frame: voxels it positioned to cull the links
+  /// near the blades, and links it tested against them (intersection test and octree
+  /// subdivision).
+  std::size_t positionedVoxels = 0;
+  std::size_t testedLinks = 0;
   int solverIterations = 0;      ///< summed over bodies
   int solverFactorisations = 0;  ///< bodies whose step computed a new Cholesky factor
   bool converged = true;         ///< every body's solve converged

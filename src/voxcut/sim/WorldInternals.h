@@ -80,6 +80,7 @@ struct SimBody {
   std::size_t cutLinks = 0;                ///< links cut so far
   std::vector<LinkCut> cuts;               ///< every cut so far (for the cut set hash)
   SubdivisionWorkspace subdivision;        ///< the cutting step's buffers, kept between frames
+  CutWork cutWork;                         ///< the last frame's cutting tool collision work
   SelfCandidateCache selfCandidates;       ///< self collision's broad phase, kept between frames
   VerticesByElement verticesByElement;     ///< for object collision, kept between frames
   /// Start-level cubes (DeformationOctree::cubeKey) cut since they last coarsened, with the
