@@ -685,6 +685,21 @@ double World::maxDisplacement() const {
   return best;
 }
 
+// ---- energy ----
+BodyEnergy World::energy(std::size_t body) const {
+  VOXCUT_ASSERT(body < impl_->bodies.size(), "body index out of range");
+  const SimBody& b = impl_->bodies[body];
+  const DeformationOctree& d = b.cut.deformation;
+  BodyEnergy e;
+  if (!b.solver.velocities().empty()) e.kinetic = b.solver.kineticEnergy(b.model);
+  const std::vector<double>& mass = b.model.nodeMass();
+  for (std::size_t n = 0; n < mass.size(); ++n)
+    e.gravitational -= mass[n] * impl_->settings.gravity.dot(d.positions()[n]);
+  e.elastic = elasticEnergy(b.model, d);
+  return e;
+}
+// ---- end energy ----
+
 std::uint64_t World::cutSetHash() const {
   if (impl_->bodies.size() == 1) return voxcut::cutSetHash(impl_->bodies[0].cuts);
   // Several bodies: each body's hash in body order, mixed (FNV-1a over their bytes).

@@ -144,6 +144,18 @@ struct FrameReport {
   std::vector<ToolReaction> toolReactions;
 };
 
+// ---- energy ----
+/// A body's mechanical energy (J): what a soak or a test watches for energy the contacts
+/// create. The contact springs' own energy is not counted.
+struct BodyEnergy {
+  double kinetic = 0.0;  ///< 1/2 sum_n m_n |v_n|^2, lumped node masses
+  /// -sum_n m_n g . x_n: zero at the world's origin, growing against gravity
+  double gravitational = 0.0;
+  double elastic = 0.0;  ///< corotated strain energy, sum_e 1/2 y_e^T K_e y_e
+  [[nodiscard]] double total() const { return kinetic + gravitational + elastic; }
+};
+// ---- end energy ----
+
 /// A world in motion. Movable, not copyable.
 class World {
  public:
@@ -198,6 +210,12 @@ class World {
   /// Order-independent hash of every body's cut links with their Hermite data (equal for equal
   /// cuts, whatever the thread count or octree setting).
   [[nodiscard]] std::uint64_t cutSetHash() const;
+  // ---- energy ----
+  /// The body's kinetic, gravitational and elastic energy at the end of the last frame (all
+  /// zero kinetic before the first). Deterministic for any thread count. O(elements + nodes).
+  /// Thread-safety: like every reader, not concurrently with step() or edits.
+  [[nodiscard]] BodyEnergy energy(std::size_t body) const;
+  // ---- end energy ----
 
   // ---- tools ----
   /// Adds a blade with its edge from pose.a to pose.b; returns the tool's index.

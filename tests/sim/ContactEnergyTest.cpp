@@ -1,0 +1,88 @@
+// A body's energy read through the world (World::energy), and what contact between cut pieces
+// does to momentum and energy.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <string>
+
+#include "voxcut/io/SceneBodies.h"
+#include "voxcut/io/SceneReader.h"
+#include "voxcut/sim/World.h"
+#include "voxcut/sim/WorldInternals.h"
+
+namespace voxcut {
+namespace {
+
+World worldOf(const std::string& json) {
+  const Scene scene = parseScene(json, "test.json", std::filesystem::current_path());
+  return World::fromScene(scene, voxelizeSceneBodies(scene));
+}
+
+// The body's momentum, sum m_n v_n (kg m/s).
+Vec3d momentum(const World& w, std::size_t body) {
+  const SimBody& b = WorldInternals::body(w, body);
+  Vec3d p = Vec3d::Zero();
+  if (b.solver.velocities().empty()) return p;
+  for (std::size_t n = 0; n < b.model.nodeMass().size(); ++n)
+    p += b.model.nodeMass()[n] * b.solver.velocities()[n];
+  return p;
+}
+
+// A free-falling box: the kinetic energy is 1/2 M (g t)^2 (free fall is a pure translation,
+// exact for backward Euler), the potential falls by M g times the drop, nothing is strained,
+// and the total never grows (backward Euler only takes energy out).
+TEST(ContactEnergy, EnergyOfAFallingBody) {
+  World w = worldOf(R"({"time_step": 0.004, "gravity": [0, -9.81, 0],
+    "solver": {"tolerance": 1e-8, "max_iterations": 1000},
+    "bodies": [{"model": "box:0.1,0.06,0.08", "resolution": 16, "element_level": 1,
+      "materials": {"default": {"young_modulus": 1e5, "poisson_ratio": 0.3, "density": 1000,
+                                "damping": [0, 0]}}}]})");
+  const double mass = WorldInternals::body(w, 0).model.totalMass();
+  const BodyEnergy start = w.energy(0);
+  EXPECT_EQ(start.kinetic, 0.0);
+  EXPECT_NEAR(start.elastic, 0.0, 1e-12);
+  double last = start.total();
+  for (int f = 1; f <= 25; ++f) {
+    (void)w.step();
+    const BodyEnergy e = w.energy(0);
+    const double t = f * 0.004;
+    EXPECT_NEAR(e.kinetic, 0.5 * mass * std::pow(9.81 * t, 2), 1e-9 * mass);
+    EXPECT_NEAR(e.elastic, 0.0, 1e-12);
+    EXPECT_LE(e.total(), last + 1e-12);
+    last = e.total();
+  }
+  // Backward Euler's drop after n steps is g dt^2 n (n + 1) / 2.
+  const double drop = 9.81 * 0.004 * 0.004 * 25 * 26 / 2;
+  EXPECT_NEAR(start.gravitational - w.energy(0).gravitational, mass * 9.81 * drop, 1e-9);
+}
+
+// Reproduction of pieces that drive themselves (climbing pieces in the soak): with no gravity
+// and nothing to touch, a blade cuts the bunny in two and its pieces touch only each other
+// (self collision), so the body's momentum must stay zero. Today each side of a self contact
+// is a penalty spring in its own right, closing a share of the gap by inverse effective mass
+// at the same stiffness, and the two sides' forces differ: the body gains about 2e-3 kg m/s
+// (2 mm/s for its 0.8 kg) while the cut faces touch. Disabled until the pair law is momentum
+// conserving (docs/algorithms.md, "Object collision", Limits).
+TEST(ContactEnergy, DISABLED_SelfContactCreatesNoMomentum) {
+  World w = worldOf(R"({"time_step": 0.004, "gravity": [0, 0, 0],
+    "contact": {"self_collision": true},
+    "bodies": [{"model": "bunny", "resolution": 64, "element_level": 3, "finest_level": 1,
+      "offset": [0, 0.0005, 0],
+      "materials": {"default": {"young_modulus": 1e6, "poisson_ratio": 0.3, "density": 1000,
+                                "damping": [20, 0.005]}}}],
+    "tools": [{"type": "blade", "keys": [
+      {"t": 0.0, "a": [-0.15, 0.06, 0.12], "b": [0.15, 0.06, 0.12]},
+      {"t": 0.2, "a": [-0.15, 0.06, -0.12], "b": [0.15, 0.06, -0.12]}]}]})");
+  const double mass = WorldInternals::body(w, 0).model.totalMass();
+  double most = 0.0;
+  for (int f = 0; f < 45; ++f) {
+    (void)w.step();
+    most = std::max(most, momentum(w, 0).norm());
+  }
+  EXPECT_EQ(w.pieces(0), 2);
+  EXPECT_LT(most, 1e-5 * mass);  // 10 um/s
+}
+
+}  // namespace
+}  // namespace voxcut
