@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/SVD>
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <tuple>
@@ -178,9 +179,20 @@ TEST_P(EarCut, TakesTheEarOff) {
   for (int f = 0; f < 250; ++f) sim.step();
   const VoxelGrid& grid = WorldInternals::body(sim, 0).cut.grid;
   const PieceLabels pieces = findPieces(grid);
-  ASSERT_EQ(pieces.count, 2);
-  // The smaller piece is the ear: above the blade's plane at rest, and it has fallen.
-  const int ear = pieces.voxels[0] < pieces.voxels[1] ? 0 : 1;
+  ASSERT_GE(pieces.count, 2);
+  // The two largest pieces are the bunny and its ear; the blade sweeping on past the falling
+  // ear may nick a speck off it (a few tens of voxels at resolution 303), nothing more.
+  std::vector<int> order(static_cast<std::size_t>(pieces.count));
+  for (int p = 0; p < pieces.count; ++p) order[static_cast<std::size_t>(p)] = p;
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    return pieces.voxels[static_cast<std::size_t>(a)] > pieces.voxels[static_cast<std::size_t>(b)];
+  });
+  const int ear = order[1];
+  std::size_t specks = 0;
+  for (std::size_t i = 2; i < order.size(); ++i)
+    specks += pieces.voxels[static_cast<std::size_t>(order[i])];
+  EXPECT_LT(specks, pieces.voxels[static_cast<std::size_t>(ear)] / 200);
+  // The ear: above the blade's plane at rest, and it has fallen.
   const DeformationOctree& octree = WorldInternals::body(sim, 0).cut.deformation;
   Vec3d rest = Vec3d::Zero(), now = Vec3d::Zero();
   for (std::size_t v = 0; v < grid.voxelCount(); ++v)
