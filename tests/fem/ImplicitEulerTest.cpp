@@ -512,23 +512,23 @@ TEST(ImplicitEulerDynamics, CoupledPreconditionersAgreeWithBlockJacobi) {
 }
 
 TEST(ImplicitEulerDynamics, CoupledPreconditionersConvergeOnAMixedLevelMesh) {
-  // A level-3 block cut halfway through: elements at the cut refined to level 0 (1-voxel
-  // elements next to 8-voxel ones, 64 times stiffer relative to their mass), the system the
-  // bunny meets after a cut. Block Jacobi needs many times the iterations of IC(0), the
+  // A level-3 block cut halfway through: elements along the cut's front refined to level 0
+  // (1-voxel elements next to 8-voxel ones, 64 times stiffer relative to their mass), the
+  // system the bunny meets while a blade rests in it. Block Jacobi needs many times the iterations of IC(0), the
   // two-level preconditioner needs half those of symmetric Gauss-Seidel or fewer, and the
   // Cholesky factor (of the first step's matrix, refactorised when it goes stale) fewer still.
   VoxelGrid g = makeGrid({32, 32, 32}, 0.002, [](int, int, int) { return 1; });
   DeformationOctree oc = makeOctree(g, 3, 3);
   std::vector<std::uint64_t> cut;
   for (int z = 0; z < 32; ++z)
-    for (int x = 0; x < 20; ++x) {
+    for (int x = 0; x < 19; ++x) {
       const std::size_t v = g.index(x, 15, z);
       g.setConnected(v, 1, false);
       cut.push_back(VoxelGrid::linkId(v, 1));
     }
   (void)updateCutTopology(oc, g, cut);
   const std::vector<std::size_t> levels = oc.elementCountPerLevel();
-  ASSERT_GT(levels[0], 500u);
+  ASSERT_GT(levels[0], 50u);
   ASSERT_GT(levels[3], 10u);
   std::vector<ElasticMaterial> mats(2);
   mats[1] = {1e5, 0.4, 1000.0, 1.0, 0.01};

@@ -134,9 +134,10 @@ TEST(CutWork, ABladeThatCutsNothingCostsWhatItCostsOverTheUncutBody) {
               w.pieces(0));
   EXPECT_EQ(after.cut, 0u);
   // Within a small factor (the pieces lie in other places than the body did), and no more
-  // than a few layers of voxels under the blade's path.
-  EXPECT_LE(after.positioned, 3 * before.positioned + 200);
-  EXPECT_LE(after.tested, 3 * before.tested + 200);
+  // than a few layers of voxels under the blade's path: a few hundred, where a blade whose
+  // reach covered the body positioned and tested tens of thousands.
+  EXPECT_LE(after.positioned, 3 * before.positioned + 500);
+  EXPECT_LE(after.tested, 3 * before.tested + 500);
 }
 
 }  // namespace

@@ -843,12 +843,42 @@ std::size_t World::obstacleCount() const {
 
 // ---- the frame ----
 
+// A node in a fixed box is fixed when an element copy using it holds material within a voxel
+// of the box: a copy reaches past its own voxels (a piece cut off next to the box, in a coarse
+// element whose corners reach into the box) and must not pin material that lies away from it.
 std::vector<std::uint8_t> World::Impl::fixedFlags(const SimBody& b) {
-  const std::vector<Vec3d>& rest = b.cut.deformation.restPositions();
+  const DeformationOctree& d = b.cut.deformation;
+  const VoxelGrid& g = b.cut.grid;
+  const std::vector<Vec3d>& rest = d.restPositions();
+  std::vector<std::uint8_t> holds(d.elementCount(), 0);
+  const Index3 gd = g.dims();
+  for (const FixedBox& box : b.settings.fixed) {
+    // The voxels whose centres lie within a voxel of the box (a box that holds only nodes,
+    // around a body's end face, holds the voxels next to them).
+    FixedBox near = box;
+    near.lo -= Vec3d::Constant(g.voxelSize());
+    near.hi += Vec3d::Constant(g.voxelSize());
+    Index3 lo, hi;
+    for (int a = 0; a < 3; ++a) {
+      const double l = (box.lo[a] - g.origin()[a]) / g.voxelSize();
+      const double h = (box.hi[a] - g.origin()[a]) / g.voxelSize();
+      lo[a] = static_cast<int>(std::clamp(std::floor(l) - 1.0, 0.0, static_cast<double>(gd[a])));
+      hi[a] = static_cast<int>(std::clamp(std::ceil(h) + 2.0, 0.0, static_cast<double>(gd[a])));
+    }
+    for (int z = lo.z; z < hi.z; ++z)
+      for (int y = lo.y; y < hi.y; ++y)
+        for (int x = lo.x; x < hi.x; ++x) {
+          const std::size_t v = g.index(x, y, z);
+          if (g.occupied(v) && inside(near, g.position(v))) holds[d.owner(v)] = 1;
+        }
+  }
   std::vector<std::uint8_t> fixed(rest.size(), 0);
-  for (std::size_t n = 0; n < rest.size(); ++n)
-    for (const FixedBox& box : b.settings.fixed)
-      if (inside(box, rest[n])) fixed[n] = 1;
+  for (std::uint32_t e = 0; e < d.elementCount(); ++e) {
+    if (!holds[e]) continue;
+    for (std::uint32_t n : d.element(e).nodes)
+      for (const FixedBox& box : b.settings.fixed)
+        if (inside(box, rest[n])) fixed[n] = 1;
+  }
   return fixed;
 }
 
