@@ -54,6 +54,14 @@ int finestLevelOf(const BodySettings& s) {
                             : std::max(s.elementLevel - 2, 0);
 }
 
+/// The start-level region (a cube of level S, DeformationOctree::cubeKey) holding voxel v,
+/// clamped into a grid of `dims` voxels.
+std::uint64_t regionKey(int S, const Index3& v, const Index3& dims) {
+  return DeformationOctree::cubeKey(S, {std::clamp(v.x, 0, dims.x - 1) >> S,
+                                        std::clamp(v.y, 0, dims.y - 1) >> S,
+                                        std::clamp(v.z, 0, dims.z - 1) >> S});
+}
+
 /// Below this tangential speed (m/s) a contact's friction holds like a viscous stick; above it,
 /// it is the Coulomb force mu f_n against the sliding (docs/algorithms.md, "Friction").
 constexpr double kStickSpeed = 1e-3;
@@ -321,6 +329,9 @@ struct World::Impl {
   /// Notes the start-level regions holding new elements finer than the start level: as cut
   /// now (`settled`), or, for refinement the node rule made while coarsening, as unsettled.
   void noteRefinedRegions(SimBody& body, const TopologyChange& change, bool settled);
+  /// The voxel coordinates of the body's embedded blade front points (rest frame, possibly
+  /// just outside the grid).
+  [[nodiscard]] std::vector<Index3> frontVoxels(const SimBody& body) const;
   /// The start-level regions holding the body's blade fronts, ascending.
   [[nodiscard]] std::vector<std::uint64_t> frontRegions(const SimBody& body) const;
   /// At a frame's start: refines, down to the body's finest level, the elements where a
@@ -1420,8 +1431,7 @@ TopologyChange World::Impl::updateTopology(SimBody& b, const std::vector<std::ui
     for (std::uint64_t id : cut) {
       const std::size_t v = static_cast<std::size_t>(id / 3);
       for (std::size_t u : {v, v + b.cut.grid.stride(static_cast<int>(id % 3))}) {
-        const Index3 p = b.cut.grid.coord(u);
-        b.cutRegions[DeformationOctree::cubeKey(S, {p.x >> S, p.y >> S, p.z >> S})] = frame;
+        b.cutRegions[regionKey(S, b.cut.grid.coord(u), b.cut.grid.dims())] = frame;
       }
     }
     for (std::size_t ti = 0; ti < tools.size(); ++ti)
@@ -1454,21 +1464,24 @@ TopologyChange World::Impl::updateTopology(SimBody& b, const std::vector<std::ui
   return change;
 }
 
-std::vector<std::uint64_t> World::Impl::frontRegions(const SimBody& b) const {
-  const int S = b.settings.elementLevel;
+std::vector<Index3> World::Impl::frontVoxels(const SimBody& b) const {
   const DeformationOctree& d = b.cut.deformation;
-  std::vector<std::uint64_t> out;
+  std::vector<Index3> out;
   for (const BladeFront& bf : b.fronts)
     for (std::size_t i = 0; i < bf.element.size(); ++i) {
       if (bf.element[i] == kNoElement) continue;
       const OctreeElement& el = d.element(bf.element[i]);
       const Index3 f = el.firstVoxel();
       const Vec3d p = Vec3d(f.x, f.y, f.z) + el.size() * bf.local[i];
-      const Index3 v{std::clamp(static_cast<int>(p.x()), 0, d.gridDims().x - 1) >> S,
-                     std::clamp(static_cast<int>(p.y()), 0, d.gridDims().y - 1) >> S,
-                     std::clamp(static_cast<int>(p.z()), 0, d.gridDims().z - 1) >> S};
-      out.push_back(DeformationOctree::cubeKey(S, v));
+      out.push_back({static_cast<int>(p.x()), static_cast<int>(p.y()), static_cast<int>(p.z())});
     }
+  return out;
+}
+
+std::vector<std::uint64_t> World::Impl::frontRegions(const SimBody& b) const {
+  std::vector<std::uint64_t> out;
+  for (const Index3& c : frontVoxels(b))
+    out.push_back(regionKey(b.settings.elementLevel, c, b.cut.grid.dims()));
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());
   return out;
@@ -1482,32 +1495,23 @@ void World::Impl::refineRestingFronts(SimBody& b, std::vector<double>& ms) {
   // The cut links near the front points in resting regions: within two finest elements of a
   // point (other cuts' fronts in the region stay as they are).
   const VoxelGrid& g = b.cut.grid;
-  const DeformationOctree& d = b.cut.deformation;
   const Index3 gd = g.dims();
   const int r = 2 << finest;
   std::vector<std::uint64_t> links;
-  for (const BladeFront& bf : b.fronts)
-    for (std::size_t i = 0; i < bf.element.size(); ++i) {
-      if (bf.element[i] == kNoElement) continue;
-      const OctreeElement& el = d.element(bf.element[i]);
-      const Index3 f = el.firstVoxel();
-      const Vec3d p = Vec3d(f.x, f.y, f.z) + el.size() * bf.local[i];
-      const Index3 c{static_cast<int>(p.x()), static_cast<int>(p.y()), static_cast<int>(p.z())};
-      if (!std::binary_search(b.restingRegions.begin(), b.restingRegions.end(),
-                              DeformationOctree::cubeKey(S, {std::clamp(c.x, 0, gd.x - 1) >> S,
-                                                             std::clamp(c.y, 0, gd.y - 1) >> S,
-                                                             std::clamp(c.z, 0, gd.z - 1) >> S})))
-        continue;
-      for (int z = std::max(c.z - r, 0); z < std::min(c.z + r, gd.z); ++z)
-        for (int y = std::max(c.y - r, 0); y < std::min(c.y + r, gd.y); ++y)
-          for (int x = std::max(c.x - r, 0); x < std::min(c.x + r, gd.x); ++x) {
-            const std::size_t v = g.index(x, y, z);
-            if (!g.occupied(v)) continue;
-            for (int a = 0; a < 3; ++a)
-              if (g.hasLink(v, a) && !g.connected(v, a) && g.occupied(v + g.stride(a)))
-                links.push_back(VoxelGrid::linkId(v, a));
-          }
-    }
+  for (const Index3& c : frontVoxels(b)) {
+    if (!std::binary_search(b.restingRegions.begin(), b.restingRegions.end(),
+                            regionKey(S, c, gd)))
+      continue;
+    for (int z = std::max(c.z - r, 0); z < std::min(c.z + r, gd.z); ++z)
+      for (int y = std::max(c.y - r, 0); y < std::min(c.y + r, gd.y); ++y)
+        for (int x = std::max(c.x - r, 0); x < std::min(c.x + r, gd.x); ++x) {
+          const std::size_t v = g.index(x, y, z);
+          if (!g.occupied(v)) continue;
+          for (int a = 0; a < 3; ++a)
+            if (g.hasLink(v, a) && !g.connected(v, a) && g.occupied(v + g.stride(a)))
+              links.push_back(VoxelGrid::linkId(v, a));
+        }
+  }
   if (links.empty()) return;
   const std::vector<std::vector<Vec3d>> front = frontPoints(b);
   CutTopologyParams cp{finest, settings.threaded};
@@ -1530,8 +1534,7 @@ void World::Impl::noteRefinedRegions(SimBody& b, const TopologyChange& change, b
   for (std::size_t e = 0; e < change.elementSource.size(); ++e) {
     const OctreeElement& el = d.element(static_cast<std::uint32_t>(e));
     if (change.elementSource[e] != kNewElement || el.level >= S) continue;
-    const Index3 f = el.firstVoxel();
-    const std::uint64_t key = DeformationOctree::cubeKey(S, {f.x >> S, f.y >> S, f.z >> S});
+    const std::uint64_t key = regionKey(S, el.firstVoxel(), b.cut.grid.dims());
     if (settled)
       b.cutRegions.try_emplace(key, frame);
     else if (b.cutRegions.count(key) == 0)
