@@ -94,6 +94,8 @@ void ImplicitEuler::setContacts(std::vector<PointContact> contacts) {
   contacts_ = std::move(contacts);
 }
 
+void ImplicitEuler::setPairContacts(std::vector<PairContact> pairs) { pairs_ = std::move(pairs); }
+
 void ImplicitEuler::reset() {
   velocity_.clear();
   lastDv_.clear();
@@ -465,6 +467,10 @@ void ImplicitEuler::StepPreconditioner::apply(const std::vector<Vec3d>& r, std::
     s.twoLevel_.apply(sp, model_.aggregation(), s.blocks_, s.preconditioner_, r, z, threaded_);
   else
     applySymmetricGaussSeidel(sp, s.blocks_, s.preconditioner_, r, z);
+  // Pair contacts couple rows the preconditioner does not see: it takes two sides pressed
+  // together for stiff where they move together. The pieces' rigid motions, coupled through
+  // the pairs (RigidModes), give that motion back as a coarse correction.
+  if (!s.coupling_.empty() && s.params_.rigidCorrection) s.rigid_.coarseCorrection(r, z);
 }
 
 StepStatus ImplicitEuler::solve(const ElasticModel& model) {
@@ -549,7 +555,7 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
           }
         },
         threaded);
-    rigid_.setOperator(rigidProducts_);
+    rigid_.setOperator(rigidProducts_, &coupling_);
   }
   // r = b - A x0 (corrected); q holds x0 less its shift meanwhile.
   parallelFor(
@@ -588,7 +594,7 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
   if (params_.warmStart && projecting_ && projection_.size() > 0) {
     projectionRhs_.resize(rows);
     for (std::size_t i = 0; i < rows; ++i) projectionRhs_[i] = b_[i] - massRow_[i] * shift_[i];
-    projected = projection_.project(view, projectionRhs_, q_, threaded);
+    projected = projection_.project(view, projectionRhs_, q_, threaded, &coupling_);
     if (projected)
       for (std::size_t i = 0; i < rows; ++i) x_[i] = shift_[i] + q_[i];
   }
@@ -599,10 +605,17 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
           r_[i] = b_[i] - multiply(q_, i) - massRow_[i] * shift_[i];
       },
       threaded);
+  if (!coupling_.empty()) {  // r -= X q (the shift is a translation of free pieces, which
+                             // hold no pair: X shift = 0)
+    std::vector<Vec3d> xq(rows, Vec3d::Zero());
+    coupling_.multiplyAdd(q_, xq);
+    for (std::size_t i = 0; i < rows; ++i) r_[i] -= xq[i];
+  }
   if (correctRigid) rigid_.correct(x_, r_);
   // The conjugate gradients (linalg/ConjugateGradients.h) from this start and its residual.
   StepPreconditioner preconditioner(*this, model, status);
   cg_.setOperator(view, threaded);
+  cg_.setCoupling(&coupling_);
   cg_.setPreconditioner(preconditioner);
   cg_.setParams({params_.tolerance, params_.maxIterations});
   const ConjugateGradientStatus cg = cg_.iterate(bb, x_, r_);
@@ -673,6 +686,55 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
     if (bridge_.prepare(model, octree, cholesky_.rows()))
       bridgeRevision_ = model.sparsityRevision();
   }
+  // Pair contacts: each side a point contact against the other side at its start velocity
+  // (the pair matrix's diagonal parts, assembled with the elements), the cross terms
+  // dt^2 k n n^T + dt c (I - n n^T) between the two sides' free rows in coupling_.
+  const std::size_t givenContacts = contacts_.size();
+  coupling_.clear();
+  if (!pairs_.empty()) {
+    const double dt = params_.timeStep;
+    const WeightedRows& pr = model.prolongation();
+    auto pointVelocity = [&](std::uint32_t e, const std::array<double, 8>& w) {
+      Vec3d v = Vec3d::Zero();
+      for (std::size_t c = 0; c < 8; ++c) v += w[c] * velocity_[octree.element(e).nodes[c]];
+      return v;
+    };
+    auto rowsOf = [&](std::uint32_t e, const std::array<double, 8>& w) {
+      RowWeights out;
+      for (std::size_t c = 0; c < 8; ++c) {
+        const std::uint32_t n = octree.element(e).nodes[c];
+        for (std::uint32_t k = pr.start[n]; k < pr.start[n + 1]; ++k)
+          out.emplace_back(pr.index[k], w[c] * pr.weight[k]);
+      }
+      return out;
+    };
+    for (const PairContact& p : pairs_) {
+      VOXCUT_ASSERT(p.element < model.elementCount() && p.other < model.elementCount(),
+                    "a pair contact's element is not in the model");
+      const Vec3d va = pointVelocity(p.element, p.weight);
+      const Vec3d vb = pointVelocity(p.other, p.otherWeight);
+      PointContact a;
+      a.element = p.element;
+      a.weight = p.weight;
+      a.normal = p.normal;
+      a.gap = p.gap - dt * p.normal.dot(vb);
+      a.stiffness = p.stiffness;
+      a.friction = p.friction;
+      a.surfaceVelocity = vb;
+      PointContact b = a;
+      b.element = p.other;
+      b.weight = p.otherWeight;
+      b.normal = -p.normal;
+      b.gap = p.gap + dt * p.normal.dot(va);
+      b.surfaceVelocity = va;
+      contacts_.push_back(a);
+      contacts_.push_back(b);
+      const Eigen::Matrix3d nn = p.normal * p.normal.transpose();
+      const Eigen::Matrix3d c = (dt * dt * p.stiffness) * nn +
+                                (dt * p.friction) * (Eigen::Matrix3d::Identity() - nn);
+      coupling_.add(rowsOf(p.element, p.weight), rowsOf(p.other, p.otherWeight), c);
+    }
+  }
   if (!contacts_.empty()) {  // the contacts by element (counting sort, stable)
     const std::size_t elements = model.elementCount();
     contactStart_.assign(elements + 1, 0);
@@ -702,9 +764,15 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
   lastBridged_ = status.bridged;
   contactForce_.assign(contacts_.size(), 0.0);
   contactFriction_.assign(contacts_.size(), Vec3d::Zero());
+  pairForce_.assign(pairs_.size(), 0.0);
+  pairFriction_.assign(pairs_.size(), Vec3d::Zero());
   if (!status.finite) {
     std::fill(lastDv_.begin(), lastDv_.end(), Vec3d::Zero());
     contacts_.clear();
+    pairs_.clear();
+    coupling_.clear();
+    contactForce_.resize(givenContacts);
+    contactFriction_.resize(givenContacts);
     return status;
   }
   for (std::size_t i = 0; i < freeNodes.size(); ++i) {
@@ -724,7 +792,20 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
       contactFriction_[contactOrder_[k]] = -pc.friction * (rel - pc.normal.dot(rel) * pc.normal);
     }
   }
+  contactForce_.resize(givenContacts);  // the pairs' halves came after the given contacts
+  contactFriction_.resize(givenContacts);
+  for (std::size_t k = 0; k < pairs_.size(); ++k) {
+    const PairContact& p = pairs_[k];
+    Vec3d rel = Vec3d::Zero();
+    for (std::size_t c = 0; c < 8; ++c)
+      rel += p.weight[c] * velocity_[octree.element(p.element).nodes[c]] -
+             p.otherWeight[c] * velocity_[octree.element(p.other).nodes[c]];
+    pairForce_[k] = -p.stiffness * (p.gap + dt * p.normal.dot(rel));
+    if (p.friction > 0.0) pairFriction_[k] = -p.friction * (rel - p.normal.dot(rel) * p.normal);
+  }
   contacts_.clear();
+  pairs_.clear();
+  coupling_.clear();
   std::vector<Vec3d>& pos = octree.positions();
   parallelFor(
       0, pos.size(), 512,

@@ -39,6 +39,7 @@
 #include "voxcut/linalg/BlockPreconditioner.h"
 #include "voxcut/linalg/ConjugateGradients.h"
 #include "voxcut/linalg/Multigrid.h"
+#include "voxcut/linalg/RowCoupling.h"
 #include "voxcut/linalg/SolutionProjection.h"
 #include "voxcut/linalg/TwoLevelPreconditioner.h"
 #include "voxcut/topology/DeformationOctree.h"
@@ -193,6 +194,23 @@ struct PointContact {
   Vec3d surfaceVelocity = Vec3d::Zero();  ///< of what is pressed on (m/s; its tangential part)
 };
 
+/// A spring between two points of the body (self contact: a surface vertex pressed into
+/// another part of the same body, docs/algorithms.md, "Self contact in one solve"), taken
+/// into the implicit step whole: the force on point a is
+/// f = -stiffness (gap + dt n . (v_a - v_b)) n at the step's end velocities, and -f on point
+/// b, with friction -friction (I - n n^T)(v_a - v_b) on a and its opposite on b. Equal and
+/// opposite by construction, so the pair moves no momentum into the body.
+struct PairContact {
+  std::uint32_t element = 0;          ///< element (copy) holding point a
+  std::array<double, 8> weight{};     ///< a's trilinear weights in it
+  std::uint32_t other = 0;            ///< element (copy) holding point b
+  std::array<double, 8> otherWeight{};  ///< b's trilinear weights in it
+  Vec3d normal = Vec3d::UnitY();      ///< unit, the direction a is pushed (out of b's material)
+  double gap = 0.0;                   ///< signed distance along normal at the step's start (m)
+  double stiffness = 0.0;             ///< penalty stiffness (N/m), >= 0
+  double friction = 0.0;              ///< tangential damping (N s/m), >= 0
+};
+
 /// Backward Euler integrator: the node velocities and the solver's state between steps.
 class ImplicitEuler {
  public:
@@ -219,6 +237,13 @@ class ImplicitEuler {
   [[nodiscard]] const std::vector<double>& contactForces() const { return contactForce_; }
   /// Per contact of the last step, in the order given: its friction force on the body (N).
   [[nodiscard]] const std::vector<Vec3d>& contactFrictionForces() const { return contactFriction_; }
+  /// The pair contacts of the next step, used for that one step and then cleared.
+  void setPairContacts(std::vector<PairContact> pairs);
+  /// Per pair contact of the last step, in the order given: the normal force on point a at
+  /// the step's end, -stiffness (gap + dt n . (v_a - v_b)) (N; negative when it pulled).
+  [[nodiscard]] const std::vector<double>& pairForces() const { return pairForce_; }
+  /// Per pair contact of the last step, in the order given: its friction force on point a (N).
+  [[nodiscard]] const std::vector<Vec3d>& pairFrictionForces() const { return pairFriction_; }
 
   /// Node velocities (m/s), one per node of the model last stepped (or set); empty before.
   [[nodiscard]] const std::vector<Vec3d>& velocities() const { return velocity_; }
@@ -295,6 +320,10 @@ class ImplicitEuler {
   std::vector<std::size_t> contactOrder_;    ///< contacts_[k] was given at contactOrder_[k]
   std::vector<double> contactForce_;         ///< of the last step, in the order given
   std::vector<Vec3d> contactFriction_;       ///< of the last step, in the order given
+  std::vector<PairContact> pairs_;           ///< of the next step, in the order given
+  std::vector<double> pairForce_;            ///< of the last step, in the order given
+  std::vector<Vec3d> pairFriction_;          ///< of the last step, in the order given
+  RowCoupling coupling_;                     ///< the pairs' cross terms, by free row
   std::vector<Vec3d> freePositions_;         ///< current positions of the free nodes
   std::vector<double> freeMasses_;           ///< lumped masses of the free nodes (kg)
   /// Per free row, the mass part of the reduced matrix summed over the row, sum_k w_k

@@ -1,6 +1,8 @@
 #include "voxcut/fem/RigidModes.h"
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <map>
 
 #include "voxcut/core/Error.h"
 #include "voxcut/core/UnionFind.h"
@@ -11,6 +13,23 @@ namespace {
 
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 using Vector6d = Eigen::Matrix<double, 6, 1>;
+
+/// The pseudo-inverse of a symmetric positive semi-definite matrix, on the eigenvalues that
+/// are clearly positive (zero when it is not finite or has none).
+template <class Matrix>
+Matrix pseudoInverse(const Matrix& m) {
+  const Matrix g = 0.5 * (m + m.transpose());  // the round-off's asymmetry away
+  Matrix out = Matrix::Zero(m.rows(), m.cols());
+  if (!g.allFinite()) return out;
+  const Eigen::SelfAdjointEigenSolver<Matrix> eig(g);
+  const auto& lambda = eig.eigenvalues();
+  const double largest = lambda.maxCoeff();
+  if (!(largest > 0.0)) return out;
+  auto inverted = lambda;
+  for (Eigen::Index k = 0; k < lambda.size(); ++k)
+    inverted[k] = lambda[k] > 1e-10 * largest ? 1.0 / lambda[k] : 0.0;
+  return eig.eigenvectors() * inverted.asDiagonal() * eig.eigenvectors().transpose();
+}
 
 }  // namespace
 
@@ -94,7 +113,7 @@ std::array<Vec3d, 6> RigidModes::rowProducts(const Eigen::Matrix3d* blocks,
           Vec3d(r[0], r[1], r[2]), Vec3d(r[3], r[4], r[5]), Vec3d(r[6], r[7], r[8])};
 }
 
-void RigidModes::setOperator(std::array<std::vector<Vec3d>, 6>& az) {
+void RigidModes::setOperator(std::array<std::vector<Vec3d>, 6>& az, const RowCoupling* coupling) {
   const std::size_t rows = piece_.size();
   for (const auto& v : az) VOXCUT_ASSERT(v.size() == rows, "one product per free node");
   products_.swap(az);
@@ -106,27 +125,73 @@ void RigidModes::setOperator(std::array<std::vector<Vec3d>, 6>& az) {
         g(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(l)) +=
             modes_[k][i].dot(products_[l][i]);
   }
+  // Z^T X Z, by pairs of pieces: each term's two sides projected onto the modes of the pieces
+  // their rows lie in (a 3 x 6 per piece), and the pieces a term joins in one group.
+  coupling_ = coupling != nullptr && !coupling->empty() ? coupling : nullptr;
+  groups_.clear();
+  groupInverse_.clear();
+  std::map<std::pair<std::uint32_t, std::uint32_t>, Matrix6d> cross;
+  UnionFind sets(static_cast<std::uint32_t>(pieceCount_));
+  if (coupling_ != nullptr) {
+    using Projection = std::vector<std::pair<std::uint32_t, Eigen::Matrix<double, 3, 6>>>;
+    using Entry = std::pair<std::uint32_t, double>;
+    auto project = [&](const Entry* begin, const Entry* end) {
+      Projection out;
+      for (const Entry* e = begin; e != end; ++e) {
+        const std::uint32_t p = piece_[e->first];
+        auto it = std::find_if(out.begin(), out.end(), [&](const auto& x) { return x.first == p; });
+        if (it == out.end()) it = out.insert(out.end(), {p, Eigen::Matrix<double, 3, 6>::Zero()});
+        for (std::size_t k = 0; k < 6; ++k)
+          it->second.col(static_cast<Eigen::Index>(k)) += e->second * modes_[k][e->first];
+      }
+      return out;
+    };
+    coupling_->forEachTerm([&](const Entry* a0, const Entry* a1, const Entry* b0, const Entry* b1,
+                               const Eigen::Matrix3d& c) {
+      const Projection pa = project(a0, a1), pb = project(b0, b1);
+      for (const auto& [p, ma] : pa)
+        for (const auto& [q, mb] : pb) {
+          const Matrix6d block = -(ma.transpose() * c * mb);
+          auto add = [&](std::uint32_t i, std::uint32_t j, const Matrix6d& m) {
+            auto [it, fresh] = cross.try_emplace({i, j}, m);
+            if (!fresh) it->second += m;
+          };
+          add(p, q, block);
+          add(q, p, block.transpose());
+          sets.unite(p, q);
+        }
+    });
+    for (const auto& [pq, block] : cross)
+      if (pq.first == pq.second) gram[pq.first] += block;
+  }
   inverse_.assign(pieceCount_, Matrix6d::Zero());
-  for (std::size_t p = 0; p < pieceCount_; ++p) {
-    // Z^T A Z is symmetric positive semi-definite: symmetrise the round-off away and invert
-    // on the eigenvalues that are clearly positive.
-    const Matrix6d g = 0.5 * (gram[p] + gram[p].transpose());
-    if (!g.allFinite()) continue;
-    const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(g);
-    const Vector6d& lambda = eig.eigenvalues();
-    const double largest = lambda.maxCoeff();
-    if (!(largest > 0.0)) continue;
-    Vector6d inverted = Vector6d::Zero();
-    for (Eigen::Index k = 0; k < 6; ++k)
-      if (lambda[k] > 1e-10 * largest) inverted[k] = 1.0 / lambda[k];
-    inverse_[p] = eig.eigenvectors() * inverted.asDiagonal() * eig.eigenvectors().transpose();
+  for (std::size_t p = 0; p < pieceCount_; ++p) inverse_[p] = pseudoInverse(gram[p]);
+  if (cross.empty()) return;
+  // Groups of more than one piece, in order of their first piece: one dense problem each.
+  std::vector<std::vector<std::uint32_t>> members(pieceCount_);
+  for (std::uint32_t p = 0; p < pieceCount_; ++p) members[sets.find(p)].push_back(p);
+  for (auto& m : members)
+    if (m.size() > 1) groups_.push_back(std::move(m));
+  std::sort(groups_.begin(), groups_.end());
+  for (const std::vector<std::uint32_t>& g : groups_) {
+    const auto size = static_cast<Eigen::Index>(6 * g.size());
+    Eigen::MatrixXd big = Eigen::MatrixXd::Zero(size, size);
+    for (std::size_t i = 0; i < g.size(); ++i) {
+      const auto oi = static_cast<Eigen::Index>(6 * i);
+      big.block<6, 6>(oi, oi) = gram[g[i]];
+      for (std::size_t j = 0; j < g.size(); ++j) {
+        const auto it = cross.find({g[i], g[j]});
+        if (i != j && it != cross.end())
+          big.block<6, 6>(oi, static_cast<Eigen::Index>(6 * j)) = it->second;
+      }
+    }
+    groupInverse_.push_back(pseudoInverse(big));
   }
 }
 
-void RigidModes::correct(std::vector<Vec3d>& x, std::vector<Vec3d>& r) const {
+std::vector<Eigen::Matrix<double, 6, 1>> RigidModes::coefficients(
+    const std::vector<Vec3d>& r) const {
   const std::size_t rows = piece_.size();
-  VOXCUT_ASSERT(x.size() == rows && r.size() == rows && inverse_.size() == pieceCount_,
-                "one value per free node, after setOperator");
   std::vector<Vector6d> load(pieceCount_, Vector6d::Zero());
   for (std::size_t i = 0; i < rows; ++i)
     for (std::size_t k = 0; k < 6; ++k)
@@ -134,12 +199,45 @@ void RigidModes::correct(std::vector<Vec3d>& x, std::vector<Vec3d>& r) const {
   std::vector<Vector6d> coefficient(pieceCount_);
   for (std::size_t p = 0; p < pieceCount_; ++p)
     coefficient[p] = load[p].allFinite() ? Vector6d(inverse_[p] * load[p]) : Vector6d::Zero();
+  for (std::size_t gi = 0; gi < groups_.size(); ++gi) {
+    const std::vector<std::uint32_t>& g = groups_[gi];
+    Eigen::VectorXd stacked(static_cast<Eigen::Index>(6 * g.size()));
+    for (std::size_t i = 0; i < g.size(); ++i)
+      stacked.segment<6>(static_cast<Eigen::Index>(6 * i)) = load[g[i]];
+    Eigen::VectorXd c = Eigen::VectorXd::Zero(stacked.size());
+    if (stacked.allFinite()) c = groupInverse_[gi] * stacked;
+    for (std::size_t i = 0; i < g.size(); ++i)
+      coefficient[g[i]] = c.segment<6>(static_cast<Eigen::Index>(6 * i));
+  }
+  return coefficient;
+}
+
+void RigidModes::coarseCorrection(const std::vector<Vec3d>& r, std::vector<Vec3d>& z) const {
+  const std::vector<Vector6d> coefficient = coefficients(r);
+  for (std::size_t i = 0; i < piece_.size(); ++i) {
+    const Vector6d& c = coefficient[piece_[i]];
+    for (std::size_t k = 0; k < 6; ++k) z[i] += c[static_cast<Eigen::Index>(k)] * modes_[k][i];
+  }
+}
+
+void RigidModes::correct(std::vector<Vec3d>& x, std::vector<Vec3d>& r) const {
+  const std::size_t rows = piece_.size();
+  VOXCUT_ASSERT(x.size() == rows && r.size() == rows && inverse_.size() == pieceCount_,
+                "one value per free node, after setOperator");
+  const std::vector<Vector6d> coefficient = coefficients(r);
+  std::vector<Vec3d> zc(coupling_ != nullptr ? rows : 0, Vec3d::Zero());
   for (std::size_t i = 0; i < rows; ++i) {
     const Vector6d& c = coefficient[piece_[i]];
     for (std::size_t k = 0; k < 6; ++k) {
       x[i] += c[static_cast<Eigen::Index>(k)] * modes_[k][i];
       r[i] -= c[static_cast<Eigen::Index>(k)] * products_[k][i];
+      if (coupling_ != nullptr) zc[i] += c[static_cast<Eigen::Index>(k)] * modes_[k][i];
     }
+  }
+  if (coupling_ != nullptr) {  // r -= X Z c
+    std::vector<Vec3d> xz(rows, Vec3d::Zero());
+    coupling_->multiplyAdd(zc, xz);
+    for (std::size_t i = 0; i < rows; ++i) r[i] -= xz[i];
   }
 }
 

@@ -29,6 +29,7 @@
 
 #include "voxcut/core/Types.h"
 #include "voxcut/linalg/BlockSparsity.h"
+#include "voxcut/linalg/RowCoupling.h"
 
 namespace voxcut {
 
@@ -64,12 +65,20 @@ class RigidModes {
   /// back for reuse) and inverts each piece's 6x6 Z^T A Z
   /// (a pseudo-inverse: the modes of a piece with too few free nodes to span them all are
   /// left out).
-  void setOperator(std::array<std::vector<Vec3d>, 6>& az);
+  /// With `coupling` (may be null or empty; borrowed until the next setOperator), the step's
+  /// matrix is A + X (linalg/RowCoupling.h) and `az` still A's products alone: pieces that X
+  /// couples are corrected together, by one Galerkin problem over all their modes.
+  void setOperator(std::array<std::vector<Vec3d>, 6>& az, const RowCoupling* coupling = nullptr);
 
   /// Applies the correction to an iterate x and its residual r = b - A x (#free each):
-  /// x += Z c, r -= A Z c per piece, with c = (Z^T A Z)^+ Z^T r. Afterwards Z^T r = 0 (to
-  /// round-off). Needs setOperator for the current A.
+  /// x += Z c, r -= A Z c per piece, with c = (Z^T A Z)^+ Z^T r (coupled pieces: over their
+  /// group, with A + X). Afterwards Z^T r = 0 (to round-off). Needs setOperator for the
+  /// current A.
   void correct(std::vector<Vec3d>& x, std::vector<Vec3d>& r) const;
+
+  /// z += Z c with c = (Z^T A Z)^+ Z^T r, as correct() (a coarse correction for a
+  /// preconditioner: symmetric positive semi-definite in r).
+  void coarseCorrection(const std::vector<Vec3d>& r, std::vector<Vec3d>& z) const;
 
   /// Number of pieces found by the last setup.
   [[nodiscard]] std::size_t pieceCount() const { return pieceCount_; }
@@ -77,6 +86,10 @@ class RigidModes {
   [[nodiscard]] const std::vector<std::uint32_t>& piece() const { return piece_; }
 
  private:
+  /// Per piece, c = (Z^T A Z)^+ Z^T r (coupled pieces over their group).
+  [[nodiscard]] std::vector<Eigen::Matrix<double, 6, 1>> coefficients(
+      const std::vector<Vec3d>& r) const;
+
   std::uint64_t revision_ = 0;
   bool labelled_ = false;
   std::size_t pieceCount_ = 0;
@@ -84,6 +97,11 @@ class RigidModes {
   std::array<std::vector<Vec3d>, 6> modes_;
   std::array<std::vector<Vec3d>, 6> products_;        ///< A times each mode
   std::vector<Eigen::Matrix<double, 6, 6>> inverse_;  ///< per piece, (Z^T A Z)^+
+  /// Pieces that a coupling joins: the groups of more than one piece, each its pieces
+  /// (ascending) and the pseudo-inverse of Z^T (A + X) Z over all their modes.
+  std::vector<std::vector<std::uint32_t>> groups_;
+  std::vector<Eigen::MatrixXd> groupInverse_;
+  const RowCoupling* coupling_ = nullptr;
 };
 
 }  // namespace voxcut

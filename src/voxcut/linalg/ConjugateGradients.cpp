@@ -44,6 +44,11 @@ ConjugateGradientStatus ConjugateGradients::mult(const std::vector<Vec3d>& b,
         for (std::size_t i = begin; i < end; ++i) r_[i] = b[i] - blockRowProduct(a_, x.data(), i);
       },
       threaded_);
+  if (coupling_ != nullptr && !coupling_->empty()) {
+    std::vector<Vec3d> xx(rows, Vec3d::Zero());
+    coupling_->multiplyAdd(x, xx);
+    for (std::size_t i = 0; i < rows; ++i) r_[i] -= xx[i];
+  }
   return iterate(bb, x, r_);
 }
 
@@ -86,11 +91,24 @@ ConjugateGradientStatus ConjugateGradients::iterate(double bb, std::vector<Vec3d
   }
   finite = finite && std::isfinite(rz);
   std::copy(z_.begin(), z_.end(), p_.begin());
+  const bool coupled = coupling_ != nullptr && !coupling_->empty();
   while (finite && rr > stop && status.iterations < params_.maxIterations) {
-    const double pq = chunkedSum(rows, partial_, threaded, [&](std::size_t i) {
-      q_[i] = multiply(p_, i);
-      return p_[i].dot(q_[i]);
-    });
+    double pq = 0.0;
+    if (coupled) {  // the block product, the couplings (one thread, in order), then (p, q)
+      parallelFor(
+          0, rows, 256,
+          [&](std::size_t b, std::size_t e) {
+            for (std::size_t i = b; i < e; ++i) q_[i] = multiply(p_, i);
+          },
+          threaded);
+      coupling_->multiplyAdd(p_, q_);
+      pq = chunkedSum(rows, partial_, threaded, [&](std::size_t i) { return p_[i].dot(q_[i]); });
+    } else {
+      pq = chunkedSum(rows, partial_, threaded, [&](std::size_t i) {
+        q_[i] = multiply(p_, i);
+        return p_[i].dot(q_[i]);
+      });
+    }
     const double alpha = rz / pq;
     if (!std::isfinite(alpha)) {
       finite = std::isfinite(pq);

@@ -26,6 +26,7 @@
 #include "voxcut/core/Types.h"
 #include "voxcut/linalg/BlockMatrix.h"
 #include "voxcut/linalg/LinearPreconditioner.h"
+#include "voxcut/linalg/RowCoupling.h"
 
 namespace voxcut {
 
@@ -55,6 +56,9 @@ class ConjugateGradients {
     a_ = a;
     threaded_ = threaded;
   }
+  /// Couplings X added to A's product (RowCoupling.h), borrowed; null or empty: none. The
+  /// operator is then A + X; the preconditioner is still set up with A alone.
+  void setCoupling(const RowCoupling* coupling) { coupling_ = coupling; }
   /// The preconditioner M, borrowed (it must outlive the solves). Required.
   void setPreconditioner(LinearPreconditioner& m) { m_ = &m; }
   void setParams(const ConjugateGradientParams& params) { params_ = params; }
@@ -80,6 +84,7 @@ class ConjugateGradients {
   double precondition(const std::vector<Vec3d>& r);
 
   BlockMatrixView a_;
+  const RowCoupling* coupling_ = nullptr;
   bool threaded_ = true;
   LinearPreconditioner* m_ = nullptr;
   ConjugateGradientParams params_;

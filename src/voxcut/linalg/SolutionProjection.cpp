@@ -33,7 +33,8 @@ void SolutionProjection::add(const std::vector<Vec3d>& x) {
 }
 
 bool SolutionProjection::project(const BlockMatrixView& a, const std::vector<Vec3d>& b,
-                                 std::vector<Vec3d>& x, bool threaded) {
+                                 std::vector<Vec3d>& x, bool threaded,
+                                 const RowCoupling* coupling) {
   const std::size_t k = kept_, rows = a.rows;
   if (k == 0) return false;
   VOXCUT_ASSERT(b.size() == rows && slots_[newest_].size() == rows,
@@ -50,6 +51,13 @@ bool SolutionProjection::project(const BlockMatrixView& a, const std::vector<Vec
           for (std::size_t j = 0; j < k; ++j) product_[j][i] = blockRowProduct(a, w[j], i);
       },
       threaded);
+  if (coupling != nullptr && !coupling->empty()) {
+    std::vector<Vec3d> column(rows);
+    for (std::size_t j = 0; j < k; ++j) {
+      std::copy(w[j], w[j] + rows, column.begin());
+      coupling->multiplyAdd(column, product_[j]);
+    }
+  }
   // W^T A W (upper triangle) and W^T b, each summed in fixed chunks.
   const std::size_t sums = k * (k + 1) / 2 + k;
   const std::vector<double> total =

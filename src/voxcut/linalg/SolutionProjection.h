@@ -22,6 +22,7 @@
 
 #include "voxcut/core/Types.h"
 #include "voxcut/linalg/BlockMatrix.h"
+#include "voxcut/linalg/RowCoupling.h"
 
 namespace voxcut {
 
@@ -52,10 +53,10 @@ class SolutionProjection {
 
   /// x = W c with (W^T A W) c = W^T b over the kept solutions W (a pseudo-inverse: directions
   /// the kept solutions repeat, to round-off, are left out). `a` must be symmetric positive
-  /// definite with the kept solutions' rows. False, with x untouched, when nothing is kept or
-  /// no direction is left.
+  /// definite with the kept solutions' rows (with `coupling`, A + X: RowCoupling.h). False,
+  /// with x untouched, when nothing is kept or no direction is left.
   bool project(const BlockMatrixView& a, const std::vector<Vec3d>& b, std::vector<Vec3d>& x,
-               bool threaded);
+               bool threaded, const RowCoupling* coupling = nullptr);
 
  private:
   std::size_t capacity_ = 0;

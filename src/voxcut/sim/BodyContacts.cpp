@@ -65,14 +65,22 @@ std::size_t voxelAt(const DeformationOctree& d, const VoxelGrid& g, std::uint32_
 /// Whether the current point x lies in the material of b's element copy e, and then its
 /// trilinear coordinates t there, its depth below b's boundary in b's rest frame and the
 /// boundary's normal (rest frame).
+/// `restPoint` (may be null): where the point is in b's rest frame, as far as known: Newton starts
+/// from its coordinates in e when they lie near e (same answer, fewer steps).
 bool pointDepth(const SimBody& b, std::uint32_t e, const Vec3d& x, Vec3d& t, double& depth,
-                Vec3d& normal) {
+                Vec3d& normal, const Vec3d* restPoint = nullptr) {
   const DeformationOctree& d = b.cut.deformation;
   const VoxelGrid& g = b.cut.grid;
-  if (!d.trilinearCoordinates(e, x, t)) return false;
   const OctreeElement& el = d.element(e);
   const int size = el.size();
   const Index3 first = el.firstVoxel();
+  Vec3d start = Vec3d::Constant(0.5);
+  if (restPoint != nullptr) {
+    const Vec3d guess = (*restPoint - d.nodeGridPosition(first)) / (size * g.voxelSize());
+    if ((guess.array() > -0.25).all() && (guess.array() < 1.25).all())
+      start = guess.cwiseMax(0.0).cwiseMin(1.0);
+  }
+  if (!d.trilinearCoordinates(e, x, t, start)) return false;
   for (int i = 0; i < 3; ++i)  // an element at the grid's edge reaches past it
     if (first[i] + std::clamp(static_cast<int>(t[i] * size), 0, size - 1) >= g.dims()[i])
       return false;
@@ -248,6 +256,10 @@ std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& 
               const VertexEmbedding& em = a.embedding[v];
               const Vec3d now = da.pointInElement(em.element, em.local);
               const Vec3d vp = pointVelocity(a, em.element, trilinearWeights(em.local));
+              // Its rest position, the start of Newton's method in b's elements for self.
+              const OctreeElement& own = da.element(em.element);
+              const Vec3d rest = da.nodeGridPosition(own.firstVoxel()) +
+                                 (own.size() * a.cut.grid.voxelSize()) * em.local;
               BodyContactPoint best;
               for (std::uint32_t e : candidates) {
                 const Vec3d ve = elementVelocity.empty() ? Vec3d::Zero() : elementVelocity[e];
@@ -255,7 +267,7 @@ std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& 
                 if (!bHash.elementBox(e).contains(x)) continue;
                 Vec3d t, n;
                 double depth = 0.0;
-                if (!pointDepth(b, e, x, t, depth, n)) continue;
+                if (!pointDepth(b, e, x, t, depth, n, self ? &rest : nullptr)) continue;
                 if (self &&
                     nearbyThroughLinks(gb, static_cast<std::size_t>(a.surface.vertexVoxels()[v]),
                                        voxelAt(db, gb, e, t)))
@@ -272,7 +284,8 @@ std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& 
               }
               if (!(best.depth > 0.0)) continue;
               Vec3d t, n;
-              if (!pointDepth(b, best.other, now, t, best.currentDepth, n)) best.currentDepth = 0.0;
+              if (!pointDepth(b, best.other, now, t, best.currentDepth, n, self ? &rest : nullptr))
+                best.currentDepth = 0.0;
               best.currentDepth = std::max(best.currentDepth, 0.0);
               found[ch].push_back(best);
             }

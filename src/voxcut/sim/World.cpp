@@ -227,6 +227,13 @@ struct ContactHit {
 
 /// What the bodies are pressed against in a frame: the obstacles, then the probes at their
 /// pose at the frame's end.
+/// A body's contacts with other bodies (point contacts against them at their start velocity)
+/// and with itself (pairs within its own step).
+struct BodyContactSet {
+  std::vector<PointContact> points;
+  std::vector<PairContact> pairs;
+};
+
 struct ContactShapes {
   const std::vector<Obstacle>* obstacles = nullptr;
   std::vector<Capsule> probes;
@@ -310,12 +317,11 @@ struct World::Impl {
                 std::vector<double>& stageMs);
   /// The contacts between bodies and of bodies with themselves, as point contacts of each
   /// body's next step (pairs the step's end finds pulling are left out and solved again).
-  std::vector<std::vector<PointContact>> findBodyContactsAll(std::vector<double>& stageMs,
-                                                             FrameReport& report);
+  std::vector<BodyContactSet> findBodyContactsAll(std::vector<double>& stageMs,
+                                                  FrameReport& report);
   /// A body's step with its contacts (the shapes', then `bodyContacts`), and its surface.
   void solvePhase(SimBody& body, const Motion& motion, ContactShapes& shapes,
-                  std::vector<PointContact> bodyContacts, std::vector<double>& stageMs,
-                  FrameReport& report);
+                  BodyContactSet bodyContacts, std::vector<double>& stageMs, FrameReport& report);
   std::vector<std::uint64_t> cutBody(SimBody& body, const Motion& motion, BladeEnds& ends,
                                      std::vector<double>& stageMs);
   [[nodiscard]] std::optional<std::vector<BladeSweep>> toolSweeps(SimBody& body, std::size_t tool,
@@ -966,9 +972,9 @@ void World::Impl::afterCut(SimBody& b, const std::vector<std::uint64_t>& cut, co
   ms[kSurfaceUpdate] += surfaceMs + timer.ms();
 }
 
-std::vector<std::vector<PointContact>> World::Impl::findBodyContactsAll(std::vector<double>& ms,
-                                                                        FrameReport& report) {
-  std::vector<std::vector<PointContact>> out(bodies.size());
+std::vector<BodyContactSet> World::Impl::findBodyContactsAll(std::vector<double>& ms,
+                                                             FrameReport& report) {
+  std::vector<BodyContactSet> out(bodies.size());
   if (bodies.size() < 2 && !settings.contact.selfCollision) return out;
   Timer timer;
   const double dt = settings.timeStep;
@@ -1019,15 +1025,35 @@ std::vector<std::vector<PointContact>> World::Impl::findBodyContactsAll(std::vec
         const double ia = inverseMass(a, c.element, c.weight);
         const double ib = inverseMass(b, c.other, c.otherWeight);
         if (!(ia + ib > 0.0)) continue;
-        const double sa = ia / (ia + ib), sb = ib / (ia + ib);
         const Vec3d va = pointVelocity(a, c.element, c.weight);
         const Vec3d vb = pointVelocity(b, c.other, c.otherWeight);
-        const double vpn = c.normal.dot(va);
-        const double vqn = c.normal.dot(vb);
         // Both bodies' vertices find the same interface (each inside the other), so each
         // contact closes half of its gap: together they close it once.
         const double gNow = -c.depth - dt * c.normal.dot(va - c.otherVelocity);
         const double g = (gNow < 0.0 ? 0.5 * kPairClosing : 0.5) * gNow;
+        report.maxPenetration = std::max(report.maxPenetration, c.currentDepth);
+        if (self) {
+          // Within one body the pair is one spring of the body's step (docs/algorithms.md,
+          // "Self contact in one solve"): equal and opposite forces.
+          PairContact pc;
+          pc.element = c.element;
+          pc.weight = c.weight;
+          pc.other = c.other;
+          pc.otherWeight = c.otherWeight;
+          pc.normal = c.normal;
+          pc.gap = g;
+          pc.stiffness = a.contactStiffness;
+          const double normalForce = pc.stiffness * std::max(0.0, -g);
+          const Vec3d rel = va - vb;
+          const double slip = (rel - c.normal.dot(rel) * c.normal).norm();
+          if (settings.contact.friction > 0.0 && normalForce > 0.0)
+            pc.friction = settings.contact.friction * normalForce / std::max(slip, kStickSpeed);
+          out[ia_].pairs.push_back(pc);
+          continue;
+        }
+        const double sa = ia / (ia + ib), sb = ib / (ia + ib);
+        const double vpn = c.normal.dot(va);
+        const double vqn = c.normal.dot(vb);
         const double plane = sb * vpn + sa * vqn;
         // Friction drags each side toward the pair's mass-weighted common velocity.
         const Vec3d common = sb * va + sa * vb;
@@ -1038,7 +1064,7 @@ std::vector<std::vector<PointContact>> World::Impl::findBodyContactsAll(std::vec
         pa.gap = sa * g - dt * plane;
         pa.stiffness = a.contactStiffness;
         setFriction(pa, settings.contact.friction, -sa * g, va, common);
-        out[ia_].push_back(pa);
+        out[ia_].points.push_back(pa);
         PointContact pb;
         pb.element = c.other;
         pb.weight = c.otherWeight;
@@ -1046,8 +1072,7 @@ std::vector<std::vector<PointContact>> World::Impl::findBodyContactsAll(std::vec
         pb.gap = sb * g + dt * plane;
         pb.stiffness = b.contactStiffness;
         setFriction(pb, settings.contact.friction, -sb * g, vb, common);
-        out[ib_].push_back(pb);
-        report.maxPenetration = std::max(report.maxPenetration, c.currentDepth);
+        out[ib_].points.push_back(pb);
       }
     }
   ms[kObjectCollision] += timer.ms();
@@ -1055,17 +1080,20 @@ std::vector<std::vector<PointContact>> World::Impl::findBodyContactsAll(std::vec
 }
 
 void World::Impl::solvePhase(SimBody& b, const Motion& motion, ContactShapes& shapes,
-                             std::vector<PointContact> bodyContacts, std::vector<double>& ms,
+                             BodyContactSet contactSet, std::vector<double>& ms,
                              FrameReport& report) {
   Timer timer;
   nearShapes(b, shapes);
   ActiveSetEdits edits;
   std::vector<PointContact> shapeContacts;
+  std::vector<PointContact>& bodyContacts = contactSet.points;
+  std::vector<PairContact>& pairs = contactSet.pairs;
   std::vector<ContactHit> hits = findContacts(b, shapes, edits, shapeContacts);
   auto setContacts = [&] {
     std::vector<PointContact> all = shapeContacts;
     all.insert(all.end(), bodyContacts.begin(), bodyContacts.end());
     b.solver.setContacts(std::move(all));
+    b.solver.setPairContacts(pairs);
   };
   setContacts();
   ms[kObjectCollision] += timer.ms();
@@ -1073,7 +1101,7 @@ void World::Impl::solvePhase(SimBody& b, const Motion& motion, ContactShapes& sh
   // The step, solved again (from the same start) while the contact set it ends with differs
   // from the one it was given, a few times at most.
   constexpr int kContactPasses = 3;
-  const bool contacts = shapes.size() > 0 || !bodyContacts.empty();
+  const bool contacts = shapes.size() > 0 || !bodyContacts.empty() || !pairs.empty();
   const std::vector<Vec3d> startPositions =
       contacts ? b.cut.deformation.positions() : std::vector<Vec3d>{};
   const std::vector<Vec3d> startVelocities =
@@ -1097,6 +1125,11 @@ void World::Impl::solvePhase(SimBody& b, const Motion& motion, ContactShapes& sh
       if (!(force[hits.size() + k] < 0.0)) pushing.push_back(bodyContacts[k]);
     changed = changed || pushing.size() != bodyContacts.size();
     bodyContacts = std::move(pushing);
+    std::vector<PairContact> pushingPairs;
+    for (std::size_t k = 0; k < pairs.size(); ++k)
+      if (!(b.solver.pairForces()[k] < 0.0)) pushingPairs.push_back(pairs[k]);
+    changed = changed || pushingPairs.size() != pairs.size();
+    pairs = std::move(pushingPairs);
     if (changed) {
       b.cut.deformation.positions() = startPositions;
       b.solver.setVelocities(startVelocities);
@@ -1125,7 +1158,7 @@ void World::Impl::solvePhase(SimBody& b, const Motion& motion, ContactShapes& sh
       report.toolReactions[ti].torque += (h.point - 0.5 * (p.a + p.b)).cross(f);
     }
   }
-  report.contacts += hits.size() + bodyContacts.size();
+  report.contacts += hits.size() + bodyContacts.size() + pairs.size();
 
   timer.restart();
   updateVertexPositions(b);
@@ -1878,8 +1911,7 @@ FrameReport World::step() {
       [&] {
         for (std::size_t i = 0; i < n; ++i)
           w.afterCut(w.bodies[i], cuts[i], ends[i], report.stageMs);
-        std::vector<std::vector<PointContact>> bodyContacts =
-            w.findBodyContactsAll(report.stageMs, report);
+        std::vector<BodyContactSet> bodyContacts = w.findBodyContactsAll(report.stageMs, report);
         for (std::size_t i = 0; i < n; ++i)
           w.solvePhase(w.bodies[i], motion, shapes, std::move(bodyContacts[i]), report.stageMs,
                        report);

@@ -97,45 +97,66 @@ std::array<double, 8> DeformationOctree::weights(std::size_t v) const {
 
 namespace {
 
-/// Trilinear map of element `nodes` at xi and its Jacobian.
-void elementMap(const std::vector<Vec3d>& positions, const std::array<std::uint32_t, 8>& nodes,
-                const Vec3d& xi, Vec3d& x, Eigen::Matrix3d& jacobian) {
-  x.setZero();
-  jacobian.setZero();
-  for (std::size_t c = 0; c < 8; ++c) {
-    double w[3], dw[3];
-    for (std::size_t i = 0; i < 3; ++i) {
-      const bool high = ((c >> i) & 1u) != 0;
-      w[i] = high ? xi[static_cast<Eigen::Index>(i)] : 1.0 - xi[static_cast<Eigen::Index>(i)];
-      dw[i] = high ? 1.0 : -1.0;
-    }
-    const Vec3d& p = positions[nodes[c]];
-    x += (w[0] * w[1] * w[2]) * p;
-    jacobian.col(0) += (dw[0] * w[1] * w[2]) * p;
-    jacobian.col(1) += (w[0] * dw[1] * w[2]) * p;
-    jacobian.col(2) += (w[0] * w[1] * dw[2]) * p;
+/// The trilinear map of an element in monomial form,
+///   x(u, v, w) = c0 + c1 u + c2 v + c3 w + c4 u v + c5 u w + c6 v w + c7 u v w,
+/// from its eight corners (corner bit i set: high along axis i). Its value and Jacobian then
+/// cost a few multiply-adds per Newton step instead of a pass over the corners.
+struct TrilinearMap {
+  std::array<Vec3d, 8> c;
+
+  TrilinearMap(const std::vector<Vec3d>& positions, const std::array<std::uint32_t, 8>& nodes) {
+    const Vec3d& p0 = positions[nodes[0]];
+    const Vec3d& p1 = positions[nodes[1]];
+    const Vec3d& p2 = positions[nodes[2]];
+    const Vec3d& p3 = positions[nodes[3]];
+    const Vec3d& p4 = positions[nodes[4]];
+    const Vec3d& p5 = positions[nodes[5]];
+    const Vec3d& p6 = positions[nodes[6]];
+    const Vec3d& p7 = positions[nodes[7]];
+    c[0] = p0;
+    c[1] = p1 - p0;
+    c[2] = p2 - p0;
+    c[3] = p4 - p0;
+    c[4] = p3 - p2 - p1 + p0;
+    c[5] = p5 - p4 - p1 + p0;
+    c[6] = p6 - p4 - p2 + p0;
+    c[7] = p7 - p6 - p5 - p3 + p4 + p2 + p1 - p0;
   }
-}
+
+  /// x at t and the Jacobian's columns d x / d t_i.
+  void evaluate(const Vec3d& t, Vec3d& x, Eigen::Matrix3d& jacobian) const {
+    const double u = t.x(), v = t.y(), w = t.z();
+    x = c[0] + u * c[1] + v * c[2] + w * c[3] + (u * v) * c[4] + (u * w) * c[5] + (v * w) * c[6] +
+        (u * v * w) * c[7];
+    jacobian.col(0) = c[1] + v * c[4] + w * c[5] + (v * w) * c[7];
+    jacobian.col(1) = c[2] + u * c[4] + w * c[6] + (u * w) * c[7];
+    jacobian.col(2) = c[3] + u * c[5] + v * c[6] + (u * v) * c[7];
+  }
+};
 
 }  // namespace
 
 bool DeformationOctree::trilinearCoordinates(std::uint32_t e, const Vec3d& p, Vec3d& t,
                                              const Vec3d& start) const {
-  const auto& nodes = elements_[e].nodes;
+  const TrilinearMap map(positions_, elements_[e].nodes);
   t = start;
   const double tol = 1e-12 * voxelSize_ * elements_[e].size();
   Vec3d x;
   Eigen::Matrix3d jacobian;
   for (int it = 0; it < 20; ++it) {
-    elementMap(positions_, nodes, t, x, jacobian);
+    map.evaluate(t, x, jacobian);
     const Vec3d r = x - p;
     if (r.norm() <= tol) break;
-    const double det = jacobian.determinant();
+    // J^-1 r by the adjugate (the rows of J^-1 are the cross products of J's columns over det).
+    const Vec3d a0 = jacobian.col(1).cross(jacobian.col(2));
+    const Vec3d a1 = jacobian.col(2).cross(jacobian.col(0));
+    const Vec3d a2 = jacobian.col(0).cross(jacobian.col(1));
+    const double det = jacobian.col(0).dot(a0);
     if (!(std::abs(det) > 0) || !std::isfinite(det)) return false;
-    t -= jacobian.inverse() * r;
+    t -= Vec3d(a0.dot(r), a1.dot(r), a2.dot(r)) / det;
     if (!t.allFinite() || t.cwiseAbs().maxCoeff() > 4.0) return false;
   }
-  elementMap(positions_, nodes, t, x, jacobian);
+  map.evaluate(t, x, jacobian);
   constexpr double kSlack = 1e-9;
   return (x - p).norm() <= 1e-6 * voxelSize_ && (t.array() >= -kSlack).all() &&
          (t.array() <= 1.0 + kSlack).all();
