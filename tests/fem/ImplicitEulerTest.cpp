@@ -588,6 +588,8 @@ TEST(ImplicitEulerDynamics, NonConvergenceIsAStatus) {
   Body b = smallBody(0.0, 0.0);
   perturb(b.octree, 5e-4);
   ImplicitEulerParams p;
+  // (Jacobi: nothing better to go on with; see the next test for Cholesky's second try)
+  p.preconditioner = PreconditionerKind::Jacobi;
   p.maxIterations = 1;
   p.tolerance = 1e-14;
   p.gravity = Vec3d(0, 0, -9.81);
@@ -604,6 +606,34 @@ TEST(ImplicitEulerDynamics, NonConvergenceIsAStatus) {
   st = solver.step(b.model, b.octree);
   EXPECT_FALSE(st.converged);
   EXPECT_EQ(st.iterations, 0);
+}
+
+// A solve that does not converge on a stand-in preconditioner (the first step of a sparsity
+// runs on the two-level V-cycle until its factor is due) goes on within the step with a factor
+// of this step's matrix, and says so; a solve on a fresh factor has nothing better to go on
+// with and reports its non-convergence.
+TEST(ImplicitEulerDynamics, AStandInThatDoesNotConvergeIsReplacedWithinTheStep) {
+  Body b = smallBody(0.0, 0.0);
+  perturb(b.octree, 5e-4);
+  ImplicitEulerParams p;
+  p.maxIterations = 2;
+  p.tolerance = 1e-8;
+  p.gravity = Vec3d(0, 0, -9.81);
+  ImplicitEuler solver(p);
+  const StepStatus first = solver.step(b.model, b.octree);
+  EXPECT_TRUE(first.retried);
+  EXPECT_TRUE(first.factorised);
+  EXPECT_TRUE(first.converged);
+  EXPECT_EQ(first.preconditioner, PreconditionerKind::Cholesky);
+  EXPECT_GT(first.iterations, 2);
+  // Much tighter than two iterations of the fresh factor can reach: no second try.
+  p.tolerance = 1e-300;
+  solver.setParams(p);
+  perturb(b.octree, 5e-4);
+  const StepStatus next = solver.step(b.model, b.octree);
+  EXPECT_FALSE(next.converged);
+  EXPECT_LE(next.iterations, 4);
+  EXPECT_TRUE(next.finite);
 }
 
 TEST(ImplicitEulerDynamics, NonFiniteInputIsReportedAndMovesNothing) {

@@ -354,8 +354,16 @@ void ImplicitEuler::assemble(const ElasticModel& model, const DeformationOctree&
 /// it. Jacobi and block Jacobi act row by row with the assembly's inverse diagonal blocks.
 class ImplicitEuler::StepPreconditioner final : public LinearPreconditioner {
  public:
-  StepPreconditioner(ImplicitEuler& solver, const ElasticModel& model, StepStatus& status)
-      : solver_(solver), model_(model), status_(status), kind_(solver.params_.preconditioner) {}
+  /// `refresh`: set up from this step's matrix whatever the last steps did (a new Cholesky
+  /// factor, analysed now for a new sparsity unless too costly; the multigrid's coarse levels
+  /// remade): the second try of a solve the first preconditioner did not bring to converge.
+  StepPreconditioner(ImplicitEuler& solver, const ElasticModel& model, StepStatus& status,
+                     bool refresh = false)
+      : solver_(solver),
+        model_(model),
+        status_(status),
+        kind_(solver.params_.preconditioner),
+        refresh_(refresh) {}
 
   [[nodiscard]] bool setOperator(const BlockMatrixView& a, bool threaded) override;
   void apply(const std::vector<Vec3d>& r, std::vector<Vec3d>& z) override;
@@ -372,6 +380,7 @@ class ImplicitEuler::StepPreconditioner final : public LinearPreconditioner {
   PreconditionerKind kind_;  ///< what apply runs (Cholesky may hand a step to TwoLevel)
   bool bridged_ = false;     ///< apply runs the earlier factor through the bridge
   bool threaded_ = true;
+  bool refresh_ = false;
 };
 
 bool ImplicitEuler::StepPreconditioner::setOperator(const BlockMatrixView& view, bool threaded) {
@@ -395,7 +404,7 @@ bool ImplicitEuler::StepPreconditioner::setOperator(const BlockMatrixView& view,
     // was too costly is not analysed again (the analysis alone takes tens of ms there).
     const std::uint64_t revision = model.sparsityRevision();
     if (s.choleskyRevision_ != revision && s.costlyRevision_ != revision &&
-        s.stepsOnStructure_ >= params.factorAfterSteps) {
+        (s.stepsOnStructure_ >= params.factorAfterSteps || refresh_)) {
       if (s.costlyRows_ != 0 && 10 * rows >= 9 * s.costlyRows_) {
         s.costlyRevision_ = revision;
       } else {
@@ -416,7 +425,8 @@ bool ImplicitEuler::StepPreconditioner::setOperator(const BlockMatrixView& view,
       // The earlier factor through the node map when step() could prepare it.
       bridged_ = s.bridgeRevision_ == revision && s.bridge_.valid() && s.cholesky_.factorised();
       if (!bridged_) kind_ = PreconditionerKind::TwoLevel;
-    } else if (!s.cholesky_.factorised() || s.lastIterations_ > params.refactorIterations) {
+    } else if (!s.cholesky_.factorised() || s.lastIterations_ > params.refactorIterations ||
+               refresh_) {
       status_.factorised = s.cholesky_.factorise(sp, s.blocks_, threaded);
       if (status_.factorised)
         s.bridge_.reset(model);
@@ -436,7 +446,7 @@ bool ImplicitEuler::StepPreconditioner::setOperator(const BlockMatrixView& view,
       s.multigrid_.build(view, s.freeCoords_, params.multigrid, threaded);
       s.multigridRevision_ = model.sparsityRevision();
       ok = s.multigridRefreshed_ = s.multigrid_.setOperator(view, threaded);
-    } else if (!s.multigrid_.valid() ||
+    } else if (!s.multigrid_.valid() || refresh_ ||
                s.lastIterations_ > s.multigridBaseIterations_ + params.multigridRefreshIterations) {
       ok = s.multigridRefreshed_ = s.multigrid_.setOperator(view, threaded);
     } else {
@@ -618,7 +628,26 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
   cg_.setCoupling(&coupling_);
   cg_.setPreconditioner(preconditioner);
   cg_.setParams({params_.tolerance, params_.maxIterations});
-  const ConjugateGradientStatus cg = cg_.iterate(bb, x_, r_);
+  ConjugateGradientStatus cg = cg_.iterate(bb, x_, r_);
+  // Not converged on a preconditioner made for earlier steps (the earlier factor through the
+  // bridge after a cut, a factor or coarse levels of a matrix the contacts have changed since):
+  // once more from where it stopped, on one made for this step's matrix.
+  const bool betterFactor = params_.preconditioner == PreconditionerKind::Cholesky &&
+                            !status.factorised && costlyRevision_ != model.sparsityRevision();
+  const bool betterLevels = params_.preconditioner == PreconditionerKind::Multigrid &&
+                            !multigridRefreshed_;
+  if (!cg.converged && cg.finite && cg.preconditioned && (betterFactor || betterLevels)) {
+    StepStatus again;
+    StepPreconditioner fresh(*this, model, again, true);
+    cg_.setPreconditioner(fresh);
+    const ConjugateGradientStatus more = cg_.iterate(bb, x_, r_);
+    status.factorised = status.factorised || again.factorised;
+    status.preconditioner = again.preconditioner;
+    status.bridged = again.bridged;
+    status.retried = true;
+    cg = ConjugateGradientStatus{cg.iterations + more.iterations, more.residual, more.converged,
+                                 more.finite, more.preconditioned};
+  }
   status.iterations = cg.iterations;
   status.residual = cg.residual;
   status.converged = cg.converged;

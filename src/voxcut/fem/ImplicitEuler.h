@@ -170,6 +170,9 @@ struct StepStatus {
   /// Cholesky: the sparsity had changed since the factor (a cut) and the step was
   /// preconditioned by the earlier factor through the node map (FactorBridge.h)
   bool bridged = false;
+  /// The solve did not converge on the first preconditioner and went on with one made for
+  /// this step's matrix (a new factor, new coarse levels).
+  bool retried = false;
   /// The preconditioner the solve used (Cholesky may hand a step to TwoLevel); the setting's
   /// own when the warm start already converged.
   PreconditionerKind preconditioner = PreconditionerKind::Cholesky;
