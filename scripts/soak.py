@@ -95,16 +95,17 @@ def read_csv(path):
 
 def print_table(rows):
     print("| model | level | seed | blades | frames | first ms | last ms | ratio | nodes start | "
-          "nodes end | ratio | unconverged | memory ratio | max penetration (voxels) | cut links | "
-          "pieces | most grown stage (ms) | bar |")
-    print("|" + "---|" * 18)
+          "nodes end | ratio | unconverged | memory ratio | max penetration (voxels) | "
+          "energy gain untouched (J; frames) | cut links | pieces | most grown stage (ms) | bar |")
+    print("|" + "---|" * 19)
     for r in rows:
         frames = r["frames"] + ("" if r["status"] == "complete" else f" ({r['status']})")
         bar = "met" if r["meets_bar"] == "1" else "missed: " + r["misses"]
         print(f"| {r['model']} | {r['element_level']} | {r['seed']} | {r['blades']} | {frames} | "
               f"{r['first_ms']} | {r['last_ms']} | {r['time_ratio']} | {r['nodes_start']} | "
               f"{r['nodes_end']} | {r['nodes_ratio']} | {r['unconverged_frames']} | "
-              f"{r['memory_ratio']} | {r['max_penetration_voxels']} | {r['cut_links']} | "
+              f"{r['memory_ratio']} | {r['max_penetration_voxels']} | "
+              f"{r['untouched_energy_gain_j']}; {r['untouched_gain_frames']} | {r['cut_links']} | "
               f"{r['pieces']} | {r['grown_stage']} {r['grown_stage_ms']} | {bar} |")
     met = sum(1 for r in rows if r["meets_bar"] == "1")
     print(f"\n{met} of {len(rows)} runs meet the bar (last 100 frames' mean <= 3x the first "

@@ -48,6 +48,11 @@ struct SoakRun {
   int unconverged = 0;
   double residentFirst = 0.0, peak = 0.0;  ///< MiB
   double maxPenetration = 0.0;             ///< m
+  /// The most the body's mechanical energy grew over a frame in which no tool touched it
+  /// (no link cut, no probe reaction), J; and in how many such frames it grew by more than
+  /// 1e-9 of itself.
+  double energyGain = 0.0;
+  int energyGainFrames = 0;
   double voxelSize = 0.0;
   std::size_t cutLinks = 0;
   int pieces = 0;
@@ -165,7 +170,8 @@ std::string csvHeader() {
   for (const std::string& s : frameStageNames()) h += "," + s + "_ms";
   return h +
          ",frame_ms,nodes,elements,pieces,contacts,solver_iterations,converged,cut_links,"
-         "cut_links_frame,max_penetration_m,rss_mib,peak_rss_mib,probe_force_N,episode";
+         "cut_links_frame,max_penetration_m,rss_mib,peak_rss_mib,probe_force_N,energy_J,touched,"
+         "episode";
 }
 
 std::string hex(std::uint64_t h) {
@@ -218,6 +224,7 @@ SoakRun runSeed(const SoakSetup& setup, std::uint64_t seed) {
 
   PendingFile csv((fs::path(opt.out) / (run.name + ".csv")).string(), "--out");
   csv.writeLine(csvHeader());
+  double energyBefore = world.energy(0).total();
   for (int f = 0; f < opt.frames; ++f) {
     if (interruptRequested()) {
       run.status = "interrupted";
@@ -238,6 +245,17 @@ SoakRun runSeed(const SoakSetup& setup, std::uint64_t seed) {
     double probeForce = 0.0;
     if (user.probe() < r.toolReactions.size())
       probeForce = r.toolReactions[user.probe()].force.norm();
+    // Touched: a link cut or a probe pressing in this frame (a blade moving in its own cut
+    // touches nothing).
+    bool touched = r.cutLinks > 0;
+    for (const ToolReaction& t : r.toolReactions) touched = touched || t.force.squaredNorm() > 0.0;
+    const double energy = world.energy(0).total();
+    if (!touched && f > 0) {
+      const double gain = energy - energyBefore;
+      run.energyGain = std::max(run.energyGain, gain);
+      if (gain > 1e-9 * std::abs(energyBefore)) ++run.energyGainFrames;
+    }
+    energyBefore = energy;
     const bool counted = f % kPiecesEvery == 0 || f + 1 == opt.frames;
     const int pieces = counted ? world.pieces(0) : 0;
 
@@ -261,8 +279,8 @@ SoakRun runSeed(const SoakSetup& setup, std::uint64_t seed) {
     if (counted) row << pieces;
     row << ',' << r.contacts << ',' << r.solverIterations << ',' << (r.converged ? 1 : 0) << ','
         << info.cutLinks << ',' << r.cutLinks << ',' << r.maxPenetration << ','
-        << memory.residentMiB << ',' << memory.peakMiB << ',' << probeForce << ','
-        << user.episode();
+        << memory.residentMiB << ',' << memory.peakMiB << ',' << probeForce << ',' << energy
+        << ',' << (touched ? 1 : 0) << ',' << user.episode();
     csv.writeLine(row.str());
     if (setup.terminal) {
       std::fprintf(stderr, "\r%s: frame %d/%d  %.1f ms  %zu links cut  %s\033[K", run.name.c_str(),
@@ -282,8 +300,8 @@ std::string summaryHeader() {
   return "run,model,resolution,element_level,finest_level,seed,blades,threads,octree,"
          "self_collision,frames,frames_asked,status,window,first_ms,last_ms,time_ratio,"
          "nodes_start,nodes_end,nodes_ratio,unconverged_frames,rss_first_mib,rss_peak_mib,"
-         "memory_ratio,max_penetration_voxels,cut_links,pieces,cut_set_hash,grown_stage,"
-         "grown_stage_ms,meets_bar,misses";
+         "memory_ratio,max_penetration_voxels,untouched_energy_gain_j,untouched_gain_frames,"
+         "cut_links,pieces,cut_set_hash,grown_stage,grown_stage_ms,meets_bar,misses";
 }
 
 std::string summaryRow(const SoakSetup& setup, const SoakRun& r) {
@@ -299,7 +317,7 @@ std::string summaryRow(const SoakSetup& setup, const SoakRun& r) {
       << r.nodesStart << ',' << r.nodesEnd << ',' << cell(r.nodesRatio(), "%.4f") << ','
       << r.unconverged << ',' << cell(r.residentFirst, "%.1f") << ',' << cell(r.peak, "%.1f") << ','
       << cell(r.memoryRatio(), "%.4f") << ',' << cell(r.penetrationVoxels(), "%.4f") << ','
-      << r.cutLinks << ',' << r.pieces << ',' << hex(r.hash) << ',' << stage << ','
+      << cell(r.energyGain, "%.3g") << ',' << r.energyGainFrames << ',' << r.cutLinks << ',' << r.pieces << ',' << hex(r.hash) << ',' << stage << ','
       << cell(grown, "%.4f") << ',' << (misses.empty() ? 1 : 0) << ','
       << (misses.empty() ? "-" : misses);
   return row.str();
@@ -315,8 +333,8 @@ void printTableHeader(const SoakSetup& setup) {
   std::printf(
       "| run | frames | first ms | last ms | ratio | nodes start | nodes end | ratio | "
       "unconverged | memory first MiB | peak MiB | ratio | max penetration (voxels) | "
-      "cut links | pieces | most grown stage (ms) | bar |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+      "energy gain untouched (J; frames) | cut links | pieces | most grown stage (ms) | bar |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   std::fflush(stdout);
 }
 
@@ -324,13 +342,14 @@ void printTableRow(const SoakRun& r) {
   const auto [stage, grown] = r.grownStage();
   const std::string misses = r.misses();
   std::printf(
-      "| %s | %d%s | %s | %s | %s | %zu | %zu | %s | %d | %s | %s | %s | %s | %zu | %d | "
-      "%s %s | %s |\n",
+      "| %s | %d%s | %s | %s | %s | %zu | %zu | %s | %d | %s | %s | %s | %s | %s; %d | %zu | "
+      "%d | %s %s | %s |\n",
       r.name.c_str(), r.frames(), r.status == "complete" ? "" : (" (" + r.status + ")").c_str(),
       cell(r.firstMs()).c_str(), cell(r.lastMs()).c_str(), cell(r.timeRatio()).c_str(),
       r.nodesStart, r.nodesEnd, cell(r.nodesRatio()).c_str(), r.unconverged,
       cell(r.residentFirst, "%.0f").c_str(), cell(r.peak, "%.0f").c_str(),
-      cell(r.memoryRatio()).c_str(), cell(r.penetrationVoxels(), "%.3f").c_str(), r.cutLinks,
+      cell(r.memoryRatio()).c_str(), cell(r.penetrationVoxels(), "%.3f").c_str(),
+      cell(r.energyGain, "%.2g").c_str(), r.energyGainFrames, r.cutLinks,
       r.pieces, stage.c_str(), cell(grown, "%+.2f").c_str(),
       misses.empty() ? "met" : ("missed: " + misses).c_str());
   std::fflush(stdout);

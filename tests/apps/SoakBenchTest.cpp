@@ -106,7 +106,7 @@ TEST(SoakBench, WritesEveryColumnPerFrameAndASummary) {
   for (const std::string& s : frameStageNames()) expected.push_back(s + "_ms");
   for (const char* c : {"frame_ms", "nodes", "elements", "pieces", "contacts", "solver_iterations",
                         "converged", "cut_links", "cut_links_frame", "max_penetration_m", "rss_mib",
-                        "peak_rss_mib", "probe_force_N", "episode"})
+                        "peak_rss_mib", "probe_force_N", "energy_J", "touched", "episode"})
     expected.emplace_back(c);
   const Table t = readCsv(out + "/bunny-r24-l2-s1.csv");
   EXPECT_EQ(t.columns, expected);
@@ -121,6 +121,9 @@ TEST(SoakBench, WritesEveryColumnPerFrameAndASummary) {
     // Pieces are counted every 10th frame and at the last.
     EXPECT_EQ(row.at("pieces").empty(), f % 10 != 0 && f + 1 != frames) << "frame " << f;
     EXPECT_FALSE(row.at("episode").empty());
+    EXPECT_GT(std::stod(row.at("energy_J")), 0.0);  // gravitational, above the floor's origin
+    EXPECT_TRUE(row.at("touched") == "0" || row.at("touched") == "1");
+    if (std::stol(row.at("cut_links_frame")) > 0) EXPECT_EQ(row.at("touched"), "1");
   }
   EXPECT_EQ(t.rows.front().at("episode"), "idle") << "the body settles first";
 
@@ -138,6 +141,13 @@ TEST(SoakBench, WritesEveryColumnPerFrameAndASummary) {
   EXPECT_GE(std::stod(run.at("memory_ratio")), 0.9);
   EXPECT_TRUE(run.at("meets_bar") == "1" || run.at("meets_bar") == "0");
   EXPECT_EQ(run.at("meets_bar") == "1", run.at("misses") == "-");
+  // The largest growth of the energy over an untouched frame, from the frames' own columns.
+  double gain = 0.0;
+  for (std::size_t f = 1; f < t.rows.size(); ++f)
+    if (t.rows[f].at("touched") == "0")
+      gain = std::max(gain, std::stod(t.rows[f].at("energy_J")) -
+                                std::stod(t.rows[f - 1].at("energy_J")));
+  EXPECT_NEAR(std::stod(run.at("untouched_energy_gain_j")), gain, 1e-3 * gain + 1e-12);
 
   EXPECT_NE(stdoutText.find("| bunny-r24-l2-s1 | 40 |"), std::string::npos) << stdoutText;
   EXPECT_NE(stdoutText.find("\nbar ("), std::string::npos) << stdoutText;
