@@ -225,8 +225,6 @@ struct ContactHit {
   Vec3d point = Vec3d::Zero();  ///< on the obstacle's or probe's surface (m)
 };
 
-/// What the bodies are pressed against in a frame: the obstacles, then the probes at their
-/// pose at the frame's end.
 /// A body's contacts with other bodies (point contacts against them at their start velocity)
 /// and with itself (pairs within its own step).
 struct BodyContactSet {
@@ -234,6 +232,8 @@ struct BodyContactSet {
   std::vector<PairContact> pairs;
 };
 
+/// What the bodies are pressed against in a frame: the obstacles, then the probes at their
+/// pose at the frame's end.
 struct ContactShapes {
   const std::vector<Obstacle>* obstacles = nullptr;
   std::vector<Capsule> probes;
@@ -315,8 +315,9 @@ struct World::Impl {
   /// After a body's cuts: cut topology, surface, distance field.
   void afterCut(SimBody& body, const std::vector<std::uint64_t>& cut, const BladeEnds& ends,
                 std::vector<double>& stageMs);
-  /// The contacts between bodies and of bodies with themselves, as point contacts of each
-  /// body's next step (pairs the step's end finds pulling are left out and solved again).
+  /// The contacts between bodies (point contacts of each body's next step) and of bodies with
+  /// themselves (pairs within the body's step); those the step's end finds pulling are left
+  /// out and the step solved again.
   std::vector<BodyContactSet> findBodyContactsAll(std::vector<double>& stageMs,
                                                   FrameReport& report);
   /// A body's step with its contacts (the shapes', then `bodyContacts`), and its surface.
