@@ -123,7 +123,9 @@ TEST(SoakBench, WritesEveryColumnPerFrameAndASummary) {
     EXPECT_FALSE(row.at("episode").empty());
     EXPECT_GT(std::stod(row.at("energy_J")), 0.0);  // gravitational, above the floor's origin
     EXPECT_TRUE(row.at("touched") == "0" || row.at("touched") == "1");
-    if (std::stol(row.at("cut_links_frame")) > 0) EXPECT_EQ(row.at("touched"), "1");
+    if (std::stol(row.at("cut_links_frame")) > 0) {
+      EXPECT_EQ(row.at("touched"), "1");
+    }
   }
   EXPECT_EQ(t.rows.front().at("episode"), "idle") << "the body settles first";
 

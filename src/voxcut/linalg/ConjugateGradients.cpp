@@ -46,7 +46,7 @@ ConjugateGradientStatus ConjugateGradients::mult(const std::vector<Vec3d>& b,
       threaded_);
   if (coupling_ != nullptr && !coupling_->empty()) {
     std::vector<Vec3d> xx(rows, Vec3d::Zero());
-    coupling_->multiplyAdd(x, xx);
+    coupling_->multiplyAdd(x, xx, threaded_);
     for (std::size_t i = 0; i < rows; ++i) r_[i] -= xx[i];
   }
   return iterate(bb, x, r_);
@@ -101,7 +101,7 @@ ConjugateGradientStatus ConjugateGradients::iterate(double bb, std::vector<Vec3d
             for (std::size_t i = b; i < e; ++i) q_[i] = multiply(p_, i);
           },
           threaded);
-      coupling_->multiplyAdd(p_, q_);
+      coupling_->multiplyAdd(p_, q_, threaded);
       pq = chunkedSum(rows, partial_, threaded, [&](std::size_t i) { return p_[i].dot(q_[i]); });
     } else {
       pq = chunkedSum(rows, partial_, threaded, [&](std::size_t i) {

@@ -11,14 +11,20 @@
 /// sparsity: a contact that couples two distant elements changes no pattern, factor or
 /// hierarchy.
 ///
-/// The product runs over the terms in order, on one thread: the result does not depend on the
-/// thread count. It costs a few operations per weight of each term.
+/// The product runs in two passes, each in parallel when asked: every term's C_p s_b^T x and
+/// C_p s_a^T x, then every row's sum of what its entries receive, in the terms' order. So the
+/// result does not depend on the thread count. It costs a few operations per weight of each
+/// term; the rows' lists (the entries transposed) are made once after the terms change.
+///
+/// Thread-safety: one product at a time per object (it keeps its scratch).
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cstdint>
 #include <utility>
 #include <vector>
 
+#include "voxcut/core/Parallel.h"
 #include "voxcut/core/Types.h"
 
 namespace voxcut {
@@ -33,6 +39,7 @@ class RowCoupling {
     split_.clear();
     entries_.clear();
     matrices_.clear();
+    prepared_ = false;
   }
   [[nodiscard]] bool empty() const { return matrices_.empty(); }
   [[nodiscard]] std::size_t size() const { return matrices_.size(); }
@@ -45,6 +52,7 @@ class RowCoupling {
     entries_.insert(entries_.end(), b.begin(), b.end());
     start_.push_back(static_cast<std::uint32_t>(entries_.size()));
     matrices_.push_back(c);
+    prepared_ = false;
   }
 
   /// Calls f(aBegin, aEnd, bBegin, bEnd, c) for every term in order, the ranges over its
@@ -57,19 +65,37 @@ class RowCoupling {
   }
 
   /// y += X x (x and y one 3-vector per block row; every row named by a term is < x.size()).
-  void multiplyAdd(const std::vector<Vec3d>& x, std::vector<Vec3d>& y) const {
-    for (std::size_t p = 0; p < matrices_.size(); ++p) {
-      Vec3d ua = Vec3d::Zero(), ub = Vec3d::Zero();
-      for (std::uint32_t k = start_[p]; k < split_[p]; ++k)
-        ua += entries_[k].second * x[entries_[k].first];
-      for (std::uint32_t k = split_[p]; k < start_[p + 1]; ++k)
-        ub += entries_[k].second * x[entries_[k].first];
-      const Vec3d ca = matrices_[p] * ua, cb = matrices_[p] * ub;
-      for (std::uint32_t k = start_[p]; k < split_[p]; ++k)
-        y[entries_[k].first] -= entries_[k].second * cb;
-      for (std::uint32_t k = split_[p]; k < start_[p + 1]; ++k)
-        y[entries_[k].first] -= entries_[k].second * ca;
-    }
+  /// `threaded`: both passes in parallel; the result is the same.
+  void multiplyAdd(const std::vector<Vec3d>& x, std::vector<Vec3d>& y,
+                   bool threaded = false) const {
+    if (matrices_.empty()) return;
+    prepare();
+    received_.resize(2 * matrices_.size());
+    parallelFor(
+        0, matrices_.size(), 64,
+        [&](std::size_t b, std::size_t e) {
+          for (std::size_t p = b; p < e; ++p) {
+            Vec3d ua = Vec3d::Zero(), ub = Vec3d::Zero();
+            for (std::uint32_t k = start_[p]; k < split_[p]; ++k)
+              ua += entries_[k].second * x[entries_[k].first];
+            for (std::uint32_t k = split_[p]; k < start_[p + 1]; ++k)
+              ub += entries_[k].second * x[entries_[k].first];
+            received_[2 * p] = matrices_[p] * ub;  // by s_a's rows
+            received_[2 * p + 1] = matrices_[p] * ua;  // by s_b's rows
+          }
+        },
+        threaded);
+    parallelFor(
+        0, rows_.size(), 256,
+        [&](std::size_t b, std::size_t e) {
+          for (std::size_t r = b; r < e; ++r) {
+            Vec3d sum = Vec3d::Zero();
+            for (std::uint32_t k = rowStart_[r]; k < rowStart_[r + 1]; ++k)
+              sum += byRow_[k].second * received_[byRow_[k].first];
+            y[rows_[r]] -= sum;
+          }
+        },
+        threaded);
   }
 
  private:
@@ -77,6 +103,39 @@ class RowCoupling {
   std::vector<std::uint32_t> split_;     ///< per term: where s_b's entries begin
   RowWeights entries_;
   std::vector<Eigen::Matrix3d> matrices_;
+
+  /// The entries by row (a counting sort, so each row's in the terms' order): rows_ the rows
+  /// named, ascending; row r's entries in byRow_[rowStart_[r], rowStart_[r + 1]), each the slot
+  /// of received_ it takes (2p: s_a of term p, 2p + 1: s_b) and its weight.
+  void prepare() const {
+    if (prepared_) return;
+    std::uint32_t rows = 0;
+    for (const auto& e : entries_) rows = std::max(rows, e.first + 1);
+    std::vector<std::uint32_t> count(rows + 1, 0);
+    for (const auto& e : entries_) ++count[e.first + 1];
+    rows_.clear();
+    rowStart_.assign(1, 0);
+    std::vector<std::uint32_t> compact(rows, 0);
+    for (std::uint32_t r = 0; r < rows; ++r)
+      if (count[r + 1] > 0) {
+        compact[r] = static_cast<std::uint32_t>(rows_.size());
+        rows_.push_back(r);
+        rowStart_.push_back(rowStart_.back() + count[r + 1]);
+      }
+    std::vector<std::uint32_t> next(rowStart_.begin(), rowStart_.end() - 1);
+    byRow_.resize(entries_.size());
+    for (std::size_t p = 0; p < matrices_.size(); ++p)
+      for (std::uint32_t k = start_[p]; k < start_[p + 1]; ++k) {
+        const auto slot = static_cast<std::uint32_t>(2 * p + (k < split_[p] ? 0 : 1));
+        byRow_[next[compact[entries_[k].first]]++] = {slot, entries_[k].second};
+      }
+    prepared_ = true;
+  }
+
+  mutable bool prepared_ = false;
+  mutable std::vector<std::uint32_t> rows_, rowStart_;
+  mutable RowWeights byRow_;
+  mutable std::vector<Vec3d> received_;
 };
 
 }  // namespace voxcut

@@ -55,7 +55,7 @@ bool SolutionProjection::project(const BlockMatrixView& a, const std::vector<Vec
     std::vector<Vec3d> column(rows);
     for (std::size_t j = 0; j < k; ++j) {
       std::copy(w[j], w[j] + rows, column.begin());
-      coupling->multiplyAdd(column, product_[j]);
+      coupling->multiplyAdd(column, product_[j], threaded);
     }
   }
   // W^T A W (upper triangle) and W^T b, each summed in fixed chunks.
