@@ -617,9 +617,7 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
       threaded);
   if (!coupling_.empty()) {  // r -= X q (the shift is a translation of free pieces, which
                              // hold no pair: X shift = 0)
-    std::vector<Vec3d> xq(rows, Vec3d::Zero());
-    coupling_.multiplyAdd(q_, xq, threaded);
-    for (std::size_t i = 0; i < rows; ++i) r_[i] -= xq[i];
+    coupling_.multiplySubtract(q_, r_, threaded);
   }
   if (correctRigid) rigid_.correct(x_, r_);
   // The conjugate gradients (linalg/ConjugateGradients.h) from this start and its residual.

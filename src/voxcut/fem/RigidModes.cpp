@@ -234,11 +234,7 @@ void RigidModes::correct(std::vector<Vec3d>& x, std::vector<Vec3d>& r) const {
       if (coupling_ != nullptr) zc[i] += c[static_cast<Eigen::Index>(k)] * modes_[k][i];
     }
   }
-  if (coupling_ != nullptr) {  // r -= X Z c
-    std::vector<Vec3d> xz(rows, Vec3d::Zero());
-    coupling_->multiplyAdd(zc, xz);
-    for (std::size_t i = 0; i < rows; ++i) r[i] -= xz[i];
-  }
+  if (coupling_ != nullptr) coupling_->multiplySubtract(zc, r);  // r -= X Z c
 }
 
 }  // namespace voxcut

@@ -44,11 +44,7 @@ ConjugateGradientStatus ConjugateGradients::mult(const std::vector<Vec3d>& b,
         for (std::size_t i = begin; i < end; ++i) r_[i] = b[i] - blockRowProduct(a_, x.data(), i);
       },
       threaded_);
-  if (coupling_ != nullptr && !coupling_->empty()) {
-    std::vector<Vec3d> xx(rows, Vec3d::Zero());
-    coupling_->multiplyAdd(x, xx, threaded_);
-    for (std::size_t i = 0; i < rows; ++i) r_[i] -= xx[i];
-  }
+  if (coupling_ != nullptr) coupling_->multiplySubtract(x, r_, threaded_);
   return iterate(bb, x, r_);
 }
 
@@ -94,7 +90,7 @@ ConjugateGradientStatus ConjugateGradients::iterate(double bb, std::vector<Vec3d
   const bool coupled = coupling_ != nullptr && !coupling_->empty();
   while (finite && rr > stop && status.iterations < params_.maxIterations) {
     double pq = 0.0;
-    if (coupled) {  // the block product, the couplings (one thread, in order), then (p, q)
+    if (coupled) {  // the block product, then the couplings', then (p, q)
       parallelFor(
           0, rows, 256,
           [&](std::size_t b, std::size_t e) {

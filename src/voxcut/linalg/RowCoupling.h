@@ -68,6 +68,18 @@ class RowCoupling {
   /// `threaded`: both passes in parallel; the result is the same.
   void multiplyAdd(const std::vector<Vec3d>& x, std::vector<Vec3d>& y,
                    bool threaded = false) const {
+    accumulate(x, y, -1.0, threaded);
+  }
+  /// r -= X x (a residual brought up to date), as multiplyAdd with the opposite sign.
+  void multiplySubtract(const std::vector<Vec3d>& x, std::vector<Vec3d>& r,
+                        bool threaded = false) const {
+    accumulate(x, r, 1.0, threaded);
+  }
+
+ private:
+  /// y += sign sum_p (s_a C_p s_b^T + s_b C_p s_a^T) x: the two passes.
+  void accumulate(const std::vector<Vec3d>& x, std::vector<Vec3d>& y, double sign,
+                  bool threaded) const {
     if (matrices_.empty()) return;
     prepare();
     received_.resize(2 * matrices_.size());
@@ -92,13 +104,12 @@ class RowCoupling {
             Vec3d sum = Vec3d::Zero();
             for (std::uint32_t k = rowStart_[r]; k < rowStart_[r + 1]; ++k)
               sum += byRow_[k].second * received_[byRow_[k].first];
-            y[rows_[r]] -= sum;
+            y[rows_[r]] += sign * sum;
           }
         },
         threaded);
   }
 
- private:
   std::vector<std::uint32_t> start_{0};  ///< per term + 1: its entries' range
   std::vector<std::uint32_t> split_;     ///< per term: where s_b's entries begin
   RowWeights entries_;
