@@ -105,7 +105,9 @@ struct SceneTool {
 struct ContactSettings {
   /// Penalty stiffness per surface vertex (N/m), >= 0; 0: 10 times each body's largest
   /// Young's modulus times its voxel size (ten times the stiffness of one voxel of it;
-  /// docs/algorithms.md, "Contact", says why not more).
+  /// docs/algorithms.md, "Contact", says why not more). A self contact pair gets it divided
+  /// by the edge, in voxels, of the coarser of its two elements (docs/algorithms.md, "Self
+  /// contact in one solve").
   double stiffness = 0.0;
   /// Whether a body's surface vertices are kept out of its own material away from their
   /// neighbourhood (folds, the two sides of a cut); bodies never pass through each other.

@@ -1043,7 +1043,14 @@ std::vector<BodyContactSet> World::Impl::findBodyContactsAll(std::vector<double>
           pc.otherWeight = c.otherWeight;
           pc.normal = c.normal;
           pc.gap = g;
-          pc.stiffness = a.contactStiffness;
+          // Per vertex, the stiffness of a voxel's area against the coarser element's edge
+          // rather than against a voxel: stiffer than its elements, a pair's cross terms
+          // (which the preconditioner does not see) cost iterations in proportion and stop
+          // no more penetration than the elements can resolve (docs/algorithms.md, "Self
+          // contact in one solve").
+          const int coarser = std::max(a.cut.deformation.element(c.element).size(),
+                                       a.cut.deformation.element(c.other).size());
+          pc.stiffness = a.contactStiffness / coarser;
           const double normalForce = pc.stiffness * std::max(0.0, -g);
           const Vec3d rel = va - vb;
           const double slip = (rel - c.normal.dot(rel) * c.normal).norm();
