@@ -87,6 +87,7 @@ int run(const std::string& scenePath, double seconds, const std::string& dump) {
   const double period = path.back().t + 0.2;  // a pause after each stroke
   auto device = [&](double t) { return bladePoseAt(path, std::fmod(t, period)); };
   World world = World::fromScene(scene, voxelizeSceneBodies(scene));
+  const ToolId probeId = world.tools()[probe];  // the world's tools are the scene's, in order
   const double dt = scene.timeStep;
 
   std::atomic<bool> done{false};
@@ -100,7 +101,7 @@ int run(const std::string& scenePath, double seconds, const std::string& dump) {
       std::this_thread::sleep_until(start + std::chrono::microseconds(1000 * k));
       const BladePose pose = device(wall());
       const Clock::time_point t0 = Clock::now();
-      const ToolReaction r = world.hapticForce(probe, pose);
+      const ToolReaction r = world.hapticForce(probeId, pose).reaction;
       callMs.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
       hapticForces.push_back(r.force);
       callTimes.push_back(wall());
@@ -115,10 +116,10 @@ int run(const std::string& scenePath, double seconds, const std::string& dump) {
         start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(f * dt));
     if (Clock::now() > due + std::chrono::duration<double>(dt)) ++late;
     std::this_thread::sleep_until(due);
-    world.setToolPose(probe, device((f + 1) * dt));
+    world.setToolPose(probeId, device((f + 1) * dt));
     const FrameReport r = world.step();
     frameMs.push_back(r.totalMs);
-    frameForces.push_back(world.toolReaction(probe).force);
+    frameForces.push_back(world.toolReaction(probeId).force);
     frameTimes.push_back(wall());
   }
   done = true;

@@ -8,8 +8,23 @@
 
 namespace voxcut::view {
 
+namespace {
+
+/// Two unit vectors square to `up` and to each other, (e1, e2, up) right-handed: +x and +z for
+/// up = +y, so that the angles mean what they always did there.
+void horizontalBasis(const Vec3d& up, Vec3d& e1, Vec3d& e2) {
+  const Vec3d a = std::abs(up.z()) < 0.9 ? Vec3d::UnitZ() : Vec3d(-Vec3d::UnitY());
+  e2 = (a - a.dot(up) * up).normalized();
+  e1 = up.cross(e2);
+}
+
+}  // namespace
+
 Vec3d Camera::forward() const {
-  return -Vec3d(std::cos(pitch) * std::sin(yaw), std::sin(pitch), std::cos(pitch) * std::cos(yaw));
+  Vec3d e1, e2;
+  horizontalBasis(worldUp, e1, e2);
+  return -(std::cos(pitch) * std::sin(yaw) * e1 + std::sin(pitch) * worldUp +
+           std::cos(pitch) * std::cos(yaw) * e2);
 }
 
 Vec3d Camera::eye() const {
@@ -17,7 +32,7 @@ Vec3d Camera::eye() const {
 }
 
 Vec3d Camera::right() const {
-  return forward().cross(Vec3d::UnitY()).normalized();
+  return forward().cross(worldUp).normalized();
 }
 
 Vec3d Camera::up() const {
@@ -87,6 +102,10 @@ void Camera::fit(const Eigen::AlignedBox3d& box) {
   const double aspect = static_cast<double>(std::max(width, 1)) / std::max(height, 1);
   const double half = 0.5 * fovY * std::min(1.0, aspect);
   distance = 1.1 * radius / std::sin(half);
+}
+
+void Camera::upAgainst(const Vec3d& gravity) {
+  if (gravity.norm() > 0.0) worldUp = -gravity.normalized();
 }
 
 void parseViewSize(const std::string& text, const std::string& option, int& width, int& height) {

@@ -17,10 +17,12 @@ struct Ray {
   Vec3d direction = -Vec3d::UnitZ();
 };
 
-/// Looks at `target` from `distance` away, from the direction given by `yaw` (about +y) and
-/// `pitch` (above the horizontal plane); +y is up on screen. Pixels count from the top left.
+/// Looks at `target` from `distance` away, from the direction given by `yaw` (about `worldUp`)
+/// and `pitch` (above the plane square to it); `worldUp` is up on screen (the scene's, opposite
+/// its gravity: +y by default, +z for a z-up scene). Pixels count from the top left.
 struct Camera {
   Vec3d target = Vec3d::Zero();
+  Vec3d worldUp = Vec3d::UnitY();  ///< unit
   double distance = 1.0;  ///< m, > 0
   double yaw = 0.6;       ///< rad
   double pitch = 0.35;    ///< rad, within (-pi/2, pi/2)
@@ -51,6 +53,8 @@ struct Camera {
   void zoom(double steps);
   /// Looks at the middle of `box` from far enough to see all of it; keeps the angles.
   void fit(const Eigen::AlignedBox3d& box);
+  /// Sets `worldUp` opposite `gravity` (unchanged for a zero gravity).
+  void upAgainst(const Vec3d& gravity);
 };
 
 /// Parses a view's size "WxH" (16 <= W, H <= 8192) into width and height. Throws InputError

@@ -127,7 +127,7 @@ DrawData buildDrawData(World& world, const std::vector<Obstacle>& obstacles,
   // The bodies' surfaces, indexed (a renderer then shades each vertex once): smooth normals;
   // each vertex slot twice, in its material's colour and its cut colour, so that a cut's
   // triangles keep their colour up to their edges.
-  for (std::size_t b = 0; b < world.bodyCount(); ++b) {
+  for (const BodyId b : world.bodies()) {
     const SurfaceView s = world.surface(b);
     const auto base = static_cast<std::uint32_t>(d.bodyVertices.size() / kTriangleStride);
     std::vector<std::uint8_t> material(s.positions.size(), 0);
@@ -151,7 +151,7 @@ DrawData buildDrawData(World& world, const std::vector<Obstacle>& obstacles,
       d.bodyBounds.isEmpty() ? Eigen::AlignedBox3d(Vec3d::Zero(), Vec3d::Zero()) : d.bodyBounds;
   const double size = std::max(bounds.diagonal().norm(), 1e-3);
   // Tools: a blade as a thin rod along its edge, a probe as its sphere or capsule.
-  for (std::size_t t = 0; t < world.toolCount(); ++t) {
+  for (const ToolId t : world.tools()) {
     const BladePose p = world.toolPose(t);
     if (world.toolKind(t) == ToolKind::Blade) {
       pushCylinder(d.triangles, p.a, p.b, 0.004 * size, kBlade);
@@ -191,7 +191,7 @@ DrawData buildDrawData(World& world, const std::vector<Obstacle>& obstacles,
   }
   // The pseudo voxel octree made visible.
   if (options.activeLinks || options.octreeCubes) {
-    for (std::size_t b = 0; b < world.bodyCount(); ++b) {
+    for (const BodyId b : world.bodies()) {
       // The section's layer: within half a voxel of the plane across z through the middle.
       const double half = 0.5 * world.bodyInfo(b).voxelSize, mid = bounds.center().z();
       const double far = 1e6;  // the coordinate range (core/CoordinateRange.h)

@@ -15,7 +15,7 @@ DrivenTools drivenTools(const Session& session) {
   return t;
 }
 
-std::size_t InputController::draggedTool() const {
+ToolId InputController::draggedTool() const {
   return dragMode_ == ToolMode::Blade ? tools_.blade : tools_.probe;
 }
 

@@ -26,7 +26,7 @@ enum class MouseButton { Left, Right, Middle };
 
 /// What the input layer needs to know of the session: the tools it drives and where they wait.
 struct DrivenTools {
-  std::size_t blade = 0, probe = 0;
+  ToolId blade, probe;
   BladePose bladePark, probePark;
   double bladeLength = 0.1;   ///< m
   double probeRadius = 0.01;  ///< m
@@ -56,7 +56,7 @@ class InputController {
   /// Whether a tool follows the cursor now.
   [[nodiscard]] bool dragging() const { return dragging_; }
   /// The tool the drag drives.
-  [[nodiscard]] std::size_t draggedTool() const;
+  [[nodiscard]] ToolId draggedTool() const;
 
  private:
   /// The driven tool's pose for the cursor at (px, py).

@@ -118,10 +118,10 @@ void Session::build() {
   WorldSettings base;
   base.useOctree = useOctree_;
   world_ = World::fromScene(scene_, grids_, base);
-  blade_ = probe_ = world_.toolCount();
-  for (std::size_t t = 0; t < world_.toolCount(); ++t) {
-    if (world_.toolKind(t) == ToolKind::Blade && blade_ == world_.toolCount()) blade_ = t;
-    if (world_.toolKind(t) == ToolKind::Probe && probe_ == world_.toolCount()) probe_ = t;
+  blade_ = probe_ = ToolId{};
+  for (const ToolId t : world_.tools()) {
+    if (world_.toolKind(t) == ToolKind::Blade && !blade_.valid()) blade_ = t;
+    if (world_.toolKind(t) == ToolKind::Probe && !probe_.valid()) probe_ = t;
   }
   if (addBlade_) blade_ = world_.addBlade(bladePark_);
   if (addProbe_) probe_ = world_.addProbe(probeRadius_, probePark_);
@@ -130,7 +130,7 @@ void Session::build() {
 
 void Session::apply(const std::vector<ToolCommand>& commands) {
   for (const ToolCommand& c : commands) {
-    if (c.tool >= world_.toolCount()) continue;
+    if (!world_.contains(c.tool)) continue;
     if (c.place)
       world_.placeTool(c.tool, c.pose);
     else

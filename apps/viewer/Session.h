@@ -29,7 +29,7 @@ struct OpenOptions {
 /// A tool command from the input layer: move the tool to `pose` by the end of the next
 /// frame (it sweeps and pushes on the way), or put it there now without moving (place).
 struct ToolCommand {
-  std::size_t tool = 0;
+  ToolId tool;
   BladePose pose;
   bool place = false;
 };
@@ -46,8 +46,8 @@ class Session {
   [[nodiscard]] const Scene& scene() const { return scene_; }
   [[nodiscard]] const std::string& source() const { return source_; }
   /// The tools the mouse drives.
-  [[nodiscard]] std::size_t blade() const { return blade_; }
-  [[nodiscard]] std::size_t probe() const { return probe_; }
+  [[nodiscard]] ToolId blade() const { return blade_; }
+  [[nodiscard]] ToolId probe() const { return probe_; }
   /// Where the driven tools wait, out of everything's way.
   [[nodiscard]] BladePose bladePark() const { return bladePark_; }
   [[nodiscard]] BladePose probePark() const { return probePark_; }
@@ -83,7 +83,7 @@ class Session {
   std::vector<VoxelGrid> grids_;
   World world_;
   std::size_t sceneTools_ = 0;
-  std::size_t blade_ = 0, probe_ = 0;
+  ToolId blade_, probe_;
   bool addBlade_ = false, addProbe_ = false;
   double probeRadius_ = 0.0, bladeLength_ = 0.0;
   BladePose bladePark_, probePark_;

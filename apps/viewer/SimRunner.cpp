@@ -137,20 +137,19 @@ void SimRunner::publish(const FrameReport* report) {
   f.time = world.time();
   f.octree = session_.useOctree();
   std::size_t cut = 0;
-  for (std::size_t b = 0; b < world.bodyCount(); ++b) {
+  for (const BodyId b : world.bodies()) {
     cut += world.bodyInfo(b).cutLinks;
     f.activeLinks += world.activity(b, 0).activeLinks;
   }
   // Pieces are recounted only when links were cut (a pass over the voxels).
   if (cut != cutLinks_) {
     pieces_ = 0;
-    for (std::size_t b = 0; b < world.bodyCount(); ++b) pieces_ += world.pieces(b);
+    for (const BodyId b : world.bodies()) pieces_ += world.pieces(b);
     cutLinks_ = cut;
   }
   f.cutLinks = cut;
   f.pieces = pieces_;
-  for (std::size_t t = 0; t < world.toolCount(); ++t)
-    f.toolForces.push_back(world.toolReaction(t).force);
+  for (const ToolId t : world.tools()) f.toolForces.push_back(world.toolReaction(t).force);
   if (report != nullptr) {
     f.stageMs = report->stageMs;
     f.totalMs = report->totalMs;

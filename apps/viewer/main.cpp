@@ -103,6 +103,7 @@ int runHeadless(const Options& o) {
   const int frames = o.frames >= 0 ? o.frames : 0;
   if (!o.screenshots.empty()) std::filesystem::create_directories(o.screenshots);
   Camera camera = startCamera(o);
+  camera.upAgainst(session.scene().gravity);
   camera.fit(session.startBounds());
   const DrawOptions options = drawOptions(o);
   auto shoot = [&](const std::string& path) {
@@ -161,6 +162,7 @@ struct Viewer {
     session = std::move(next);
     input = std::make_unique<InputController>(drivenTools(*session));
     input->camera = camera;
+    input->camera.upAgainst(session->scene().gravity);
     input->camera.fit(session->startBounds());
     runner = std::make_unique<SimRunner>(*session, options);
     runner->setRealTime(realTime);

@@ -125,7 +125,7 @@ class Exporter {
       const std::string path = folder_.file(name);
       // writeSurface writes beside the file first; a forced end must not leave that behind.
       const TemporaryFileGuard temporary(path + ".tmp");
-      writeSurface(sim.surfaceMesh(b), path);
+      writeSurface(sim.surfaceMesh(sim.bodies()[b]), path);
     }
   }
   void keep() { folder_.keep(); }
@@ -210,7 +210,7 @@ struct RunFacts {
 void printJson(const RunFacts& f, const Summary& sum) {
   const std::vector<std::string>& stages = frameStageNames();
   int pieces = 0;
-  for (std::size_t b = 0; b < f.sim.bodyCount(); ++b) pieces += f.sim.pieces(b);
+  for (const BodyId b : f.sim.bodies()) pieces += f.sim.pieces(b);
   char hash[32];
   std::snprintf(hash, sizeof hash, "%016" PRIx64, f.sim.cutSetHash());
   nlohmann::json j;
@@ -247,13 +247,14 @@ void printJson(const RunFacts& f, const Summary& sum) {
                    {"p95", percentile(sum.frameMs, 0.95)},
                    {"max", percentile(sum.frameMs, 1.0)}};
   nlohmann::json bodies = nlohmann::json::array();
-  for (std::size_t b = 0; b < f.sim.bodyCount(); ++b) {
+  for (const BodyId b : f.sim.bodies()) {
     const BodyInfo info = f.sim.bodyInfo(b);
     bodies.push_back({{"elements", info.elements},
                       {"nodes", info.nodes},
                       {"cut_links", info.cutLinks},
                       {"surface_vertices", info.surfaceVertices},
-                      {"surface_triangles", info.surfaceTriangles}});
+                      {"surface_triangles", info.surfaceTriangles},
+                      {"solver", solverChoiceName(info.solver)}});
   }
   j["bodies"] = bodies;
   std::cout << j.dump(2) << "\n";
@@ -262,7 +263,7 @@ void printJson(const RunFacts& f, const Summary& sum) {
 void printText(const RunFacts& f, const Summary& sum) {
   const std::vector<std::string>& stages = frameStageNames();
   int pieces = 0;
-  for (std::size_t b = 0; b < f.sim.bodyCount(); ++b) pieces += f.sim.pieces(b);
+  for (const BodyId b : f.sim.bodies()) pieces += f.sim.pieces(b);
   std::printf("scene               %s (%d frames of %.4g s, %d thread(s), %s)\n",
               f.opt.scene.c_str(), sum.frames(), f.scene.timeStep, ThreadLimit::current(),
               f.opt.noOctree ? "no octree" : "voxel octree");
@@ -280,7 +281,7 @@ void printText(const RunFacts& f, const Summary& sum) {
                 static_cast<double>(sum.contacts) / static_cast<double>(std::max(sum.frames(), 1)),
                 sum.maxPenetration);
   for (std::size_t t = 0; t < f.sim.toolCount(); ++t)
-    if (f.sim.toolKind(t) == ToolKind::Probe && t < sum.toolForceMax.size())
+    if (f.sim.toolKind(f.sim.tools()[t]) == ToolKind::Probe && t < sum.toolForceMax.size())
       std::printf("probe %-13zu force max %.4g N, final %.4g N\n", t, sum.toolForceMax[t],
                   sum.toolForceFinal[t].norm());
   std::printf("frame (ms)          mean %.2f, p95 %.2f, max %.2f\n", mean(sum.frameMs),
@@ -357,7 +358,7 @@ int runRun(const RunOptions& opt) {
   if (!opt.record.empty()) sim.setRecording(true);
 
   RunFacts facts{opt, scene, sim, frames};
-  for (std::size_t b = 0; b < sim.bodyCount(); ++b) facts.piecesStart += sim.pieces(b);
+  for (const BodyId b : sim.bodies()) facts.piecesStart += sim.pieces(b);
   Exporter exporter(opt.exportDir);
   std::optional<PendingFile> csv;
   if (!opt.csv.empty()) {

@@ -156,7 +156,7 @@ std::vector<SceneMaterial> soakMaterials(const Model& model) {
 }
 
 /// The lowest live surface vertex of `body` along `up` (m).
-double lowestPoint(World& world, std::size_t body, const Vec3d& up) {
+double lowestPoint(World& world, BodyId body, const Vec3d& up) {
   const SurfaceView view = world.surface(body);
   double low = std::numeric_limits<double>::infinity();
   for (const std::array<int, 3>& t : view.triangles)
@@ -212,19 +212,24 @@ SoakRun runSeed(const SoakSetup& setup, std::uint64_t seed) {
   grids.push_back(setup.grid);
   World world = World::fromScene(setup.scene, std::move(grids), ws);
   const Vec3d up = Vec3d::Unit(setup.upAxis);
-  run.voxelSize = world.bodyInfo(0).voxelSize;
+  const BodyId body = world.bodies().front();
+  run.voxelSize = world.bodyInfo(body).voxelSize;
   // The floor a quarter voxel under the body: it settles onto it in the first frames.
   Obstacle floor;
   floor.type = ObstacleType::Plane;
   floor.normal = up;
-  floor.point = up * (lowestPoint(world, 0, up) - 0.25 * run.voxelSize);
+  floor.point = up * (lowestPoint(world, body, up) - 0.25 * run.voxelSize);
   world.addObstacle(floor);
-  SoakInteraction user(world, 0, {seed, opt.blades, setup.upAxis});
+  SoakInteraction user(world, body, {seed, opt.blades, setup.upAxis});
   run.blades = user.blades();
+  // The probe's entry in FrameReport::toolReactions (the order of World::tools()).
+  const std::vector<ToolId> tools = world.tools();
+  const auto probeEntry = static_cast<std::size_t>(
+      std::find(tools.begin(), tools.end(), user.probe()) - tools.begin());
 
   PendingFile csv((fs::path(opt.out) / (run.name + ".csv")).string(), "--out");
   csv.writeLine(csvHeader());
-  double energyBefore = world.energy(0).total();
+  double energyBefore = world.energy(body).total();
   for (int f = 0; f < opt.frames; ++f) {
     if (interruptRequested()) {
       run.status = "interrupted";
@@ -240,16 +245,16 @@ SoakRun runSeed(const SoakSetup& setup, std::uint64_t seed) {
       run.status = "failed";
       break;
     }
-    const BodyInfo info = world.bodyInfo(0);
+    const BodyInfo info = world.bodyInfo(body);
     const ProcessMemory memory = processMemory();
     double probeForce = 0.0;
-    if (user.probe() < r.toolReactions.size())
-      probeForce = r.toolReactions[user.probe()].force.norm();
+    if (probeEntry < r.toolReactions.size())
+      probeForce = r.toolReactions[probeEntry].force.norm();
     // Touched: a link cut or a probe pressing in this frame (a blade moving in its own cut
     // touches nothing).
     bool touched = r.cutLinks > 0;
     for (const ToolReaction& t : r.toolReactions) touched = touched || t.force.squaredNorm() > 0.0;
-    const double energy = world.energy(0).total();
+    const double energy = world.energy(body).total();
     if (!touched && f > 0) {
       const double gain = energy - energyBefore;
       run.energyGain = std::max(run.energyGain, gain);
@@ -257,7 +262,7 @@ SoakRun runSeed(const SoakSetup& setup, std::uint64_t seed) {
     }
     energyBefore = energy;
     const bool counted = f % kPiecesEvery == 0 || f + 1 == opt.frames;
-    const int pieces = counted ? world.pieces(0) : 0;
+    const int pieces = counted ? world.pieces(body) : 0;
 
     run.frameMs.push_back(r.totalMs);
     run.stageMs.push_back(r.stageMs);
@@ -290,7 +295,7 @@ SoakRun runSeed(const SoakSetup& setup, std::uint64_t seed) {
   }
   if (setup.terminal) std::fprintf(stderr, "\r\033[K");
   // The pieces at the end of a run stopped early (the last row may not have counted them).
-  if (run.status != "complete" && run.frames() > 0) run.pieces = world.pieces(0);
+  if (run.status != "complete" && run.frames() > 0) run.pieces = world.pieces(body);
   run.hash = world.cutSetHash();
   csv.commit();
   return run;

@@ -81,7 +81,7 @@ const std::vector<std::string>& SoakInteraction::episodeNames() {
   return names;
 }
 
-SoakInteraction::SoakInteraction(World& world, std::size_t body,
+SoakInteraction::SoakInteraction(World& world, BodyId body,
                                  const SoakInteractionParams& params)
     : random_(params.seed), body_(body) {
   up_ = Vec3d::Unit(params.upAxis);
@@ -147,7 +147,7 @@ Vec3d SoakInteraction::horizontal(double angle) const {
   return std::cos(angle) * side1_ + std::sin(angle) * side2_;
 }
 
-std::size_t SoakInteraction::pickBlade() {
+ToolId SoakInteraction::pickBlade() {
   return blades_[static_cast<std::size_t>(random_.integer(0, blades() - 1))];
 }
 
@@ -156,7 +156,7 @@ int SoakInteraction::framesFor(double distance, double speedVoxels) const {
   return static_cast<int>(std::clamp(frames, 1.0, static_cast<double>(kMaxLegFrames)));
 }
 
-SoakInteraction::Motion SoakInteraction::verticalCut(const Target& t, std::size_t blade,
+SoakInteraction::Motion SoakInteraction::verticalCut(const Target& t, ToolId blade,
                                                      const Vec3d& through, const Vec3d& edge,
                                                      double lengthScale, double depthFraction,
                                                      bool withdraw) {
@@ -194,7 +194,7 @@ SoakInteraction::Motion SoakInteraction::verticalCut(const Target& t, std::size_
   return m;
 }
 
-SoakInteraction::Motion SoakInteraction::horizontalCut(const Target& t, std::size_t blade,
+SoakInteraction::Motion SoakInteraction::horizontalCut(const Target& t, ToolId blade,
                                                        double level) {
   const Vec3d edge = horizontal(random_.uniform(0.0, 2.0 * std::numbers::pi));
   const Vec3d across = up_.cross(edge);
@@ -213,7 +213,7 @@ SoakInteraction::Motion SoakInteraction::horizontalCut(const Target& t, std::siz
   return {blade, pose(c0), {{pose(c1), framesFor((c1 - c0).norm(), speed)}}};
 }
 
-SoakInteraction::Motion SoakInteraction::zigzagCut(const Target& t, std::size_t blade) {
+SoakInteraction::Motion SoakInteraction::zigzagCut(const Target& t, ToolId blade) {
   const Vec3d through =
       t.points[static_cast<std::size_t>(random_.integer(0, static_cast<int>(t.points.size()) - 1))];
   const Vec3d edge = horizontal(random_.uniform(0.0, 2.0 * std::numbers::pi));
@@ -238,7 +238,7 @@ SoakInteraction::Motion SoakInteraction::zigzagCut(const Target& t, std::size_t 
   return m;
 }
 
-SoakInteraction::Motion SoakInteraction::sliverCut(const Target& t, std::size_t blade) {
+SoakInteraction::Motion SoakInteraction::sliverCut(const Target& t, ToolId blade) {
   const Vec3d edge = horizontal(random_.uniform(0.0, 2.0 * std::numbers::pi));
   const Vec3d across = up_.cross(edge);
   const auto [n0, n1] = t.range(across);
@@ -326,7 +326,7 @@ void SoakInteraction::startEpisode(World& world) {
       motions_.push_back(zigzagCut(t, pickBlade()));
       break;
     case kPartialCut: {
-      const std::size_t blade = pickBlade();
+      const ToolId blade = pickBlade();
       const Vec3d through = point();
       const Vec3d edge = direction();
       const double length = random_.uniform(0.15, 0.35);
@@ -337,7 +337,7 @@ void SoakInteraction::startEpisode(World& world) {
     case kCrossCut: {
       // Across the last vertical cut, through a point on a cut face where there is one.
       const Vec3d last = lastCutEdge_;
-      const std::size_t blade = pickBlade();
+      const ToolId blade = pickBlade();
       const Vec3d through = t.onCuts.empty()
                                 ? point()
                                 : t.points[t.onCuts[static_cast<std::size_t>(
@@ -353,8 +353,8 @@ void SoakInteraction::startEpisode(World& world) {
           horizontalCut(t, pickBlade(), t.bottom + random_.uniform(1.5, 4.0) * voxel_));
       break;
     case kDoubleCut: {
-      const std::size_t first = pickBlade();
-      std::size_t second = pickBlade();
+      const ToolId first = pickBlade();
+      ToolId second = pickBlade();
       while (second == first) second = pickBlade();
       const Vec3d edge = direction();
       const Vec3d p = point(), q = point();
@@ -397,7 +397,11 @@ void SoakInteraction::startEpisode(World& world) {
 
 void SoakInteraction::beforeStep(World& world) {
   if (episodeFrame_ >= episodeFrames_) {
-    for (const Motion& m : motions_) world.placeTool(m.tool, parked_[m.tool - blades_.front()]);
+    for (const Motion& m : motions_) {
+      // parked_ holds the blades' places in order, then the probe's.
+      const auto blade = std::find(blades_.begin(), blades_.end(), m.tool);
+      world.placeTool(m.tool, parked_[static_cast<std::size_t>(blade - blades_.begin())]);
+    }
     startEpisode(world);
   }
   ++episodeFrame_;

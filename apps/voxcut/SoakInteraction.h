@@ -53,7 +53,7 @@ struct SoakInteractionParams {
 class SoakInteraction {
  public:
   /// Adds the tools to `world`, sized and parked after body `body`'s surface now.
-  SoakInteraction(World& world, std::size_t body, const SoakInteractionParams& params);
+  SoakInteraction(World& world, BodyId body, const SoakInteractionParams& params);
 
   /// Sets the tools' poses for the next frame, starting a new episode when the last one ended.
   void beforeStep(World& world);
@@ -61,7 +61,7 @@ class SoakInteraction {
   /// The current episode's name (one of episodeNames()).
   [[nodiscard]] const std::string& episode() const { return episodeName_; }
   [[nodiscard]] int blades() const { return static_cast<int>(blades_.size()); }
-  [[nodiscard]] std::size_t probe() const { return probe_; }
+  [[nodiscard]] ToolId probe() const { return probe_; }
 
   /// Every episode the interaction draws from, by name.
   [[nodiscard]] static const std::vector<std::string>& episodeNames();
@@ -74,7 +74,7 @@ class SoakInteraction {
   };
   /// One tool's part in an episode: put down at `start`, then moved along the legs.
   struct Motion {
-    std::size_t tool = 0;
+    ToolId tool;
     BladePose start;
     std::vector<Leg> legs;
   };
@@ -84,19 +84,19 @@ class SoakInteraction {
   void startEpisode(World& world);
   [[nodiscard]] Target target(World& world) const;
   [[nodiscard]] Vec3d horizontal(double angle) const;
-  [[nodiscard]] std::size_t pickBlade();
+  [[nodiscard]] ToolId pickBlade();
   [[nodiscard]] int framesFor(double distance, double speedVoxels) const;
-  Motion verticalCut(const Target& t, std::size_t blade, const Vec3d& through, const Vec3d& edge,
+  Motion verticalCut(const Target& t, ToolId blade, const Vec3d& through, const Vec3d& edge,
                      double lengthScale, double depthFraction, bool withdraw);
-  Motion horizontalCut(const Target& t, std::size_t blade, double height);
-  Motion zigzagCut(const Target& t, std::size_t blade);
-  Motion sliverCut(const Target& t, std::size_t blade);
+  Motion horizontalCut(const Target& t, ToolId blade, double height);
+  Motion zigzagCut(const Target& t, ToolId blade);
+  Motion sliverCut(const Target& t, ToolId blade);
   Motion probeMotion(const Target& t, bool drag, bool cutFace);
 
   SoakRandom random_;
-  std::vector<std::size_t> blades_;
-  std::size_t probe_ = 0;
-  std::size_t body_ = 0;
+  std::vector<ToolId> blades_;
+  ToolId probe_;
+  BodyId body_;
   Vec3d up_ = Vec3d::UnitY(), side1_ = Vec3d::UnitZ(), side2_ = Vec3d::UnitX();
   double voxel_ = 0.0;
   double probeRadius_ = 0.0, probeHalfLength_ = 0.0;

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <exception>
@@ -33,7 +34,7 @@ struct RenderedSurface {
   std::size_t copiedTriangles = 0;  // triangle slots copied over all frames
 };
 
-void updateRendered(RenderedSurface& rendered, voxcut::World& world, std::size_t body) {
+void updateRendered(RenderedSurface& rendered, voxcut::World& world, voxcut::BodyId body) {
   // The view reads the world in place; it stays valid until the next step().
   const voxcut::SurfaceView view = world.surface(body);
   const voxcut::SurfaceChanges changes = world.surfaceChanges(body, rendered.revision);
@@ -110,18 +111,20 @@ int main() {
     soft.poissonRatio = 0.3;
     bodySettings.materials.push_back(soft);
     bodySettings.fixed.push_back({Vec3d(-1, -1, -1), Vec3d(1, 0.002, 1)});
-    const std::size_t body = world.addBody(boxGrid(), bodySettings);
+    // Every body, tool and obstacle is named by a typed handle: passing a tool's handle where
+    // a body's is asked does not compile, and a removed one's handle is refused.
+    const voxcut::BodyId body = world.addBody(boxGrid(), bodySettings);
 
     // The floor: the half-space below the plane y = -5 mm, which the bodies' surfaces cannot
-    // enter. Bodies do not collide with each other (yet): only obstacles and probes push.
+    // enter (nor can they enter each other, or, with self collision on, themselves).
     voxcut::Obstacle floor;
     floor.type = voxcut::ObstacleType::Plane;
     floor.point = Vec3d(0.0, -0.005, 0.0);
     floor.normal = Vec3d::UnitY();
-    const std::size_t floorIndex = world.addObstacle(floor);
+    world.addObstacle(floor);
 
-    const std::size_t blade = world.addBlade(bladePoseAt(0));
-    const std::size_t probe = world.addProbe(kProbeRadius, probePoseAt(0));
+    const voxcut::ToolId blade = world.addBlade(bladePoseAt(0));
+    const voxcut::ToolId probe = world.addProbe(kProbeRadius, probePoseAt(0));
 
     constexpr int kFrames = 100;
     RenderedSurface rendered;
@@ -143,7 +146,12 @@ int main() {
     const voxcut::BodyInfo info = world.bodyInfo(body);
     const int pieces = world.pieces(body);
     const voxcut::ToolReaction push = world.toolReaction(probe);
-    const Vec3d floorForce = report.obstacleForces[floorIndex];
+    // Per obstacle in the order of world.obstacles(): the floor is the only one.
+    const Vec3d floorForce = report.obstacleForces.front();
+    // The contacts of the last frame, each with what touched what and its force.
+    std::size_t onFloor = 0;
+    for (const voxcut::Contact& c : world.contacts())
+      onFloor += c.with == voxcut::Contact::With::Obstacle;
     std::printf("frames          %d (%.3f s simulated, %.2f ms a frame)\n", world.frame(),
                 world.time(), frameMs / kFrames);
     std::printf("cut links       %zu\n", info.cutLinks);
@@ -152,14 +160,21 @@ int main() {
                 info.surfaceTriangles, rendered.copiedTriangles, kFrames + 1);
     std::printf("probe force     (%.4f, %.4f, %.4f) N\n", push.force.x(), push.force.y(),
                 push.force.z());
-    std::printf("floor force     (%.4f, %.4f, %.4f) N (the slab's weight)\n", floorForce.x(),
-                floorForce.y(), floorForce.z());
+    std::printf("floor force     (%.4f, %.4f, %.4f) N (the slab's weight), %zu contacts\n",
+                floorForce.x(), floorForce.y(), floorForce.z(), onFloor);
     std::printf("unconverged     %d frames\n", unconverged);
 
     if (info.cutLinks == 0) return fail("the blade cut no link");
     if (pieces < 2) return fail("the blade did not cut the slab off");
     if (!(push.force.y() > 0.0)) return fail("the body does not push the probe up");
-    if (!(floorForce.y() < 0.0)) return fail("the slab does not rest on the floor");
+    if (!(floorForce.y() < 0.0) || onFloor == 0)
+      return fail("the slab does not rest on the floor");
+    // A bad argument, such as a NaN pose from a device, is an InputError that changes nothing.
+    try {
+      world.setToolPose(probe, {Vec3d::Constant(std::nan("")), Vec3d::Zero()});
+      return fail("a NaN pose was accepted");
+    } catch (const voxcut::InputError&) {
+    }
     const voxcut::SurfaceView view = world.surface(body);
     if (!std::equal(view.triangles.begin(), view.triangles.end(), rendered.triangles.begin(),
                     rendered.triangles.end()))

@@ -11,6 +11,7 @@
 #include "SceneText.h"
 #include "TempDir.h"
 #include "voxcut/core/Error.h"
+#include "voxcut/cutting/Blade.h"
 #include "voxcut/io/SceneBodies.h"
 #include "voxcut/io/SceneReader.h"
 #include "voxcut/sim/Scene.h"

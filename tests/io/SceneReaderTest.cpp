@@ -433,18 +433,18 @@ TEST(SceneReaderErrors, OutOfRangeNamesTheKeyPathAndTheValue) {
               "solver.projection_history: must be an integer in 0..64");
   expectError(
       withTop(R"("solver": {"preconditioner": "amg"})"),
-      R"(solver.preconditioner: unknown preconditioner "amg" (expected one of: "jacobi", "block_jacobi", "symmetric_gauss_seidel", "incomplete_cholesky", "two_level", "cholesky", "multigrid"))");
+      R"(solver.preconditioner: unknown preconditioner "amg" (expected one of: "auto", "cholesky", "multigrid", "jacobi", "block_jacobi", "symmetric_gauss_seidel", "incomplete_cholesky", "two_level"))");
   expectError(withTop(R"("solver": {"preconditioner": 3})"),
               "solver.preconditioner: unknown preconditioner 3");
 }
 
 TEST(SceneReader, PreconditionerByName) {
-  for (PreconditionerKind kind : kPreconditionerKinds) {
+  for (SolverChoice kind : kSolverChoices) {
     const Scene scene = parse(withTop(std::string(R"("solver": {"preconditioner": ")") +
-                                      preconditionerName(kind) + "\"}"));
-    EXPECT_EQ(scene.solver.preconditioner, kind) << preconditionerName(kind);
+                                      solverChoiceName(kind) + "\"}"));
+    EXPECT_EQ(scene.solver.preconditioner, kind) << solverChoiceName(kind);
   }
-  EXPECT_EQ(parse(withTop(R"("frames": 3)")).solver.preconditioner, PreconditionerKind::Cholesky);
+  EXPECT_EQ(parse(withTop(R"("frames": 3)")).solver.preconditioner, SolverChoice::Automatic);
 }
 
 TEST(SceneReaderErrors, NotAnIntegerIsAnError) {

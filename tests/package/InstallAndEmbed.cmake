@@ -34,6 +34,35 @@ if(CONFIG)
 endif()
 run(install ${CMAKE_COMMAND} --install ${VOXCUT_BINARY_DIR} --prefix ${prefix} ${config_args})
 
+# The world API's header closure (docs/architecture.md, "The world API"): a translation unit
+# that includes only the installed voxcut/sim/World.h reaches no header of fem/, linalg/,
+# topology/, octree/ or surface/.
+# EIGEN_INCLUDE is Eigen's include folder (the build passes it).
+if(CMAKE_CXX_COMPILER AND EIGEN_INCLUDE)
+  set(closure_source ${WORK_DIR}/world_closure.cpp)
+  file(WRITE ${closure_source} "#include \"voxcut/sim/World.h\"\n")
+  set(eigen_flags)
+  foreach(dir IN LISTS EIGEN_INCLUDE)
+    list(APPEND eigen_flags -I${dir})
+  endforeach()
+  execute_process(COMMAND ${CMAKE_CXX_COMPILER} -std=c++20 -M -I${prefix}/include
+                          ${eigen_flags} ${closure_source}
+                  RESULT_VARIABLE result OUTPUT_VARIABLE closure ERROR_VARIABLE closure)
+  if(NOT result EQUAL 0)
+    message(FATAL_ERROR "closure failed (${result}): World.h alone does not compile:\n${closure}")
+  endif()
+  if(NOT closure MATCHES "include/voxcut/sim/World\\.h")
+    message(FATAL_ERROR "closure failed: the installed World.h was not the one included")
+  endif()
+  string(REGEX MATCHALL "voxcut/(fem|linalg|topology|octree|surface)/[A-Za-z0-9_]+\\.h" leaked
+               "${closure}")
+  if(leaked)
+    list(REMOVE_DUPLICATES leaked)
+    message(FATAL_ERROR "closure failed: World.h reaches module internals: ${leaked}")
+  endif()
+  message(STATUS "closure: World.h reaches only its value types")
+endif()
+
 set(configure_args -S ${EXAMPLE_SOURCE_DIR} -B ${example_build} -DCMAKE_PREFIX_PATH=${prefix})
 if(CONFIG)
   list(APPEND configure_args -DCMAKE_BUILD_TYPE=${CONFIG})

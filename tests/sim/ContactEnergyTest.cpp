@@ -21,7 +21,7 @@ World worldOf(const std::string& json) {
 
 // The body's momentum, sum m_n v_n (kg m/s).
 Vec3d momentum(const World& w, std::size_t body) {
-  const SimBody& b = WorldInternals::body(w, body);
+  const SimBody& b = WorldInternals::body(w, w.bodies()[body]);
   Vec3d p = Vec3d::Zero();
   if (b.solver.velocities().empty()) return p;
   for (std::size_t n = 0; n < b.model.nodeMass().size(); ++n)
@@ -38,14 +38,14 @@ TEST(ContactEnergy, EnergyOfAFallingBody) {
     "bodies": [{"model": "box:0.1,0.06,0.08", "resolution": 16, "element_level": 1,
       "materials": {"default": {"young_modulus": 1e5, "poisson_ratio": 0.3, "density": 1000,
                                 "damping": [0, 0]}}}]})");
-  const double mass = WorldInternals::body(w, 0).model.totalMass();
-  const BodyEnergy start = w.energy(0);
+  const double mass = WorldInternals::body(w, w.bodies()[0]).model.totalMass();
+  const BodyEnergy start = w.energy(w.bodies()[0]);
   EXPECT_EQ(start.kinetic, 0.0);
   EXPECT_NEAR(start.elastic, 0.0, 1e-12);
   double last = start.total();
   for (int f = 1; f <= 25; ++f) {
     (void)w.step();
-    const BodyEnergy e = w.energy(0);
+    const BodyEnergy e = w.energy(w.bodies()[0]);
     const double t = f * 0.004;
     EXPECT_NEAR(e.kinetic, 0.5 * mass * std::pow(9.81 * t, 2), 1e-9 * mass);
     EXPECT_NEAR(e.elastic, 0.0, 1e-12);
@@ -54,7 +54,7 @@ TEST(ContactEnergy, EnergyOfAFallingBody) {
   }
   // Backward Euler's drop after n steps is g dt^2 n (n + 1) / 2.
   const double drop = 9.81 * 0.004 * 0.004 * 25 * 26 / 2;
-  EXPECT_NEAR(start.gravitational - w.energy(0).gravitational, mass * 9.81 * drop, 1e-9);
+  EXPECT_NEAR(start.gravitational - w.energy(w.bodies()[0]).gravitational, mass * 9.81 * drop, 1e-9);
 }
 
 // Pieces must not drive themselves (the climbing pieces of the soak): with no gravity and
@@ -73,13 +73,13 @@ TEST(ContactEnergy, SelfContactCreatesNoMomentum) {
     "tools": [{"type": "blade", "keys": [
       {"t": 0.0, "a": [-0.15, 0.06, 0.12], "b": [0.15, 0.06, 0.12]},
       {"t": 0.2, "a": [-0.15, 0.06, -0.12], "b": [0.15, 0.06, -0.12]}]}]})");
-  const double mass = WorldInternals::body(w, 0).model.totalMass();
+  const double mass = WorldInternals::body(w, w.bodies()[0]).model.totalMass();
   double most = 0.0;
   for (int f = 0; f < 45; ++f) {
     (void)w.step();
     most = std::max(most, momentum(w, 0).norm());
   }
-  EXPECT_EQ(w.pieces(0), 2);
+  EXPECT_EQ(w.pieces(w.bodies()[0]), 2);
   EXPECT_LT(most, 1e-5 * mass);  // 10 um/s
 }
 
@@ -107,13 +107,13 @@ TEST(ContactEnergy, StackedCutPiecesStayAtRest) {
                                  {"t": 0.8, "a": [-0.15, 0.095, -0.12], "b": [0.15, 0.095, -0.12]}]}],
     "obstacles": [{"type": "box", "lo": [-0.25, -0.03, -0.25], "hi": [0.25, 0, 0.25]}]})");
   for (int f = 0; f < 250; ++f) (void)w.step();
-  EXPECT_GE(w.pieces(0), 3);  // the three slabs (and a speck of the bunny's base, maybe)
-  const BodyEnergy start = w.energy(0);
+  EXPECT_GE(w.pieces(w.bodies()[0]), 3);  // the three slabs (and a speck of the bunny's base, maybe)
+  const BodyEnergy start = w.energy(w.bodies()[0]);
   double highest = 0.0, risen = 0.0, kinetic = 0.0;
   for (int f = 250; f < 450; ++f) {
     const FrameReport r = w.step();
     EXPECT_EQ(r.cutLinks, 0u);
-    const BodyEnergy e = w.energy(0);
+    const BodyEnergy e = w.energy(w.bodies()[0]);
     highest = std::max(highest, e.total() - start.total());
     risen = std::max(risen, e.gravitational - start.gravitational);
     if (f >= 350) kinetic += e.kinetic / 100.0;

@@ -60,11 +60,11 @@ Landing land(double height, const std::string& obstacle, int frames,
     l.deepest = std::max(l.deepest, r.maxPenetration);
     l.force = r.obstacleForces.at(0);
   }
-  const SimBody& b = WorldInternals::body(sim, 0);
+  const SimBody& b = WorldInternals::body(sim, sim.bodies()[0]);
   l.kinetic = b.solver.kineticEnergy(b.model);
   l.weight = b.model.totalMass() * 9.81;
   l.voxel = b.cut.grid.voxelSize();
-  for (const Vec3d& p : sim.surfaceMesh(0).positions) l.lowest = std::min(l.lowest, p.y());
+  for (const Vec3d& p : sim.surfaceMesh(sim.bodies()[0]).positions) l.lowest = std::min(l.lowest, p.y());
   return l;
 }
 
@@ -136,12 +136,12 @@ TEST(Contact, BoxSlidesDownTheRampSceneAndRestsOnTheFloor) {
     ASSERT_TRUE(last.converged) << "frame " << f;
     deepest = std::max(deepest, last.maxPenetration);
   }
-  const SimBody& b = WorldInternals::body(sim, 0);
+  const SimBody& b = WorldInternals::body(sim, sim.bodies()[0]);
   const double weight = b.model.totalMass() * 9.81;
   EXPECT_LT(deepest, 0.5 * b.cut.grid.voxelSize());
   EXPECT_LT(b.solver.kineticEnergy(b.model), 1e-6 * weight * 0.06);
   Vec3d centre = Vec3d::Zero();
-  const std::vector<Vec3d>& positions = sim.surfaceMesh(0).positions;
+  const std::vector<Vec3d>& positions = sim.surfaceMesh(sim.bodies()[0]).positions;
   for (const Vec3d& p : positions) centre += p;
   centre /= static_cast<double>(positions.size());
   EXPECT_GT(centre.x(), 0.1);
@@ -163,7 +163,7 @@ TEST(Contact, BunnyOnAFloorComesToRest) {
     last = sim.step();
     deepest = std::max(deepest, last.maxPenetration);
   }
-  const SimBody& b = WorldInternals::body(sim, 0);
+  const SimBody& b = WorldInternals::body(sim, sim.bodies()[0]);
   const double weight = b.model.totalMass() * 9.81;
   EXPECT_LT(deepest, 0.5 * b.cut.grid.voxelSize());
   EXPECT_LT(b.solver.kineticEnergy(b.model), 1e-6 * weight * 0.01);
@@ -179,7 +179,7 @@ TEST(Contact, SameForAnyThreadCount) {
     ThreadLimit limit(threads);
     World sim = simulationOf(droppedBox(0.01, kTable));
     for (int f = 0; f < 40; ++f) (void)sim.step();
-    return WorldInternals::body(sim, 0).cut.deformation.positions();
+    return WorldInternals::body(sim, sim.bodies()[0]).cut.deformation.positions();
   };
   EXPECT_EQ(run(1), run(2));
 }
@@ -208,7 +208,7 @@ TEST(Contact, WithoutObstaclesNothingHoldsTheBox) {
   World sim = simulationOf(droppedBox(0.0, ""));
   for (int f = 0; f < 100; ++f) EXPECT_EQ(sim.step().contacts, 0u);
   double lowest = 1e9;
-  for (const Vec3d& p : sim.surfaceMesh(0).positions) lowest = std::min(lowest, p.y());
+  for (const Vec3d& p : sim.surfaceMesh(sim.bodies()[0]).positions) lowest = std::min(lowest, p.y());
   EXPECT_LT(lowest, -0.5);
 }
 

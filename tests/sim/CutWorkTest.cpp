@@ -30,10 +30,10 @@ World freeBunny() {
   const Scene scene = parseScene(json, "cut-work.json", std::filesystem::current_path());
   World w = World::fromScene(scene, voxelizeSceneBodies(scene));
   Eigen::AlignedBox3d box;
-  for (const Vec3d& x : w.surfaceMesh(0).positions) box.extend(x);
+  for (const Vec3d& x : w.surfaceMesh(w.bodies()[0]).positions) box.extend(x);
   Obstacle floor;
   floor.normal = Vec3d::UnitY();
-  floor.point = box.min() - 0.25 * w.bodyInfo(0).voxelSize * Vec3d::UnitY();
+  floor.point = box.min() - 0.25 * w.bodyInfo(w.bodies()[0]).voxelSize * Vec3d::UnitY();
   w.addObstacle(floor);
   return w;
 }
@@ -44,7 +44,7 @@ double uniform(std::mt19937_64& rng, double lo, double hi) {
 
 Eigen::AlignedBox3d surfaceBox(World& w) {
   Eigen::AlignedBox3d box;
-  for (const Vec3d& x : w.surfaceMesh(0).positions) box.extend(x);
+  for (const Vec3d& x : w.surfaceMesh(w.bodies()[0]).positions) box.extend(x);
   return box;
 }
 
@@ -56,14 +56,14 @@ struct PassWork {
 /// An upright blade a quarter of the body's size, its edge half a voxel over the top of the
 /// surface (every link lies below it), drawn across the whole body along x over its highest
 /// point, at three voxels a frame.
-PassWork passOver(World& w, std::size_t blade) {
-  const double h = w.bodyInfo(0).voxelSize;
+PassWork passOver(World& w, ToolId blade) {
+  const double h = w.bodyInfo(w.bodies()[0]).voxelSize;
   const Eigen::AlignedBox3d box = surfaceBox(w);
   const double size = box.sizes().maxCoeff();
   // Over the highest point, so that the blade passes close over material.
   Vec3d top = box.center();
   top.y() = -std::numeric_limits<double>::infinity();
-  for (const Vec3d& x : w.surfaceMesh(0).positions)
+  for (const Vec3d& x : w.surfaceMesh(w.bodies()[0]).positions)
     if (x.y() > top.y()) top = x;
   Vec3d a(box.min().x() - 2.0 * h, top.y() + 0.5 * h, top.z());
   const Vec3d b = a + 0.25 * size * Vec3d::UnitY();
@@ -83,10 +83,9 @@ PassWork passOver(World& w, std::size_t blade) {
 
 TEST(CutWork, ABladeThatCutsNothingCostsWhatItCostsOverTheUncutBody) {
   World w = freeBunny();
-  const double h = w.bodyInfo(0).voxelSize;
+  const double h = w.bodyInfo(w.bodies()[0]).voxelSize;
   const Eigen::AlignedBox3d start = surfaceBox(w);
-  const std::size_t blade =
-      w.addBlade({start.min() - start.sizes(), start.min() - start.sizes() + Vec3d(h, 0, 0)});
+  const ToolId blade = w.addBlade({start.min() - start.sizes(), start.min() - start.sizes() + Vec3d(h, 0, 0)});
   for (int f = 0; f < 10; ++f) (void)w.step();
   const PassWork before = passOver(w, blade);
   ASSERT_EQ(before.cut, 0u);
@@ -125,13 +124,13 @@ TEST(CutWork, ABladeThatCutsNothingCostsWhatItCostsOverTheUncutBody) {
   }
   for (int f = 0; f < 20; ++f) (void)w.step();
   ASSERT_GT(cutLinks, 1000u);
-  ASSERT_GT(w.pieces(0), 3);
+  ASSERT_GT(w.pieces(w.bodies()[0]), 3);
 
   const PassWork after = passOver(w, blade);
   std::printf("a pass over the body: %zu voxels positioned, %zu links tested at most in a frame "
               "before the cuts; %zu and %zu after %zu cuts in %d pieces\n",
               before.positioned, before.tested, after.positioned, after.tested, cutLinks,
-              w.pieces(0));
+              w.pieces(w.bodies()[0]));
   EXPECT_EQ(after.cut, 0u);
   // Within a small factor (the pieces lie in other places than the body did), and no more
   // than a few layers of voxels under the blade's path: a few hundred, where a blade whose

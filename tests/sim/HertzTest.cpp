@@ -95,7 +95,7 @@ Press pressBlock(int elementLevel) {
   // Indentations are measured from the block's undeformed top: the highest vertex of its
   // surface before the first frame, which is what the probe's contacts touch. (The box's top
   // face lies on a voxel boundary here, and the surface's vertices on it.)
-  const SurfaceView surface = world.surface(0);
+  const SurfaceView surface = world.surface(world.bodies()[0]);
   double top = -1e9;
   for (const std::array<int, 3>& t : surface.triangles)
     for (const int v : t)
@@ -104,7 +104,7 @@ Press pressBlock(int elementLevel) {
     const Vec3d centre(0.0, top + kRadius - d, 0.0);
     return BladePose{centre, centre};
   };
-  const std::size_t probe = world.addProbe(kRadius, at(-kClearance), 0.0);
+  const ToolId probe = world.addProbe(kRadius, at(-kClearance), 0.0);
   const double leg = kFramesPerLeg * kTimeStep;
   world.setToolTrajectory(
       probe, {{0.0, at(-kClearance)}, {leg, at(kDeepest)}, {2.0 * leg, at(-kClearance)}});

@@ -69,11 +69,11 @@ ManyCutsResult fiftyCuts(bool octree, int threads) {
   ThreadLimit limit(threads);
   World w = bunnyWorld(octree);
   ManyCutsResult r;
-  r.nodesStart = w.bodyInfo(0).nodes;
+  r.nodesStart = w.bodyInfo(w.bodies()[0]).nodes;
   Eigen::AlignedBox3d box;
-  for (const Vec3d& x : w.surfaceMesh(0).positions) box.extend(x);
+  for (const Vec3d& x : w.surfaceMesh(w.bodies()[0]).positions) box.extend(x);
   const Vec3d lo = box.min(), hi = box.max(), size = hi - lo;
-  const std::size_t blade = w.addBlade({lo - size, lo - size + Vec3d(0.01, 0, 0)});
+  const ToolId blade = w.addBlade({lo - size, lo - size + Vec3d(0.01, 0, 0)});
   std::mt19937_64 rng(12345);
   for (int cut = 0; cut < 50; ++cut) {
     Vec3d a0, b0, a1, b1;
@@ -111,17 +111,17 @@ ManyCutsResult fiftyCuts(bool octree, int threads) {
       const double t = f / 6.0;
       w.setToolPose(blade, {a0 + t * (a1 - a0), b0 + t * (b1 - b0)});
       (void)w.step();
-      r.nodesMax = std::max(r.nodesMax, w.bodyInfo(0).nodes);
+      r.nodesMax = std::max(r.nodesMax, w.bodyInfo(w.bodies()[0]).nodes);
     }
   }
   w.placeTool(blade, {lo - size, lo - size + Vec3d(0.01, 0, 0)});
   for (int f = 0; f < 40; ++f) (void)w.step();
   r.hash = w.cutSetHash();
-  r.nodesEnd = w.bodyInfo(0).nodes;
-  r.cutLinks = w.bodyInfo(0).cutLinks;
-  r.pieces = w.pieces(0);
-  r.meshPieces = test::nodeConnectedComponents(WorldInternals::body(w, 0).cut.deformation);
-  r.closedSurface = closed(w.surfaceMesh(0));
+  r.nodesEnd = w.bodyInfo(w.bodies()[0]).nodes;
+  r.cutLinks = w.bodyInfo(w.bodies()[0]).cutLinks;
+  r.pieces = w.pieces(w.bodies()[0]);
+  r.meshPieces = test::nodeConnectedComponents(WorldInternals::body(w, w.bodies()[0]).cut.deformation);
+  r.closedSurface = closed(w.surfaceMesh(w.bodies()[0]));
   return r;
 }
 

@@ -96,7 +96,7 @@ struct RigidFit {
 };
 
 RigidFit rigidFit(const World& sim) {
-  const SimBody& b = WorldInternals::body(sim, 0);
+  const SimBody& b = WorldInternals::body(sim, sim.bodies()[0]);
   const auto& x = b.cut.deformation.positions();
   const auto& rest = b.cut.deformation.restPositions();
   const auto& m = b.model.nodeMass();
@@ -177,7 +177,7 @@ TEST_P(EarCut, TakesTheEarOff) {
   const auto [resolution, level] = GetParam();
   World sim = simulationOf(earCut(resolution, level));
   for (int f = 0; f < 250; ++f) sim.step();
-  const VoxelGrid& grid = WorldInternals::body(sim, 0).cut.grid;
+  const VoxelGrid& grid = WorldInternals::body(sim, sim.bodies()[0]).cut.grid;
   const PieceLabels pieces = findPieces(grid);
   ASSERT_GE(pieces.count, 2);
   // The two largest pieces are the bunny and its ear; the blade sweeping on past the falling
@@ -193,7 +193,7 @@ TEST_P(EarCut, TakesTheEarOff) {
     specks += pieces.voxels[static_cast<std::size_t>(order[i])];
   EXPECT_LT(specks, pieces.voxels[static_cast<std::size_t>(ear)] / 200);
   // The ear: above the blade's plane at rest, and it has fallen.
-  const DeformationOctree& octree = WorldInternals::body(sim, 0).cut.deformation;
+  const DeformationOctree& octree = WorldInternals::body(sim, sim.bodies()[0]).cut.deformation;
   Vec3d rest = Vec3d::Zero(), now = Vec3d::Zero();
   for (std::size_t v = 0; v < grid.voxelCount(); ++v)
     if (pieces.label[v] == ear) {

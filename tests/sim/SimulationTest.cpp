@@ -86,7 +86,7 @@ class ShippedCutScene : public ::testing::TestWithParam<CutScene> {};
 
 TEST_P(ShippedCutScene, CutPartSeparatesAndSurfacesStayClosed) {
   World sim = loadSimulation(GetParam().file);
-  const int before = sim.pieces(0);
+  const int before = sim.pieces(sim.bodies()[0]);
   int separatedAt = -1;
   double distanceAtSeparation = 0.0;
   const int frames = GetParam().frames > 0
@@ -95,15 +95,15 @@ TEST_P(ShippedCutScene, CutPartSeparatesAndSurfacesStayClosed) {
   for (int f = 0; f < frames; ++f) {
     const FrameReport r = sim.step();
     if (separatedAt < 0 && r.cutLinks > 0) {
-      const PieceLabels labels = findPieces(WorldInternals::body(sim, 0).cut.grid);
+      const PieceLabels labels = findPieces(WorldInternals::body(sim, sim.bodies()[0]).cut.grid);
       if (labels.count > before) {
         separatedAt = f;
-        const auto c = pieceCentroids(WorldInternals::body(sim, 0), labels);
+        const auto c = pieceCentroids(WorldInternals::body(sim, sim.bodies()[0]), labels);
         distanceAtSeparation = (c.front() - c.back()).norm();
       }
     }
   }
-  const SimBody& body = WorldInternals::body(sim, 0);
+  const SimBody& body = WorldInternals::body(sim, sim.bodies()[0]);
   const PieceLabels labels = findPieces(body.cut.grid);
   ASSERT_GE(separatedAt, 0) << "the blade never cut a part off";
   EXPECT_EQ(labels.count, before + 1);
@@ -112,7 +112,7 @@ TEST_P(ShippedCutScene, CutPartSeparatesAndSurfacesStayClosed) {
   const double distanceNow = (c.front() - c.back()).norm();
   EXPECT_GT(distanceNow, distanceAtSeparation + 2.0 * body.cut.grid.voxelSize())
       << "separated at frame " << separatedAt;
-  const SurfaceTopology topo = surfaceTopology(sim.surfaceMesh(0));
+  const SurfaceTopology topo = surfaceTopology(sim.surfaceMesh(sim.bodies()[0]));
   EXPECT_TRUE(topo.closed);
   EXPECT_TRUE(topo.manifold);
   // Each voxel piece has its own surface; a blade crossing material that moved across its plane
@@ -138,7 +138,7 @@ TEST(Simulation, SameResultsAtOneAndTwoThreadsAndWithoutOctree) {
     // The blade reaches the bunny at frame 110 and cuts until frame 161 (at frame 153 its
     // edge ends inside a level-1 cube whose mid-planes show no cut on their borders).
     for (int f = 0; f < 165; ++f) cut += sim.step().cutLinks;
-    return std::make_pair(cut, WorldInternals::body(sim, 0).cut.deformation.positions());
+    return std::make_pair(cut, WorldInternals::body(sim, sim.bodies()[0]).cut.deformation.positions());
   };
   const auto one = run(1, true), two = run(2, true), baseline = run(2, false);
   EXPECT_GT(one.first, 0u);
@@ -161,9 +161,9 @@ TEST(Simulation, CantileverSagsAndStaysContinuous) {
     last = sim.maxDisplacement();
   }
   EXPECT_GT(last, 0.0);
-  EXPECT_EQ(sim.pieces(0), 1);
-  expectNoGap(WorldInternals::body(sim, 0));
-  EXPECT_TRUE(surfaceTopology(sim.surfaceMesh(0)).closed);
+  EXPECT_EQ(sim.pieces(sim.bodies()[0]), 1);
+  expectNoGap(WorldInternals::body(sim, sim.bodies()[0]));
+  EXPECT_TRUE(surfaceTopology(sim.surfaceMesh(sim.bodies()[0])).closed);
 }
 
 }  // namespace

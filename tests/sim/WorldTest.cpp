@@ -56,29 +56,29 @@ TEST(World, ToolsSetEveryFrameCutAsTheirTrajectory) {
   Scene bare = scene;
   bare.tools.clear();
   World live = World::fromScene(bare, voxelizeSceneBodies(bare));
-  const std::size_t blade = live.addBlade(scene.tools[0].keys.front().pose);
+  const ToolId blade = live.addBlade(scene.tools[0].keys.front().pose);
   for (int f = 0; f < 40; ++f) {
     live.setToolPose(blade, bladePoseAt(scene.tools[0], (f + 1) * scene.timeStep));
     const FrameReport a = byKeys.step(), b = live.step();
     ASSERT_EQ(a.cutLinks, b.cutLinks) << "frame " << f;
   }
-  EXPECT_GT(live.bodyInfo(0).cutLinks, 0u);
+  EXPECT_GT(live.bodyInfo(live.bodies()[0]).cutLinks, 0u);
   EXPECT_EQ(live.cutSetHash(), byKeys.cutSetHash());
-  EXPECT_EQ(live.pieces(0), 2);
-  EXPECT_EQ(WorldInternals::body(live, 0).cut.deformation.positions(),
-            WorldInternals::body(byKeys, 0).cut.deformation.positions());
+  EXPECT_EQ(live.pieces(live.bodies()[0]), 2);
+  EXPECT_EQ(WorldInternals::body(live, live.bodies()[0]).cut.deformation.positions(),
+            WorldInternals::body(byKeys, byKeys.bodies()[0]).cut.deformation.positions());
 }
 
 TEST(World, SurfaceChangesReplayTheView) {
   World w = worldOf(box(kBlade, kBaseFixed));
-  SurfaceView v = w.surface(0);
+  SurfaceView v = w.surface(w.bodies()[0]);
   std::vector<std::array<int, 3>> mirror(v.triangles.begin(), v.triangles.end());
   std::uint64_t revision = v.revision;
   int updates = 0;
   for (int f = 0; f < 40; ++f) {
     (void)w.step();
-    v = w.surface(0);
-    const SurfaceChanges c = w.surfaceChanges(0, revision);
+    v = w.surface(w.bodies()[0]);
+    const SurfaceChanges c = w.surfaceChanges(w.bodies()[0], revision);
     EXPECT_EQ(c.to, v.revision);
     ASSERT_FALSE(c.full);
     mirror.resize(v.triangles.size(), {-1, -1, -1});
@@ -95,9 +95,9 @@ TEST(World, SurfaceChangesReplayTheView) {
     for (int c : t) EXPECT_NEAR(v.normals[static_cast<std::size_t>(c)].norm(), 1.0, 1e-9);
   }
   // A reader at revision 0 gets every change since the start, or is told to read everything.
-  const SurfaceChanges all = w.surfaceChanges(0, 0);
+  const SurfaceChanges all = w.surfaceChanges(w.bodies()[0], 0);
   EXPECT_TRUE(all.full || !all.addedTriangles.empty());
-  EXPECT_TRUE(w.surfaceChanges(0, revision + 1).full);  // a revision from the future
+  EXPECT_TRUE(w.surfaceChanges(w.bodies()[0], revision + 1).full);  // a revision from the future
 }
 
 // A probe pressed 5 mm into the top of a box fixed at its base, without gravity, then lifted:
@@ -110,7 +110,7 @@ TEST(World, SurfaceVerticesStayEmbeddedThroughTopologyChanges) {
   std::size_t checked = 0;
   for (int f = 0; f < 35; ++f) {
     w.step();
-    const SimBody& b = WorldInternals::body(w, 0);
+    const SimBody& b = WorldInternals::body(w, w.bodies()[0]);
     const DeformationOctree& d = b.cut.deformation;
     ASSERT_EQ(b.embedding.size(), b.surface.vertexSlots());
     for (std::size_t v = 0; v < b.embedding.size(); ++v) {
@@ -124,7 +124,7 @@ TEST(World, SurfaceVerticesStayEmbeddedThroughTopologyChanges) {
       ++checked;
     }
   }
-  EXPECT_GT(WorldInternals::body(w, 0).cutLinks, 100u);
+  EXPECT_GT(WorldInternals::body(w, w.bodies()[0]).cutLinks, 100u);
   EXPECT_GT(checked, 1000u);
 }
 
@@ -138,7 +138,7 @@ TEST(World, ProbePushesAndTheBodySpringsBack) {
     const FrameReport r = w.step();
     ASSERT_TRUE(r.converged);
   }
-  const ToolReaction held = w.toolReaction(0);
+  const ToolReaction held = w.toolReaction(w.tools()[0]);
   pressed = w.maxDisplacement();
   EXPECT_GT(held.force.y(), 0.0);
   // Mostly up (the surface vertices under the sphere are not placed symmetrically about its
@@ -147,7 +147,7 @@ TEST(World, ProbePushesAndTheBodySpringsBack) {
   EXPECT_LT(held.torque.norm(), 1e-9 * held.force.norm() * 0.01);
   EXPECT_GT(pressed, 0.003);  // most of the 5 mm; the rest is the contact's give
   for (int f = 0; f < 250; ++f) (void)w.step();
-  EXPECT_EQ(w.toolReaction(0).force, Vec3d::Zero());
+  EXPECT_EQ(w.toolReaction(w.tools()[0]).force, Vec3d::Zero());
   EXPECT_LT(w.maxDisplacement(), 0.02 * pressed);
 }
 
@@ -161,8 +161,8 @@ TEST(World, PlaneCarriesWeightAndProbe) {
   World w = worldOf(box(extra, "", -9.81));
   FrameReport r;
   for (int f = 0; f < 300; ++f) r = w.step();
-  const double weight = WorldInternals::body(w, 0).model.totalMass() * 9.81;
-  const Vec3d probe = w.toolReaction(0).force;
+  const double weight = WorldInternals::body(w, w.bodies()[0]).model.totalMass() * 9.81;
+  const Vec3d probe = w.toolReaction(w.tools()[0]).force;
   EXPECT_GT(probe.y(), 0.1 * weight);
   EXPECT_NEAR(-r.obstacleForces[0].y(), weight + probe.y(), 0.01 * (weight + probe.y()));
 }
@@ -180,14 +180,14 @@ TEST(World, MaterialsAndFixedRegionsChangeWhileRunning) {
   stiff.poissonRatio = 0.3;
   stiff.massDamping = 2;
   stiff.stiffnessDamping = 0.01;
-  w.setMaterial(0, stiff);
+  w.setMaterial(w.bodies()[0], stiff);
   for (int f = 0; f < 200; ++f) (void)w.step();
   const double hard = w.maxDisplacement();
   EXPECT_GT(soft, 1e-4);
   EXPECT_NEAR(hard / soft, 0.1, 0.03);
   stiff.name = "steel";
-  EXPECT_THROW(w.setMaterial(0, stiff), InputError);
-  w.setFixed(0, {});
+  EXPECT_THROW(w.setMaterial(w.bodies()[0], stiff), InputError);
+  w.setFixed(w.bodies()[0], {});
   const double before = w.maxDisplacement();
   for (int f = 0; f < 25; ++f) (void)w.step();  // 0.1 s: about g t^2 / 2 = 4.9 cm
   EXPECT_NEAR(w.maxDisplacement() - before, 0.049, 0.01);
@@ -197,7 +197,7 @@ TEST(World, RecordedPosesReplayToTheSameCuts) {
   World w = worldOf(box(kBlade, kBaseFixed));
   w.setRecording(true);
   for (int f = 0; f < 40; ++f) (void)w.step();
-  const std::vector<ToolKey>& keys = w.recording(0);
+  const std::vector<ToolKey>& keys = w.recording(w.tools()[0]);
   ASSERT_EQ(keys.size(), 41u);
   for (std::size_t k = 0; k < keys.size(); ++k)
     EXPECT_EQ(keys[k].t, static_cast<double>(static_cast<int>(k)) * 0.004);
@@ -205,7 +205,7 @@ TEST(World, RecordedPosesReplayToTheSameCuts) {
   replay.tools[0].keys = keys;
   World again = World::fromScene(replay, voxelizeSceneBodies(replay));
   for (int f = 0; f < 40; ++f) (void)again.step();
-  EXPECT_GT(w.bodyInfo(0).cutLinks, 0u);
+  EXPECT_GT(w.bodyInfo(w.bodies()[0]).cutLinks, 0u);
   EXPECT_EQ(again.cutSetHash(), w.cutSetHash());
 }
 
@@ -218,7 +218,7 @@ TEST(World, PlacedToolsMoveWithoutCuttingAndReplay) {
   const BladePose across{Vec3d(0, 0.08, 0.02), Vec3d(0, 0.03, 0.02)};
   auto run = [&](bool place) {
     World w = worldOf(box("", kBaseFixed));
-    const std::size_t blade = w.addBlade(far);
+    const ToolId blade = w.addBlade(far);
     w.setRecording(true);
     for (int f = 0; f < 3; ++f) (void)w.step();
     if (place)
@@ -226,7 +226,7 @@ TEST(World, PlacedToolsMoveWithoutCuttingAndReplay) {
     else
       w.setToolPose(blade, inside);
     (void)w.step();
-    const std::size_t afterPlacing = w.bodyInfo(0).cutLinks;
+    const std::size_t afterPlacing = w.bodyInfo(w.bodies()[0]).cutLinks;
     for (int f = 1; f <= 10; ++f) {
       const double s = f / 10.0;
       w.setToolPose(blade, {(1 - s) * inside.a + s * across.a, (1 - s) * inside.b + s * across.b});
@@ -240,9 +240,9 @@ TEST(World, PlacedToolsMoveWithoutCuttingAndReplay) {
   auto [swept, sweptFirst] = run(false);
   EXPECT_EQ(placedFirst, 0u);
   EXPECT_GT(sweptFirst, 0u);
-  EXPECT_GT(placed.bodyInfo(0).cutLinks, 0u);
-  EXPECT_LT(placed.bodyInfo(0).cutLinks, swept.bodyInfo(0).cutLinks);
-  const std::vector<ToolKey>& keys = placed.recording(0);
+  EXPECT_GT(placed.bodyInfo(placed.bodies()[0]).cutLinks, 0u);
+  EXPECT_LT(placed.bodyInfo(placed.bodies()[0]).cutLinks, swept.bodyInfo(swept.bodies()[0]).cutLinks);
+  const std::vector<ToolKey>& keys = placed.recording(placed.tools()[0]);
   EXPECT_EQ(std::count_if(keys.begin(), keys.end(), [](const ToolKey& k) { return k.jump; }), 2);
   // The recording as a file, played back as the scene's blade.
   const std::filesystem::path file =
@@ -256,7 +256,7 @@ TEST(World, PlacedToolsMoveWithoutCuttingAndReplay) {
   for (int f = 0; f < placed.frame(); ++f) (void)replay.step();
   std::filesystem::remove(file);
   EXPECT_EQ(replay.cutSetHash(), placed.cutSetHash());
-  EXPECT_EQ(replay.bodyInfo(0).cutLinks, placed.bodyInfo(0).cutLinks);
+  EXPECT_EQ(replay.bodyInfo(replay.bodies()[0]).cutLinks, placed.bodyInfo(placed.bodies()[0]).cutLinks);
 }
 
 // The voxel octree switched off and on while a blade cuts: the same cuts as with it on
@@ -264,8 +264,8 @@ TEST(World, PlacedToolsMoveWithoutCuttingAndReplay) {
 TEST(World, OctreeSwitchedWhileCuttingGivesTheSameCuts) {
   World on = worldOf(box(kBlade, kBaseFixed));
   World toggled = worldOf(box(kBlade, kBaseFixed));
-  for (const TriangleTag& tag : on.surface(0).triangleTags) EXPECT_EQ(tag.cut, 0);
-  const ActivityView start = toggled.activity(0);
+  for (const TriangleTag& tag : on.surface(on.bodies()[0]).triangleTags) EXPECT_EQ(tag.cut, 0);
+  const ActivityView start = toggled.activity(toggled.bodies()[0]);
   EXPECT_GT(start.cubes.size(), 0u);
   EXPECT_EQ(start.links.size(), start.activeLinks);
   EXPECT_EQ(start.cubes.size(), start.cubeLevels.size());
@@ -274,7 +274,7 @@ TEST(World, OctreeSwitchedWhileCuttingGivesTheSameCuts) {
     if (f == 10) toggled.setUseOctree(false);
     if (f == 25) toggled.setUseOctree(true);
     if (f == 15) {
-      const ActivityView all = toggled.activity(0, 1000);
+      const ActivityView all = toggled.activity(toggled.bodies()[0], 1000);
       EXPECT_TRUE(all.cubes.empty());
       EXPECT_GT(all.activeLinks, 2 * start.activeLinks);
       EXPECT_LE(all.links.size(), 1000u);
@@ -284,10 +284,10 @@ TEST(World, OctreeSwitchedWhileCuttingGivesTheSameCuts) {
     (void)on.step();
     (void)toggled.step();
   }
-  EXPECT_GT(on.bodyInfo(0).cutLinks, 0u);
+  EXPECT_GT(on.bodyInfo(on.bodies()[0]).cutLinks, 0u);
   EXPECT_EQ(toggled.cutSetHash(), on.cutSetHash());
   // The cut shows on the surface as triangles tagged as cut, of the box's one material.
-  const SurfaceView surface = on.surface(0);
+  const SurfaceView surface = on.surface(on.bodies()[0]);
   std::size_t cutTriangles = 0, live = 0;
   for (std::size_t t = 0; t < surface.triangles.size(); ++t) {
     if (surface.triangles[t][0] < 0) continue;
@@ -297,12 +297,12 @@ TEST(World, OctreeSwitchedWhileCuttingGivesTheSameCuts) {
   }
   EXPECT_GT(cutTriangles, 0u);
   EXPECT_LT(cutTriangles, live / 2);
-  EXPECT_EQ(on.bodyInfo(0).materialNames.size(), 1u);
+  EXPECT_EQ(on.bodyInfo(on.bodies()[0]).materialNames.size(), 1u);
   // Built afresh after the cut, the octree may keep larger cubes than the one subdivided
   // along the cut did.
-  EXPECT_LE(toggled.activity(0).activeLinks, on.activity(0).activeLinks);
-  EXPECT_LT(2 * toggled.activity(0).activeLinks, allLinks);
-  EXPECT_FALSE(toggled.activity(0).cubes.empty());
+  EXPECT_LE(toggled.activity(toggled.bodies()[0]).activeLinks, on.activity(on.bodies()[0]).activeLinks);
+  EXPECT_LT(2 * toggled.activity(toggled.bodies()[0]).activeLinks, allLinks);
+  EXPECT_FALSE(toggled.activity(toggled.bodies()[0]).cubes.empty());
   // The cubes' corners are where the material is: inside the box, which barely moves.
   for (const auto& cube : start.cubes)
     for (const Vec3d& c : cube) EXPECT_TRUE(c.y() > -0.001 && c.y() < 0.061);
@@ -343,8 +343,8 @@ TEST(World, ProbeResultsSameForAnyThreadCount) {
     ThreadLimit limit(threads);
     World w = worldOf(box(probe, kBaseFixed));
     for (int f = 0; f < 60; ++f) (void)w.step();
-    return std::make_pair(WorldInternals::body(w, 0).cut.deformation.positions(),
-                          w.toolReaction(0).torque);
+    return std::make_pair(WorldInternals::body(w, w.bodies()[0]).cut.deformation.positions(),
+                          w.toolReaction(w.tools()[0]).torque);
   };
   const auto one = run(1), two = run(2);
   EXPECT_EQ(one.first, two.first);
@@ -363,7 +363,8 @@ TEST(World, HapticForceFollowsTheProbeBetweenFrames) {
   std::atomic<int> calls{0};
   std::thread device([&] {
     while (!done.load()) {
-      const ToolReaction r = w.hapticForce(0, {Vec3d(0, 0.066, 0), Vec3d(0, 0.066, 0)});
+      const ToolReaction r =
+          w.hapticForce(w.tools()[0], {Vec3d(0, 0.066, 0), Vec3d(0, 0.066, 0)}).reaction;
       EXPECT_GE(r.force.y(), 0.0);
       calls.fetch_add(1);
     }
@@ -375,7 +376,7 @@ TEST(World, HapticForceFollowsTheProbeBetweenFrames) {
   };
   int f = 0;
   for (; f < 40; ++f) {
-    w.setToolPose(0, at(f + 1));
+    w.setToolPose(w.tools()[0], at(f + 1));
     (void)w.step();
   }
   done = true;
@@ -384,23 +385,23 @@ TEST(World, HapticForceFollowsTheProbeBetweenFrames) {
   // Past the longest period the call blends a new frame's model in over, it is that model's.
   const auto blended = std::chrono::milliseconds(60);
   std::this_thread::sleep_for(blended);
-  const Vec3d now = w.toolReaction(0).force;
+  const Vec3d now = w.toolReaction(w.tools()[0]).force;
   ASSERT_GT(now.y(), 0.0);
-  EXPECT_EQ(w.hapticForce(0, at(f)).force, now);
+  EXPECT_EQ(w.hapticForce(w.tools()[0], at(f)).reaction.force, now);
   // Half way to the next frame's pose, the force lies between the two frames' forces.
   const Vec3d half =
-      w.hapticForce(0, {0.5 * (at(f).a + at(f + 1).a), 0.5 * (at(f).a + at(f + 1).a)}).force;
-  w.setToolPose(0, at(f + 1));
+      w.hapticForce(w.tools()[0], {0.5 * (at(f).a + at(f + 1).a), 0.5 * (at(f).a + at(f + 1).a)}).reaction.force;
+  w.setToolPose(w.tools()[0], at(f + 1));
   (void)w.step();
-  const Vec3d next = w.toolReaction(0).force;
+  const Vec3d next = w.toolReaction(w.tools()[0]).force;
   std::this_thread::sleep_for(blended);
-  EXPECT_EQ(w.hapticForce(0, at(f + 1)).force, next);
+  EXPECT_EQ(w.hapticForce(w.tools()[0], at(f + 1)).reaction.force, next);
   EXPECT_GT(half.y(), now.y());
   EXPECT_LT(half.y(), next.y());
   EXPECT_NEAR(half.y(), 0.5 * (now.y() + next.y()), 0.1 * (next.y() - now.y()));
   // Pulled well away, it does not pull.
   const Vec3d away(0, 0.2, 0);
-  EXPECT_EQ(w.hapticForce(0, {away, away}).force, Vec3d::Zero());
+  EXPECT_EQ(w.hapticForce(w.tools()[0], {away, away}).reaction.force, Vec3d::Zero());
 }
 
 // bunny-poke.json: the probe presses the bunny's back and lets go; the bunny springs back to
@@ -423,9 +424,9 @@ TEST(World, BunnyPokeSpringsBack) {
   }
   EXPECT_GT(pressed, 0.005);  // most of the 1 cm the probe goes down
   EXPECT_GT(force, 1.0);
-  EXPECT_EQ(poked.toolReaction(0).force, Vec3d::Zero());
-  const auto& a = WorldInternals::body(poked, 0).cut.deformation.positions();
-  const auto& b = WorldInternals::body(alone, 0).cut.deformation.positions();
+  EXPECT_EQ(poked.toolReaction(poked.tools()[0]).force, Vec3d::Zero());
+  const auto& a = WorldInternals::body(poked, poked.bodies()[0]).cut.deformation.positions();
+  const auto& b = WorldInternals::body(alone, alone.bodies()[0]).cut.deformation.positions();
   double apart = 0.0;
   for (std::size_t n = 0; n < a.size(); ++n) apart = std::max(apart, (a[n] - b[n]).norm());
   EXPECT_LT(apart, 0.05 * pressed);
@@ -434,8 +435,8 @@ TEST(World, BunnyPokeSpringsBack) {
 // The deepest any surface vertex of body a lies inside body b (a == b: itself, away from its
 // own neighbourhood), measured in b's rest frame, where they are now.
 double deepestInside(const World& w, std::size_t a, std::size_t b) {
-  const SimBody& ba = WorldInternals::body(w, a);
-  const SimBody& bb = WorldInternals::body(w, b);
+  const SimBody& ba = WorldInternals::body(w, w.bodies()[a]);
+  const SimBody& bb = WorldInternals::body(w, w.bodies()[b]);
   LayeredHash hash;
   buildElementHash(bb, hash, true);
   double deepest = 0.0;
@@ -462,8 +463,8 @@ TEST(World, SelfCollisionKeepsTheSidesOfACutApart) {
   auto run = [](bool self) {
     World w = worldOf(slitBoxPressed(self));
     for (int f = 0; f < 100; ++f) EXPECT_TRUE(w.step().converged);
-    EXPECT_EQ(w.pieces(0), 1);  // a slit, not a cut through
-    return std::make_pair(deepestInside(w, 0, 0), w.bodyInfo(0).voxelSize);
+    EXPECT_EQ(w.pieces(w.bodies()[0]), 1);  // a slit, not a cut through
+    return std::make_pair(deepestInside(w, 0, 0), w.bodyInfo(w.bodies()[0]).voxelSize);
   };
   const auto [with, voxel] = run(true);
   const auto without = run(false).first;
@@ -480,7 +481,7 @@ TEST(World, SelfCandidatesKeptBetweenFramesFindTheSameContacts) {
   int rebuilt = 0, found = 0;
   for (int f = 0; f < 100; ++f) {
     (void)w.step();
-    const SimBody& b = WorldInternals::body(w, 0);
+    const SimBody& b = WorldInternals::body(w, w.bodies()[0]);
     LayeredHash hash;
     buildElementHash(b, hash, true);
     const std::vector<Vec3d> before = cache.nodes;
@@ -521,7 +522,7 @@ TEST(World, BodyDroppedOnAnotherComesToRest) {
     World w = worldOf(scene(0.01));
     double deepest = 0.0;
     for (int f = 0; f < 300; ++f) deepest = std::max(deepest, w.step().maxPenetration);
-    const SimBody& top = WorldInternals::body(w, 1);
+    const SimBody& top = WorldInternals::body(w, w.bodies()[1]);
     EXPECT_LT(deepest, 0.5 * top.cut.grid.voxelSize());
     EXPECT_LT(top.solver.kineticEnergy(top.model), 1e-7);
     EXPECT_LT(deepestInside(w, 1, 0), 0.5 * top.cut.grid.voxelSize());
@@ -533,7 +534,7 @@ TEST(World, BodyDroppedOnAnotherComesToRest) {
   {
     World w = worldOf(scene(0.3));
     for (int f = 0; f < 200; ++f) (void)w.step();
-    const SimBody& top = WorldInternals::body(w, 1);
+    const SimBody& top = WorldInternals::body(w, w.bodies()[1]);
     double lowest = 1e9;
     for (const Vec3d& x : top.cut.deformation.positions()) lowest = std::min(lowest, x.y());
     EXPECT_GT(lowest, 0.055);
@@ -559,7 +560,7 @@ TEST(World, FrictionHoldsOrSlidesAsCoulombSays) {
     World w = worldOf(scene);
     auto centreX = [&] {
       double x = 0.0;
-      const auto& p = WorldInternals::body(w, 0).cut.deformation.positions();
+      const auto& p = WorldInternals::body(w, w.bodies()[0]).cut.deformation.positions();
       for (const Vec3d& q : p) x += q.x();
       return x / static_cast<double>(p.size());
     };
@@ -586,7 +587,7 @@ TEST(World, FrictionHoldsOrSlidesAsCoulombSays) {
 TEST(World, EarOnTableComesToRestOnItsStump) {
   const Scene scene = readScene(std::string(VOXCUT_SOURCE_DIR) + "/scenes/ear-on-table.json");
   World w = World::fromScene(scene, voxelizeSceneBodies(scene));
-  const SimBody& b = WorldInternals::body(w, 0);
+  const SimBody& b = WorldInternals::body(w, w.bodies()[0]);
   auto earCentre = [&](const PieceLabels& pieces, int ear) {
     Vec3d c = Vec3d::Zero();
     for (std::size_t v = 0; v < b.cut.grid.voxelCount(); ++v)
@@ -635,7 +636,7 @@ TEST(World, StarfishStackArmsRestOnEachOther) {
   World w = World::fromScene(scene, voxelizeSceneBodies(scene));
   // Per body, the cut-off arm's voxels where they are now (the smaller piece).
   auto armVoxels = [&](std::size_t body) {
-    const SimBody& b = WorldInternals::body(w, body);
+    const SimBody& b = WorldInternals::body(w, w.bodies()[body]);
     const PieceLabels pieces = findPieces(b.cut.grid);
     EXPECT_EQ(pieces.count, 2);
     const int arm = pieces.voxels[0] < pieces.voxels[1] ? 0 : 1;
@@ -658,7 +659,7 @@ TEST(World, StarfishStackArmsRestOnEachOther) {
     }
   }
   const std::vector<Vec3d> lower = armVoxels(0), upper = armVoxels(1);
-  const double voxel = w.bodyInfo(0).voxelSize;
+  const double voxel = w.bodyInfo(w.bodies()[0]).voxelSize;
   EXPECT_LT((centre(lower) - lowerBefore).norm(), 0.5 * voxel) << "the lower arm still moves";
   EXPECT_LT((centre(upper) - upperBefore).norm(), 0.5 * voxel) << "the upper arm still moves";
   // Touching: some voxel of each within two voxels of the other's; and the upper arm lies on the
@@ -684,7 +685,7 @@ TEST(World, LiverProbeCutLiftsTheColumn) {
   const Scene scene = readScene(std::string(VOXCUT_SOURCE_DIR) + "/scenes/liver-probe-cut.json");
   World w = World::fromScene(scene, voxelizeSceneBodies(scene));
   for (int f = 0; f < *scene.frames; ++f) ASSERT_TRUE(w.step().converged) << "frame " << f;
-  const SimBody& b = WorldInternals::body(w, 0);
+  const SimBody& b = WorldInternals::body(w, w.bodies()[0]);
   const PieceLabels pieces = findPieces(b.cut.grid);
   ASSERT_EQ(pieces.count, 2);
   // The column is the piece that no fixed box holds: the smaller one.
@@ -699,8 +700,8 @@ TEST(World, LiverProbeCutLiftsTheColumn) {
   EXPECT_GT((now - rest).z() / n, 0.015) << "the column was not lifted";
   // The probe carries the column's weight (it is at rest on it, within a fifth).
   const double weight = 1060.0 * n * std::pow(b.cut.grid.voxelSize(), 3) * 9.81;
-  EXPECT_NEAR(-w.toolReaction(1).force.z(), weight, 0.2 * weight);
-  EXPECT_TRUE(surfaceTopology(w.surfaceMesh(0)).closed);
+  EXPECT_NEAR(-w.toolReaction(w.tools()[1]).force.z(), weight, 0.2 * weight);
+  EXPECT_TRUE(surfaceTopology(w.surfaceMesh(w.bodies()[0])).closed);
 }
 
 // Contacts between bodies and of a body with itself, with friction: the same at 1 and 2
@@ -719,7 +720,7 @@ TEST(World, BodyContactsSameForAnyThreadCount) {
     std::size_t contacts = 0;
     for (int f = 0; f < 40; ++f) contacts += w.step().contacts;
     EXPECT_GT(contacts, 0u);
-    return WorldInternals::body(w, 1).cut.deformation.positions();
+    return WorldInternals::body(w, w.bodies()[1]).cut.deformation.positions();
   };
   EXPECT_EQ(run(1), run(2));
 }

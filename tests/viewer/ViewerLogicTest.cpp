@@ -103,16 +103,16 @@ TEST(Input, MouseDragCutsAndPressesTheBunnyAndReplays) {
   EXPECT_FALSE(d.input.dragging());
   (void)d.input.button(MouseButton::Left, false, 2, 2, false, d.draw());
   for (int f = 0; f < 5; ++f) (void)d.session.step();
-  EXPECT_EQ(w.bodyInfo(0).cutLinks, 0u);
+  EXPECT_EQ(w.bodyInfo(w.bodies()[0]).cutLinks, 0u);
 
   d.drag(ToolMode::Blade, cx - 30, cx + 30, cy, 15);
-  const std::size_t cut = w.bodyInfo(0).cutLinks;
+  const std::size_t cut = w.bodyInfo(w.bodies()[0]).cutLinks;
   EXPECT_GT(cut, 0u);
   d.release();
   EXPECT_EQ(w.toolPose(d.session.blade()).a, d.session.bladePark().a);
   // Put back, the blade cuts nothing more.
   for (int f = 0; f < 3; ++f) (void)d.session.step();
-  EXPECT_EQ(w.bodyInfo(0).cutLinks, cut);
+  EXPECT_EQ(w.bodyInfo(w.bodies()[0]).cutLinks, cut);
 
   d.drag(ToolMode::Probe, cx, cx + 10, cy + 20, 8);
   const Vec3d force = w.toolReaction(d.session.probe()).force;
@@ -135,7 +135,7 @@ TEST(Input, MouseDragCutsAndPressesTheBunnyAndReplays) {
   ASSERT_NE(start, std::string::npos) << out;
   const nlohmann::json j = nlohmann::json::parse(out.substr(start));
   EXPECT_EQ(j["frames"].get<int>(), w.frame());
-  EXPECT_EQ(j["cut_links"].get<std::size_t>(), w.bodyInfo(0).cutLinks);
+  EXPECT_EQ(j["cut_links"].get<std::size_t>(), w.bodyInfo(w.bodies()[0]).cutLinks);
   EXPECT_EQ(j["cut_set_hash"].get<std::string>(), hex(w.cutSetHash()));
 }
 

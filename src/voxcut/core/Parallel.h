@@ -10,7 +10,9 @@
 #include <tbb/parallel_invoke.h>
 
 #include <cstddef>
+#include <algorithm>
 #include <memory>
+#include <vector>
 
 #if defined(__SANITIZE_THREAD__)
 #include <sanitizer/tsan_interface.h>
@@ -105,6 +107,39 @@ class ThreadLimit {
 
  private:
   std::unique_ptr<tbb::global_control> control_;
+};
+
+/// Outputs of parallel work over fixed chunks, one list per chunk, joined in chunk order: the
+/// joined list is the same for any thread count (each chunk's own items are in its order).
+template <class T>
+class ChunkedList {
+ public:
+  explicit ChunkedList(std::size_t chunks) : parts_(chunks) {}
+  [[nodiscard]] std::vector<T>& operator[](std::size_t chunk) { return parts_[chunk]; }
+  /// Appends every chunk's items to `out`, chunk by chunk.
+  void appendTo(std::vector<T>& out) const {
+    for (const std::vector<T>& p : parts_) out.insert(out.end(), p.begin(), p.end());
+  }
+
+ private:
+  std::vector<std::vector<T>> parts_;
+};
+
+/// The largest value raised over parallel work on fixed chunks, one slot per chunk: a maximum
+/// is exact, so it is the same for any thread count.
+class ChunkedMax {
+ public:
+  explicit ChunkedMax(std::size_t chunks, double floor = 0.0) : parts_(chunks, floor), floor_(floor) {}
+  void raise(std::size_t chunk, double value) { parts_[chunk] = std::max(parts_[chunk], value); }
+  [[nodiscard]] double value() const {
+    double best = floor_;
+    for (const double p : parts_) best = std::max(best, p);
+    return best;
+  }
+
+ private:
+  std::vector<double> parts_;
+  double floor_;
 };
 
 }  // namespace voxcut

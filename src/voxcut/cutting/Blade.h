@@ -28,16 +28,11 @@
 #include <cstdint>
 #include <optional>
 
+#include "voxcut/core/BladePose.h"
 #include "voxcut/core/Predicates.h"
 #include "voxcut/core/Types.h"
 
 namespace voxcut {
-
-/// The blade at one instant: the segment from a to b (metres, world frame).
-struct BladePose {
-  Vec3d a = Vec3d::Zero();
-  Vec3d b = Vec3d::Zero();
-};
 
 /// The surface swept by the blade from one pose to the next.
 ///

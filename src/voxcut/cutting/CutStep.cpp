@@ -5,6 +5,7 @@
 #include <limits>
 #include <tuple>
 
+#include "voxcut/core/Fnv.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/core/Timer.h"
 #include "voxcut/cutting/SweepCull.h"
@@ -482,19 +483,14 @@ CutStepResult cutStepLeavingUpdates(CutBody& b, const std::vector<BladeSweep>& s
 std::uint64_t cutSetHash(std::vector<LinkCut> cuts) {
   std::sort(cuts.begin(), cuts.end(),
             [](const LinkCut& x, const LinkCut& y) { return x.link < y.link; });
-  std::uint64_t h = 0xcbf29ce484222325ULL;
-  auto mix = [&](std::int64_t value) {
-    for (int i = 0; i < 8; ++i) {
-      h ^= static_cast<std::uint64_t>(value >> (8 * i)) & 0xffu;
-      h *= 0x100000001b3ULL;
-    }
-  };
+  Fnv1a h;
   for (const LinkCut& c : cuts) {
-    mix(static_cast<std::int64_t>(c.link));
-    mix(std::llround(static_cast<double>(c.hermite.t) * 1e6));
-    for (int i = 0; i < 3; ++i) mix(std::llround(static_cast<double>(c.hermite.n[i]) * 1e6));
+    h.add(static_cast<std::int64_t>(c.link));
+    h.add(static_cast<std::int64_t>(std::llround(static_cast<double>(c.hermite.t) * 1e6)));
+    for (int i = 0; i < 3; ++i)
+      h.add(static_cast<std::int64_t>(std::llround(static_cast<double>(c.hermite.n[i]) * 1e6)));
   }
-  return h;
+  return h.value();
 }
 
 }  // namespace voxcut

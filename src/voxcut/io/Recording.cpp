@@ -16,7 +16,7 @@ std::string recordingText(const World& world) {
   top["description"] = "voxcut tool recording";
   top["time_step"] = world.settings().timeStep;
   nlohmann::ordered_json tools = nlohmann::ordered_json::array();
-  for (std::size_t t = 0; t < world.toolCount(); ++t) {
+  for (const ToolId t : world.tools()) {
     const bool probe = world.toolKind(t) == ToolKind::Probe;
     nlohmann::ordered_json tool;
     tool["type"] = probe ? "probe" : "blade";

@@ -32,7 +32,9 @@ void checkSceneMemory(const Scene& scene, const std::vector<Model>& models,
     mp.cutting = true;
     mp.simulation = true;
     mp.allActive = !params.useOctree;
-    mp.factor = scene.solver.preconditioner == PreconditionerKind::Cholesky;
+    // Automatic factors the bodies it can afford to: the estimate counts the factor.
+    mp.factor = scene.solver.preconditioner == SolverChoice::Cholesky ||
+                scene.solver.preconditioner == SolverChoice::Automatic;
     mp.elementLevel = scene.bodies[i].elementLevel;
     mp.surfaceLevel = scene.bodies[i].surfaceLevel;
     MemoryEstimate e;

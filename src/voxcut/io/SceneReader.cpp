@@ -13,6 +13,7 @@
 #include "voxcut/core/Error.h"
 #include "voxcut/io/MeshReader.h"
 #include "voxcut/io/StrictJson.h"
+#include "voxcut/sim/WorldChecks.h"
 
 namespace voxcut {
 namespace {
@@ -23,18 +24,8 @@ using Json = nlohmann::ordered_json;
 namespace fs = std::filesystem;
 
 constexpr int kMaxResolution = 4096;
-constexpr int kMaxElementLevel = 6;
-constexpr int kMaxOctreeLevel = 7;
 constexpr std::size_t kMaxShownChars = 60;
-// Ranges of the physical parameters: wide enough for any material and setting a simulation of
-// soft or stiff solids needs, narrow enough that products in the solver stay far from
-// overflow.
-constexpr double kMaxTimeStep = 1e3;       // s
-constexpr double kMaxKeyTime = 1e9;        // s, |t| of a tool key
-constexpr double kMaxGravity = 1e4;        // m/s^2, per component
-constexpr double kMaxYoungModulus = 1e12;  // Pa
-constexpr double kMaxDensity = 1e5;        // kg/m^3
-constexpr double kMaxDamping = 1e6;        // 1/s (alpha) and s (beta)
+// The ranges of the physical parameters are the world API's (sim/WorldChecks.h).
 // Chunk in which a scene file is read, so that only what the file holds is allocated.
 constexpr std::size_t kReadChunk = 1 << 16;
 
@@ -181,9 +172,9 @@ SolverSettings readSolver(const Reader& r, const Json& v, const std::string& pat
     const Json& p = v["preconditioner"];
     std::string names;
     bool found = false;
-    for (PreconditionerKind kind : kPreconditionerKinds) {
-      names += std::string(names.empty() ? "" : ", ") + "\"" + preconditionerName(kind) + "\"";
-      if (p.is_string() && p.get<std::string>() == preconditionerName(kind)) {
+    for (SolverChoice kind : kSolverChoices) {
+      names += std::string(names.empty() ? "" : ", ") + "\"" + solverChoiceName(kind) + "\"";
+      if (p.is_string() && p.get<std::string>() == solverChoiceName(kind)) {
         s.preconditioner = kind;
         found = true;
       }
@@ -198,7 +189,8 @@ SolverSettings readSolver(const Reader& r, const Json& v, const std::string& pat
     s.maxIterations = integer(r, v["max_iterations"], child(path, "max_iterations"), 1, 1000000);
   if (v.contains("projection_history"))
     s.projectionHistory =
-        integer(r, v["projection_history"], child(path, "projection_history"), 0, 64);
+        integer(r, v["projection_history"], child(path, "projection_history"), 0,
+                kMaxProjectionHistory);
   return s;
 }
 
@@ -414,7 +406,7 @@ SceneTool readTool(const Reader& r, const Json& v, const std::string& path) {
   if (tool.kind == ToolKind::Probe) {
     tool.radius = positive(r, required(r, v, path, "radius"), child(path, "radius"), 1e3, "1e3 m");
     if (v.contains("friction"))
-      tool.friction = nonNegative(r, v["friction"], child(path, "friction"), 100.0, "100");
+      tool.friction = nonNegative(r, v["friction"], child(path, "friction"), kMaxFriction, "100");
   }
   const bool keys = v.contains("keys"), trajectory = v.contains("trajectory");
   if (keys == trajectory) r.fail(path, "needs exactly one of \"keys\" and \"trajectory\"");
@@ -533,7 +525,7 @@ Obstacle readObstacle(const Reader& r, const Json& v, const std::string& path) {
                                     " (expected one of: \"plane\", \"box\", \"mesh\")");
   }
   if (v.contains("friction"))
-    o.friction = nonNegative(r, v["friction"], child(path, "friction"), 100.0, "100");
+    o.friction = nonNegative(r, v["friction"], child(path, "friction"), kMaxFriction, "100");
   return o;
 }
 
@@ -578,10 +570,10 @@ Scene readTop(const Reader& r, const Json& v) {
     checkKeys(r, c, "contact", {"stiffness", "self_collision", "friction"});
     if (c.contains("friction"))
       scene.contact.friction =
-          nonNegative(r, c["friction"], child("contact", "friction"), 100.0, "100");
+          nonNegative(r, c["friction"], child("contact", "friction"), kMaxFriction, "100");
     if (c.contains("stiffness"))
       scene.contact.stiffness =
-          nonNegative(r, c["stiffness"], child("contact", "stiffness"), 1e12, "1e12 N/m");
+          nonNegative(r, c["stiffness"], child("contact", "stiffness"), kMaxContactStiffness, "1e12 N/m");
     if (c.contains("self_collision")) {
       const Json& sc = c["self_collision"];
       if (!sc.is_boolean())

@@ -114,16 +114,8 @@ std::vector<std::uint32_t> candidatesOf(const SimBody& b, const LayeredHash& bHa
 }  // namespace
 
 void buildElementHash(const SimBody& body, LayeredHash& hash, bool threaded) {
-  const DeformationOctree& d = body.cut.deformation;
-  std::vector<Eigen::AlignedBox3d> boxes(d.elementCount());
-  parallelFor(
-      0, boxes.size(), 1024,
-      [&](std::size_t lo, std::size_t hi) {
-        for (std::size_t e = lo; e < hi; ++e)
-          for (std::uint32_t n : d.element(static_cast<std::uint32_t>(e)).nodes)
-            boxes[e].extend(d.positions()[n]);
-      },
-      threaded);
+  std::vector<Eigen::AlignedBox3d> boxes;
+  body.cut.deformation.updateElementBounds(boxes, threaded);
   hash.build(boxes, threaded);
 }
 
@@ -147,40 +139,34 @@ void groupVerticesByElement(const SimBody& body, VerticesByElement& groups) {
   groups.valid = true;
 }
 
-std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& b,
-                                               const LayeredHash& bHash, bool self, double dt,
-                                               bool threaded, SelfCandidateCache* cache,
-                                               const VerticesByElement* groups) {
-  const DeformationOctree& da = a.cut.deformation;
+namespace {
+
+/// B's element velocities (the mean of their nodes'; empty before B's first step), and in
+/// `fastest` the fastest of them.
+std::vector<Vec3d> elementVelocities(const SimBody& b, double& fastest) {
   const DeformationOctree& db = b.cut.deformation;
-  const VoxelGrid& gb = b.cut.grid;
-  const std::vector<Vec3d>& velocity = a.solver.velocities();
-  // A's vertices by element.
-  const std::size_t elements = da.elementCount();
-  VerticesByElement local;
-  if (groups == nullptr) {
-    groupVerticesByElement(a, local);
-    groups = &local;
-  }
-  const std::vector<std::uint32_t>& start = groups->start;
-  const std::vector<std::uint32_t>& order = groups->order;
-  // B's element velocities (the mean of their nodes'), and the fastest: a vertex is moved on
-  // by dt times its velocity relative to the element it is tested against, so two bodies (or
-  // two parts of one) moving together do not see each other ahead of where they are.
   const std::vector<Vec3d>& bVelocity = b.solver.velocities();
   std::vector<Vec3d> elementVelocity;
-  double fastestB = 0.0;
-  if (!bVelocity.empty()) {
-    elementVelocity.resize(db.elementCount());
-    for (std::size_t e = 0; e < db.elementCount(); ++e) {
-      Vec3d sum = Vec3d::Zero();
-      for (std::uint32_t n : db.element(static_cast<std::uint32_t>(e)).nodes) sum += bVelocity[n];
-      elementVelocity[e] = sum / 8.0;
-      fastestB = std::max(fastestB, elementVelocity[e].norm());
-    }
+  fastest = 0.0;
+  if (bVelocity.empty()) return elementVelocity;
+  elementVelocity.resize(db.elementCount());
+  for (std::size_t e = 0; e < db.elementCount(); ++e) {
+    Vec3d sum = Vec3d::Zero();
+    for (std::uint32_t n : db.element(static_cast<std::uint32_t>(e)).nodes) sum += bVelocity[n];
+    elementVelocity[e] = sum / 8.0;
+    fastest = std::max(fastest, elementVelocity[e].norm());
   }
-  // Per element of A: the box its vertices can reach in the step (its nodes where they are and
-  // moved on by dt v, grown by B's fastest motion).
+  return elementVelocity;
+}
+
+/// Per element of A holding vertices: the box its vertices can reach in the step (its nodes
+/// where they are and moved on by dt v, grown by B's fastest motion `fastestB`).
+std::vector<Eigen::AlignedBox3d> reachBoxes(const SimBody& a, const SimBody& b,
+                                            const std::vector<std::uint32_t>& start, double dt,
+                                            double fastestB, bool threaded) {
+  const DeformationOctree& da = a.cut.deformation;
+  const std::vector<Vec3d>& velocity = a.solver.velocities();
+  const std::size_t elements = da.elementCount();
   std::vector<Eigen::AlignedBox3d> reach(elements);
   parallelFor(
       0, elements, 256,
@@ -200,45 +186,123 @@ std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& 
         }
       },
       threaded);
-  // The elements of B whose boxes meet that box, less its own neighbourhood for self: from the
-  // cache while it holds (nothing has moved out of its skin), else queried (and kept).
-  if (cache != nullptr && self) {
-    bool usable = cache->valid && cache->cutLinks == a.cutLinks &&
-                  cache->nodes.size() == da.positions().size() && cache->query.size() == elements;
-    if (usable) {
-      Vec3d moved = Vec3d::Zero();  // per axis, the farthest any node has moved since
-      for (std::size_t n = 0; n < cache->nodes.size(); ++n)
-        moved = moved.cwiseMax((da.positions()[n] - cache->nodes[n]).cwiseAbs());
-      for (std::size_t ea = 0; ea < elements && usable; ++ea)
-        if (start[ea] != start[ea + 1])
-          usable = cache->query[ea].contains(
-              Eigen::AlignedBox3d(reach[ea].min() - moved, reach[ea].max() + moved));
-    }
-    if (!usable) {
-      const double skin = a.cut.grid.voxelSize();
-      cache->nodes = da.positions();
-      cache->cutLinks = a.cutLinks;
-      cache->query.assign(elements, Eigen::AlignedBox3d());
-      cache->candidates.assign(elements, {});
-      parallelFor(
-          0, elements, 32,
-          [&](std::size_t lo, std::size_t hi) {
-            for (std::size_t ea = lo; ea < hi; ++ea) {
-              if (start[ea] == start[ea + 1]) continue;
-              cache->query[ea] = Eigen::AlignedBox3d(reach[ea].min() - Vec3d::Constant(skin),
-                                                     reach[ea].max() + Vec3d::Constant(skin));
-              cache->candidates[ea] =
-                  candidatesOf(b, bHash, static_cast<std::uint32_t>(ea), cache->query[ea], true);
-            }
-          },
-          threaded);
-      cache->valid = true;
-    }
+  return reach;
+}
+
+/// The self candidates of A's elements (less their own neighbourhood) kept in `cache`: kept
+/// while they hold (nothing has moved out of the skin they were queried with), else queried
+/// again with a voxel of skin.
+void refreshSelfCandidates(const SimBody& a, const LayeredHash& hash,
+                           const std::vector<std::uint32_t>& start,
+                           const std::vector<Eigen::AlignedBox3d>& reach,
+                           SelfCandidateCache& cache, bool threaded) {
+  const DeformationOctree& da = a.cut.deformation;
+  const std::size_t elements = da.elementCount();
+  bool usable = cache.valid && cache.cutLinks == a.cutLinks &&
+                cache.nodes.size() == da.positions().size() && cache.query.size() == elements;
+  if (usable) {
+    Vec3d moved = Vec3d::Zero();  // per axis, the farthest any node has moved since
+    for (std::size_t n = 0; n < cache.nodes.size(); ++n)
+      moved = moved.cwiseMax((da.positions()[n] - cache.nodes[n]).cwiseAbs());
+    for (std::size_t ea = 0; ea < elements && usable; ++ea)
+      if (start[ea] != start[ea + 1])
+        usable = cache.query[ea].contains(
+            Eigen::AlignedBox3d(reach[ea].min() - moved, reach[ea].max() + moved));
   }
+  if (usable) return;
+  const double skin = a.cut.grid.voxelSize();
+  cache.nodes = da.positions();
+  cache.cutLinks = a.cutLinks;
+  cache.query.assign(elements, Eigen::AlignedBox3d());
+  cache.candidates.assign(elements, {});
+  parallelFor(
+      0, elements, 32,
+      [&](std::size_t lo, std::size_t hi) {
+        for (std::size_t ea = lo; ea < hi; ++ea) {
+          if (start[ea] == start[ea + 1]) continue;
+          cache.query[ea] = Eigen::AlignedBox3d(reach[ea].min() - Vec3d::Constant(skin),
+                                                reach[ea].max() + Vec3d::Constant(skin));
+          cache.candidates[ea] =
+              candidatesOf(a, hash, static_cast<std::uint32_t>(ea), cache.query[ea], true);
+        }
+      },
+      threaded);
+  cache.valid = true;
+}
+
+/// Vertex v of A against the `candidates` elements of B: the deepest contact (depth 0 when
+/// none), its depth now in `currentDepth`.
+BodyContactPoint deepestContact(const SimBody& a, const SimBody& b, const LayeredHash& bHash,
+                                bool self, double dt, std::uint32_t v,
+                                const std::vector<std::uint32_t>& candidates,
+                                const std::vector<Vec3d>& elementVelocity) {
+  const DeformationOctree& da = a.cut.deformation;
+  const DeformationOctree& db = b.cut.deformation;
+  const VoxelGrid& gb = b.cut.grid;
+  const VertexEmbedding& em = a.embedding[v];
+  const Vec3d now = da.pointInElement(em.element, em.local);
+  const Vec3d vp = pointVelocity(a, em.element, trilinearWeights(em.local));
+  // Its rest position, the start of Newton's method in b's elements for self.
+  const OctreeElement& own = da.element(em.element);
+  const Vec3d rest =
+      da.nodeGridPosition(own.firstVoxel()) + (own.size() * a.cut.grid.voxelSize()) * em.local;
+  BodyContactPoint best;
+  for (std::uint32_t e : candidates) {
+    const Vec3d ve = elementVelocity.empty() ? Vec3d::Zero() : elementVelocity[e];
+    const Vec3d x = now + dt * (vp - ve);
+    if (!bHash.elementBox(e).contains(x)) continue;
+    Vec3d t, n;
+    double depth = 0.0;
+    if (!pointDepth(b, e, x, t, depth, n, self ? &rest : nullptr)) continue;
+    if (self && nearbyThroughLinks(gb, static_cast<std::size_t>(a.surface.vertexVoxels()[v]),
+                                   voxelAt(db, gb, e, t)))
+      continue;
+    if (!(depth > best.depth)) continue;
+    best.vertex = v;
+    best.element = em.element;
+    best.weight = trilinearWeights(em.local);
+    best.other = e;
+    best.otherWeight = trilinearWeights(t);
+    best.normal = currentNormal(db, e, t, n);
+    best.depth = depth;
+    best.otherVelocity = ve;
+  }
+  if (!(best.depth > 0.0)) return best;
+  Vec3d t, n;
+  if (!pointDepth(b, best.other, now, t, best.currentDepth, n, self ? &rest : nullptr))
+    best.currentDepth = 0.0;
+  best.currentDepth = std::max(best.currentDepth, 0.0);
+  return best;
+}
+
+}  // namespace
+
+std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& b,
+                                               const LayeredHash& bHash, bool self, double dt,
+                                               bool threaded, SelfCandidateCache* cache,
+                                               const VerticesByElement* groups) {
+  // A's vertices by element.
+  const std::size_t elements = a.cut.deformation.elementCount();
+  VerticesByElement local;
+  if (groups == nullptr) {
+    groupVerticesByElement(a, local);
+    groups = &local;
+  }
+  const std::vector<std::uint32_t>& start = groups->start;
+  const std::vector<std::uint32_t>& order = groups->order;
+  // A vertex is moved on by dt times its velocity relative to the element it is tested
+  // against, so two bodies (or two parts of one) moving together do not see each other ahead
+  // of where they are.
+  double fastestB = 0.0;
+  const std::vector<Vec3d> elementVelocity = elementVelocities(b, fastestB);
+  const std::vector<Eigen::AlignedBox3d> reach = reachBoxes(a, b, start, dt, fastestB, threaded);
+  // The elements of B whose boxes meet that box, less its own neighbourhood for self: from the
+  // cache while it holds, else queried (and kept).
+  if (cache != nullptr && self) refreshSelfCandidates(a, bHash, start, reach, *cache, threaded);
   // Most elements have no candidates, and their vertices are not even placed.
   constexpr std::size_t kChunk = 32;
   const std::size_t chunks = (elements + kChunk - 1) / kChunk;
-  std::vector<std::vector<BodyContactPoint>> found(chunks);
+  ChunkedList<BodyContactPoint> found(chunks);
   parallelFor(
       0, chunks, 1,
       [&](std::size_t c0, std::size_t c1) {
@@ -252,48 +316,15 @@ std::vector<BodyContactPoint> findBodyContacts(const SimBody& a, const SimBody& 
                 cache != nullptr && self ? cache->candidates[ea] : fresh;
             if (candidates.empty()) continue;
             for (std::uint32_t k = start[ea]; k < start[ea + 1]; ++k) {
-              const std::uint32_t v = order[k];
-              const VertexEmbedding& em = a.embedding[v];
-              const Vec3d now = da.pointInElement(em.element, em.local);
-              const Vec3d vp = pointVelocity(a, em.element, trilinearWeights(em.local));
-              // Its rest position, the start of Newton's method in b's elements for self.
-              const OctreeElement& own = da.element(em.element);
-              const Vec3d rest = da.nodeGridPosition(own.firstVoxel()) +
-                                 (own.size() * a.cut.grid.voxelSize()) * em.local;
-              BodyContactPoint best;
-              for (std::uint32_t e : candidates) {
-                const Vec3d ve = elementVelocity.empty() ? Vec3d::Zero() : elementVelocity[e];
-                const Vec3d x = now + dt * (vp - ve);
-                if (!bHash.elementBox(e).contains(x)) continue;
-                Vec3d t, n;
-                double depth = 0.0;
-                if (!pointDepth(b, e, x, t, depth, n, self ? &rest : nullptr)) continue;
-                if (self &&
-                    nearbyThroughLinks(gb, static_cast<std::size_t>(a.surface.vertexVoxels()[v]),
-                                       voxelAt(db, gb, e, t)))
-                  continue;
-                if (!(depth > best.depth)) continue;
-                best.vertex = v;
-                best.element = em.element;
-                best.weight = trilinearWeights(em.local);
-                best.other = e;
-                best.otherWeight = trilinearWeights(t);
-                best.normal = currentNormal(db, e, t, n);
-                best.depth = depth;
-                best.otherVelocity = ve;
-              }
-              if (!(best.depth > 0.0)) continue;
-              Vec3d t, n;
-              if (!pointDepth(b, best.other, now, t, best.currentDepth, n, self ? &rest : nullptr))
-                best.currentDepth = 0.0;
-              best.currentDepth = std::max(best.currentDepth, 0.0);
-              found[ch].push_back(best);
+              const BodyContactPoint best =
+                  deepestContact(a, b, bHash, self, dt, order[k], candidates, elementVelocity);
+              if (best.depth > 0.0) found[ch].push_back(best);
             }
           }
       },
       threaded);
   std::vector<BodyContactPoint> out;
-  for (const auto& f : found) out.insert(out.end(), f.begin(), f.end());
+  found.appendTo(out);
   // In vertex order, whatever the thread count (chunks went by element).
   std::sort(out.begin(), out.end(), [](const BodyContactPoint& x, const BodyContactPoint& y) {
     return x.vertex < y.vertex;

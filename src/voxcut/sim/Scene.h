@@ -14,43 +14,9 @@
 
 #include "voxcut/collision/Obstacle.h"
 #include "voxcut/core/Types.h"
-#include "voxcut/cutting/Blade.h"
-#include "voxcut/fem/ImplicitEuler.h"
+#include "voxcut/sim/WorldTypes.h"
 
 namespace voxcut {
-
-/// Settings of the implicit solver's linear solve (preconditioned conjugate gradients).
-struct SolverSettings {
-  double tolerance = 1e-3;  ///< relative residual at which PCG stops, > 0
-  int maxIterations = 100;  ///< PCG iteration cap, >= 1
-  PreconditionerKind preconditioner = PreconditionerKind::Cholesky;  ///< ImplicitEuler.h
-  /// Earlier solutions a solve's start is projected onto, 0 for none
-  /// (ImplicitEulerParams::projectionHistory)
-  int projectionHistory = ImplicitEulerParams{}.projectionHistory;
-};
-
-/// A material's physical and voxel-octree parameters. The defaults are a soft tissue (about
-/// liver parenchyma, stiffened for the coarse deformation octree) and are what a scene gets
-/// for a material it does not list.
-struct SceneMaterial {
-  std::string name;             ///< the model's material name ("default", "liver", "tumor"...)
-  double youngModulus = 5.0e4;  ///< E, Pa, > 0
-  double poissonRatio = 0.4;    ///< nu, in [0, 0.5)
-  double density = 1000.0;      ///< rho, kg/m^3, > 0
-  /// Rayleigh damping C = massDamping * M + stiffnessDamping * K: alpha (1/s) and beta (s),
-  /// both >= 0.
-  double massDamping = 1.0;
-  double stiffnessDamping = 0.01;
-  int maxInternalLevel = 4;  ///< voxel octree: largest cube of this material alone, 0..7
-  int maxBoundaryLevel = 0;  ///< voxel octree: largest cube mixing it with others, 0..7
-};
-
-/// An axis-aligned box of the world frame (metres), lo <= hi on every axis, bounds included.
-/// Deformation nodes whose rest position lies inside do not move.
-struct FixedBox {
-  Vec3d lo = Vec3d::Zero();
-  Vec3d hi = Vec3d::Zero();
-};
 
 /// One deformable body.
 struct SceneBody {
@@ -75,22 +41,6 @@ struct SceneBody {
   Vec3d offset = Vec3d::Zero();  ///< translation of the model into the world, metres
 };
 
-/// What a tool is.
-enum class ToolKind {
-  Blade,  ///< cuts the links its edge (the segment a-b) sweeps; pushes nothing
-  Probe,  ///< a sphere (a == b) or a capsule around the segment a-b; pushes, cuts nothing
-};
-
-/// One key frame of a tool: at time t (s) its segment runs from a to b (world frame, metres).
-/// A jump key places the tool there at time t without moving it from the key before: the tool
-/// holds the previous key's pose until t, and sweeps or pushes nothing on the way (a hand
-/// lifting the tool away and setting it down elsewhere; World::placeTool).
-struct ToolKey {
-  double t = 0.0;
-  BladePose pose;
-  bool jump = false;
-};
-
 /// A key-framed tool. Keys' times increase strictly, except that a jump key may share the
 /// time of the key before it (the pose before the jump and the pose after it); there is at
 /// least one key.
@@ -99,22 +49,6 @@ struct SceneTool {
   double radius = 0.0;     ///< a probe's radius (m), > 0; 0 for a blade
   double friction = -1.0;  ///< a probe's Coulomb coefficient, >= 0; negative: the default
   std::vector<ToolKey> keys;
-};
-
-/// Contact between bodies and obstacles (docs/algorithms.md, "Contact").
-struct ContactSettings {
-  /// Penalty stiffness per surface vertex (N/m), >= 0; 0: 10 times each body's largest
-  /// Young's modulus times its voxel size (ten times the stiffness of one voxel of it;
-  /// docs/algorithms.md, "Contact", says why not more). A self contact pair gets it divided
-  /// by the edge, in voxels, of the coarser of its two elements (docs/algorithms.md, "Self
-  /// contact in one solve").
-  double stiffness = 0.0;
-  /// Whether a body's surface vertices are kept out of its own material away from their
-  /// neighbourhood (folds, the two sides of a cut); bodies never pass through each other.
-  bool selfCollision = false;
-  /// Coulomb friction coefficient of contacts, >= 0, where an obstacle or tool does not set
-  /// its own (and always between bodies).
-  double friction = 0.3;
 };
 
 /// A whole scene.

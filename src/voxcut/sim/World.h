@@ -1,160 +1,39 @@
 #pragma once
 /// @file World.h
 /// The embeddable simulation (docs/architecture.md, "The world API"): a world holds deformable
-/// bodies, tools (blades that cut, probes that push) and static obstacles; step() runs one frame
-/// (docs/architecture.md, "One frame") and reports it. The application moves tools between
-/// frames (or lets a key-framed trajectory drive them), reads each body's deformed surface
-/// without copying it and, per tool, the force and torque the bodies push back with. Bodies'
-/// internals are private.
+/// bodies, tools (blades that cut, probes that push) and static obstacles, each named by a
+/// typed handle (BodyId, ToolId, ObstacleId); step() runs one frame (docs/architecture.md, "One
+/// frame") and reports it. The application moves tools between frames (or lets a key-framed
+/// trajectory drive them), reads each body's deformed surface without copying it, its nodes,
+/// the frame's contacts and, per tool, the force and torque the bodies push back with. Bodies'
+/// internals are private: this header includes only the value types of sim/WorldTypes.h.
+///
+/// Errors (one policy for every call; docs/architecture.md, "Errors"):
+/// - An invalid argument (an unknown or stale handle, a non-finite or out-of-range pose,
+///   radius, material value or box, a trajectory out of order) throws voxcut::InputError
+///   naming the argument, and the world is left as it was. No call aborts the process.
+/// - step() throws InputError naming the frame when a node position becomes non-finite.
+/// - hapticForce never throws: a non-finite pose or a handle that names no probe gets a zero
+///   force and a status saying why.
 ///
 /// Units: SI, world frame. Results (cuts, positions, surfaces, forces) do not depend on the
 /// thread count. Thread-safety: one call at a time per World (the frame runs its loops in
 /// parallel inside), except hapticForce, which any thread may call at any time; readers of
 /// surface() hold references that the next step() or edit invalidates.
 
+#include <cstddef>
 #include <cstdint>
 #include <memory>
-#include <span>
 #include <string>
 #include <vector>
 
-#include "voxcut/core/Types.h"
-#include "voxcut/sim/Scene.h"
-#include "voxcut/surface/ContouredSurface.h"
-#include "voxcut/surface/SurfaceMesh.h"
-#include "voxcut/voxel/VoxelGrid.h"
+#include "voxcut/sim/WorldTypes.h"
 
 namespace voxcut {
 
-/// Settings of a world that do not belong to one body or tool.
-struct WorldSettings {
-  double timeStep = 0.004;         ///< s, > 0
-  Vec3d gravity{0.0, -9.81, 0.0};  ///< m/s^2
-  SolverSettings solver;
-  ContactSettings contact;
-  bool useOctree = true;  ///< false: the baseline, every link active, no voxel octree
-  bool threaded = true;
-  /// Least number of segments of a blade's edge carried with the material between frames
-  /// (BladeFront.h); more where the blade is longer than this many voxels (one per voxel).
-  /// 0 sweeps from the blade's previous pose in the world instead (parts moving across the
-  /// blade's plane during a cut can then stay attached by bridges along the frames' seams).
-  int bladeSegments = 16;
-  /// Cuts that would leave a fragment of fewer voxels than this are undone
-  /// (cutting/Fragments.h); 0 or 1 keeps every cut.
-  std::size_t minFragmentVoxels = 8;
-};
-
-/// How a body is discretised and what it is made of; SceneBody without the model's source.
-struct BodySettings {
-  int elementLevel = 3;   ///< starting level of the deformation octree, 0..6
-  /// Finest level refinement reaches where a blade's front rests in an element whose cut
-  /// sides stay glued there (docs/algorithms.md, "Cut topology"), <= elementLevel; -1:
-  /// elementLevel - 2 (at least 0).
-  int finestLevel = -1;
-  /// Level a cut's front coarsens back to once the cuts have left it (docs/algorithms.md,
-  /// "Coarsening after cuts"), in [finestLevel, elementLevel]; -1: elementLevel (the front
-  /// then opens to within one start-level element of its end).
-  int frontLevel = -1;
-  int surfaceLevel = -1;  ///< see SceneBody::surfaceLevel
-  /// Materials by the grid's material names; the grid's others take SceneMaterial's defaults.
-  std::vector<SceneMaterial> materials;
-  std::vector<FixedBox> fixed;  ///< world frame
-};
-
-/// A body's size and cut state.
-struct BodyInfo {
-  std::size_t elements = 0;  ///< deformation octree elements (copies after cuts)
-  std::size_t nodes = 0;
-  std::size_t cutLinks = 0;  ///< links cut so far
-  std::size_t surfaceVertices = 0;
-  std::size_t surfaceTriangles = 0;
-  double voxelSize = 0.0;                  ///< m
-  std::vector<std::string> materialNames;  ///< of materials 1..N (element 0 is material 1)
-};
-
-/// A body's deformed surface, read in place: arrays indexed by slot, where a removed vertex
-/// or triangle leaves a dead slot that a later one may reuse. Valid until the next step() or
-/// edit of the world.
-struct SurfaceView {
-  std::span<const Vec3d> positions;  ///< per vertex slot, current (m); dead slots: stale
-  std::span<const Vec3d> normals;    ///< per vertex slot, unit, area-weighted; dead: zero
-  /// Per triangle slot, vertex slots, counter-clockwise seen from outside; dead: {-1, -1, -1}.
-  std::span<const std::array<int, 3>> triangles;
-  /// Per triangle slot, the material on its side (an index into BodyInfo::materialNames,
-  /// from 1) and whether it lies on a cut; dead slots: stale.
-  std::span<const TriangleTag> triangleTags;
-  std::uint64_t revision = 0;  ///< of the topology (slots); positions change every frame
-};
-
-/// The topology changes of a body's surface between two revisions: the vertex and triangle
-/// slots that were added (or reused) and those that died, each ascending and unique. A slot
-/// can be in both lists (died, then reused): its current content is in the view.
-struct SurfaceChanges {
-  std::uint64_t from = 0, to = 0;
-  bool full = false;  ///< the changes since `from` are no longer kept: read everything again
-  std::vector<std::int32_t> addedVertices, removedVertices;
-  std::vector<std::int32_t> addedTriangles, removedTriangles;
-};
-
-/// The pseudo voxel octree of a body made visible, at the deformed positions of its voxels:
-/// the links that take part in the cutting tool's collision (active and connected; all
-/// connected links without the octree), and the octree's cubes by their corners.
-struct ActivityView {
-  std::size_t activeLinks = 0;  ///< all of the body's active links that are still connected
-  /// Segments between the voxels of active links: all of them, or every k-th in voxel order
-  /// when there are more than asked for.
-  std::vector<std::array<Vec3d, 2>> links;
-  /// Per cube its 8 corner voxels' positions, corner c at offset ((c & 1), (c >> 1 & 1),
-  /// (c >> 2)) times the cube's side; with its level (side 2^level voxels).
-  std::vector<std::array<Vec3d, 8>> cubes;
-  std::vector<std::uint8_t> cubeLevels;
-};
-
-/// The force and torque the bodies exert on a tool at the end of the last frame (N, N m; the
-/// torque about the midpoint of the tool's segment). A blade's are zero.
-struct ToolReaction {
-  Vec3d force = Vec3d::Zero();
-  Vec3d torque = Vec3d::Zero();
-};
-
-/// The stages of a frame, in order; FrameReport::stageMs follows this order.
-[[nodiscard]] const std::vector<std::string>& frameStageNames();
-
-/// What one frame did (summed over bodies).
-struct FrameReport {
-  int frame = 0;                 ///< index of the frame just run (0 first)
-  double time = 0.0;             ///< simulated time at its end (s)
-  std::vector<double> stageMs;   ///< per frameStageNames() entry, wall-clock ms
-  double totalMs = 0.0;          ///< wall-clock ms of the whole frame
-  std::size_t cutLinks = 0;      ///< links cut in this frame
-  /// The cutting tool collision's work this frame: voxels it positioned to cull the links
-  /// near the blades, and links it tested against them (intersection test and octree
-  /// subdivision).
-  std::size_t positionedVoxels = 0;
-  std::size_t testedLinks = 0;
-  int solverIterations = 0;      ///< summed over bodies
-  int solverFactorisations = 0;  ///< bodies whose step computed a new Cholesky factor
-  bool converged = true;         ///< every body's solve converged
-  std::size_t contacts = 0;      ///< point contacts of surface vertices with obstacles and probes
-  /// The deepest any surface vertex lies inside an obstacle or probe at the frame's end (m).
-  double maxPenetration = 0.0;
-  /// Per obstacle, the force the bodies press on it with at the frame's end (N).
-  std::vector<Vec3d> obstacleForces;
-  /// Per tool, the bodies' reaction on it at the frame's end (World::toolReaction).
-  std::vector<ToolReaction> toolReactions;
-};
-
-// ---- energy ----
-/// A body's mechanical energy (J): what a soak or a test watches for energy the contacts
-/// create. The contact springs' own energy is not counted.
-struct BodyEnergy {
-  double kinetic = 0.0;  ///< 1/2 sum_n m_n |v_n|^2, lumped node masses
-  /// -sum_n m_n g . x_n: zero at the world's origin, growing against gravity
-  double gravitational = 0.0;
-  double elastic = 0.0;  ///< corotated strain energy, sum_e 1/2 y_e^T K_e y_e
-  [[nodiscard]] double total() const { return kinetic + gravitational + elastic; }
-};
-// ---- end energy ----
+class VoxelGrid;  // voxel/VoxelGrid.h
+struct Obstacle;  // collision/Obstacle.h
+struct Scene;     // sim/Scene.h
 
 /// A world in motion. Movable, not copyable.
 class World {
@@ -174,21 +53,27 @@ class World {
                                        const WorldSettings& base = {});
 
   // ---- bodies ----
-  /// Adds a body made of `grid`'s occupied voxels, in the world frame; returns its index.
+  /// Adds a body made of `grid`'s occupied voxels, in the world frame; returns its handle.
   /// Builds its deformation octree, voxel octree (or every link active), element matrices,
-  /// fixed nodes and surface. Throws InputError when a material is invalid.
-  std::size_t addBody(VoxelGrid grid, const BodySettings& settings = {});
+  /// fixed nodes and surface. Throws InputError when a setting or material is invalid.
+  BodyId addBody(VoxelGrid grid, const BodySettings& settings = {});
+  /// Removes the body; its handle (and every copy of it) is refused from then on.
+  void removeBody(BodyId body);
   [[nodiscard]] std::size_t bodyCount() const;
+  /// The live bodies' handles, in the order they were added.
+  [[nodiscard]] std::vector<BodyId> bodies() const;
+  /// Whether the handle names a live body of this world.
+  [[nodiscard]] bool contains(BodyId body) const;
   /// Replaces the body's fixed boxes; nodes leaving them move from where they are, at rest.
-  void setFixed(std::size_t body, std::vector<FixedBox> fixed);
+  void setFixed(BodyId body, std::vector<FixedBox> fixed);
   /// Sets one of the body's materials (by name; an unknown name is an InputError) and
   /// recomputes its element matrices; the voxel octree's levels do not change after the start.
-  void setMaterial(std::size_t body, const SceneMaterial& material);
-  [[nodiscard]] BodyInfo bodyInfo(std::size_t body) const;
+  void setMaterial(BodyId body, const SceneMaterial& material);
+  [[nodiscard]] BodyInfo bodyInfo(BodyId body) const;
   /// The body's active links (at most `maxLinks` of them drawn) and octree cubes, where they
   /// are now; with `within`, only the links with both ends in that box and the cubes that
   /// overlap it (counted and drawn). O(voxels).
-  [[nodiscard]] ActivityView activity(std::size_t body,
+  [[nodiscard]] ActivityView activity(BodyId body,
                                       std::size_t maxLinks = static_cast<std::size_t>(-1),
                                       const Eigen::AlignedBox3d* within = nullptr) const;
   /// Switches every body's voxel octree on (built afresh from the body as it is now, cuts
@@ -196,53 +81,66 @@ class World {
   /// the cutting tool collision's cost changes. O(voxels).
   void setUseOctree(bool on);
   /// Connected voxel pieces of the body (through connected links). O(voxels).
-  [[nodiscard]] int pieces(std::size_t body) const;
+  [[nodiscard]] int pieces(BodyId body) const;
   /// The body's deformed surface in place, with normals of the current positions (computed
   /// here once per frame). O(surface) the first time after a step, O(1) after.
-  [[nodiscard]] SurfaceView surface(std::size_t body);
+  [[nodiscard]] SurfaceView surface(BodyId body);
   /// The slots that changed between revision `since` and now (SurfaceView::revision).
-  [[nodiscard]] SurfaceChanges surfaceChanges(std::size_t body, std::uint64_t since) const;
+  [[nodiscard]] SurfaceChanges surfaceChanges(BodyId body, std::uint64_t since) const;
   /// A compact copy of the body's deformed surface, with normals. O(surface).
-  [[nodiscard]] SurfaceMesh surfaceMesh(std::size_t body) const;
+  [[nodiscard]] SurfaceMesh surfaceMesh(BodyId body) const;
   /// The largest distance of any material point (occupied voxel centre) from its rest
   /// position, over all bodies (m; docs/algorithms.md, "What max_displacement measures").
   [[nodiscard]] double maxDisplacement() const;
   /// Order-independent hash of every body's cut links with their Hermite data (equal for equal
   /// cuts, whatever the thread count or octree setting).
   [[nodiscard]] std::uint64_t cutSetHash() const;
+  /// The body's nodes at the end of the last frame: positions, velocities, lumped masses.
+  /// O(nodes).
+  [[nodiscard]] NodeState nodes(BodyId body) const;
+  /// Every contact at the end of the last frame, bodies in order, within a body obstacles and
+  /// probes first (by vertex), then other bodies and itself (empty before the first frame).
+  [[nodiscard]] const std::vector<Contact>& contacts() const;
   // ---- energy ----
   /// The body's kinetic, gravitational and elastic energy at the end of the last frame (all
   /// zero kinetic before the first). Deterministic for any thread count. O(elements + nodes).
   /// Thread-safety: like every reader, not concurrently with step() or edits.
-  [[nodiscard]] BodyEnergy energy(std::size_t body) const;
+  [[nodiscard]] BodyEnergy energy(BodyId body) const;
   // ---- end energy ----
 
   // ---- tools ----
-  /// Adds a blade with its edge from pose.a to pose.b; returns the tool's index.
-  std::size_t addBlade(const BladePose& pose);
+  /// Adds a blade with its edge from pose.a to pose.b; returns its handle.
+  ToolId addBlade(const BladePose& pose);
   /// Adds a probe of `radius` (m, > 0) around the segment pose.a-pose.b (a sphere when a == b),
   /// with the Coulomb coefficient `friction` for its contacts (negative: the world's default).
-  std::size_t addProbe(double radius, const BladePose& pose, double friction = -1.0);
+  ToolId addProbe(double radius, const BladePose& pose, double friction = -1.0);
+  /// Removes the tool (its cuts stay); its handle is refused from then on. Not concurrently
+  /// with hapticForce.
+  void removeTool(ToolId tool);
   [[nodiscard]] std::size_t toolCount() const;
-  [[nodiscard]] ToolKind toolKind(std::size_t tool) const;
-  [[nodiscard]] double toolRadius(std::size_t tool) const;  ///< 0 for a blade
+  /// The live tools' handles, in the order they were added (FrameReport::toolReactions'
+  /// order).
+  [[nodiscard]] std::vector<ToolId> tools() const;
+  [[nodiscard]] bool contains(ToolId tool) const;
+  [[nodiscard]] ToolKind toolKind(ToolId tool) const;
+  [[nodiscard]] double toolRadius(ToolId tool) const;  ///< 0 for a blade
   /// Where the tool is now (at the end of the last frame, or as set since).
-  [[nodiscard]] BladePose toolPose(std::size_t tool) const;
+  [[nodiscard]] BladePose toolPose(ToolId tool) const;
   /// The pose the tool reaches at the end of the next frame, moving linearly from its current
-  /// pose over the frame; stops a trajectory. Asserts finite coordinates.
-  void setToolPose(std::size_t tool, const BladePose& pose);
+  /// pose over the frame; stops a trajectory. Coordinates within core/CoordinateRange.h's range.
+  void setToolPose(ToolId tool, const BladePose& pose);
   /// Puts the tool at `pose` now, without moving it there: a blade cuts nothing and a probe
   /// pushes nothing on the way (a hand that lifts the tool off and sets it down elsewhere).
   /// A blade's cut fronts and a probe's force model start afresh, as for a new tool. Stops a
-  /// trajectory; recorded as a jump key (ToolKey::jump). Asserts finite coordinates.
-  void placeTool(std::size_t tool, const BladePose& pose);
+  /// trajectory; recorded as a jump key (ToolKey::jump). Coordinates as for setToolPose.
+  void placeTool(ToolId tool, const BladePose& pose);
   /// Drives the tool by key frames (times on the world's clock, in order as keysInOrder
   /// checks, at least one): each frame it moves to the trajectory's pose at the frame's end
   /// (bladePoseBefore), after a jump key in the frame's span has placed it (placeTool). Its
   /// current pose jumps to the trajectory's pose now.
-  void setToolTrajectory(std::size_t tool, std::vector<ToolKey> keys);
+  void setToolTrajectory(ToolId tool, std::vector<ToolKey> keys);
   /// The bodies' reaction on the tool at the end of the last frame.
-  [[nodiscard]] ToolReaction toolReaction(std::size_t tool) const;
+  [[nodiscard]] ToolReaction toolReaction(ToolId tool) const;
   /// The force and torque a probe at `pose` would feel now, for a haptic loop that runs faster
   /// than the frames (docs/algorithms.md, "Forces at haptic rate"): the last frame's reaction
   /// extrapolated by the probe's force Jacobian, estimated from the frames' reactions and the
@@ -255,20 +153,27 @@ class World {
   /// arrives; it is the last frame's model alone once that time has passed. Thread-safe: it may be
   /// called from any thread at any time, also while step() runs (it reads a snapshot published at
   /// each frame's end, under a lock held only to copy it); not concurrently with adding tools.
-  /// O(1).
-  [[nodiscard]] ToolReaction hapticForce(std::size_t tool, const BladePose& pose) const;
+  /// O(1). Never throws: a pose with a non-finite or out-of-range coordinate, or a handle that
+  /// names no live probe, gets a zero force and a status saying so.
+  [[nodiscard]] HapticAnswer hapticForce(ToolId tool, const BladePose& pose) const noexcept;
   /// Starts (clearing what was kept) or stops recording every tool's pose once per frame.
   void setRecording(bool on);
   /// The recorded poses of the tool: one key at the time recording started, then one per frame
   /// at its end; times strictly increasing. A scene tool with these keys replays the motion.
-  [[nodiscard]] const std::vector<ToolKey>& recording(std::size_t tool) const;
+  [[nodiscard]] const std::vector<ToolKey>& recording(ToolId tool) const;
 
   // ---- obstacles ----
   /// Adds a static obstacle (a plane, a box, or a mesh from meshObstacle; collision/Obstacle.h)
-  /// and returns its index in FrameReport::obstacleForces. A mesh obstacle's hierarchies are
-  /// shared with the caller's copy, not rebuilt.
-  std::size_t addObstacle(const Obstacle& obstacle);
+  /// and returns its handle. A mesh obstacle's hierarchies are shared with the caller's copy,
+  /// not rebuilt. Throws InputError for a non-finite or degenerate shape.
+  ObstacleId addObstacle(const Obstacle& obstacle);
+  void removeObstacle(ObstacleId obstacle);
   [[nodiscard]] std::size_t obstacleCount() const;
+  /// The live obstacles' handles, in the order they were added (FrameReport::obstacleForces'
+  /// order).
+  [[nodiscard]] std::vector<ObstacleId> obstacles() const;
+  [[nodiscard]] bool contains(ObstacleId obstacle) const;
+  [[nodiscard]] const Obstacle& obstacle(ObstacleId obstacle) const;
 
   // ---- time ----
   /// Runs one frame from time() to time() + timeStep. Throws InputError naming the frame when

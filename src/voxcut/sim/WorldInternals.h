@@ -77,6 +77,7 @@ struct SimBody {
   std::vector<BladeFront> fronts;          ///< per tool: its cut front in this body
   std::vector<int> frontSegments;          ///< per tool: its front's segments (0: not yet)
   double contactStiffness = 0.0;           ///< penalty stiffness per surface vertex (N/m)
+  SolverChoice solverChoice = SolverChoice::Cholesky;  ///< its step's (never Automatic)
   std::size_t cutLinks = 0;                ///< links cut so far
   std::vector<LinkCut> cuts;               ///< every cut so far (for the cut set hash)
   SubdivisionWorkspace subdivision;        ///< the cutting step's buffers, kept between frames
@@ -110,7 +111,7 @@ struct SimBody {
 
 /// Read access to a world's bodies.
 struct WorldInternals {
-  [[nodiscard]] static const SimBody& body(const World& world, std::size_t b);
+  [[nodiscard]] static const SimBody& body(const World& world, BodyId b);
 };
 
 }  // namespace voxcut

@@ -48,14 +48,6 @@ struct SurfaceDelta {
   std::size_t solvedCells = 0;  ///< dual cells whose vertices were solved again (work done)
 };
 
-/// What a surface triangle shows: the material on its side (the voxel whose link made it) and
-/// whether it lies on a cut (a link cut between two voxels of material) rather than on the
-/// material's original boundary.
-struct TriangleTag {
-  std::uint8_t material = 0;
-  std::uint8_t cut = 0;  ///< 1 on a cut surface
-};
-
 /// An incrementally updated dual-contoured surface. Movable, not copyable (it is large and a
 /// copy is never what a caller wants). Not thread-safe: one update at a time, and no reads
 /// while an update runs; concurrent const reads are fine.

@@ -7,18 +7,9 @@
 #include <cstdint>
 #include <vector>
 
-#include "voxcut/core/Types.h"
+#include "voxcut/core/SurfaceMesh.h"
 
 namespace voxcut {
-
-/// #V positions, #V unit normals, #V owning voxels, #T triangles (counter-clockwise seen from
-/// outside the material).
-struct SurfaceMesh {
-  std::vector<Vec3d> positions;
-  std::vector<Vec3d> normals;
-  std::vector<std::uint64_t> vertexVoxel;
-  std::vector<std::array<int, 3>> triangles;
-};
 
 /// Topology summary of a surface.
 struct SurfaceTopology {

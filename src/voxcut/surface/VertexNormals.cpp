@@ -2,18 +2,19 @@
 
 namespace voxcut {
 
-std::vector<Vec3d> vertexNormals(const std::vector<Vec3d>& V,
-                                 const std::vector<std::array<int, 3>>& F, const Vec3d& isolated) {
-  std::vector<Vec3d> N(V.size(), Vec3d::Zero());
-  for (const auto& t : F) {
-    const Vec3d n = (V[t[1]] - V[t[0]]).cross(V[t[2]] - V[t[0]]);
-    for (int k = 0; k < 3; ++k) N[t[k]] += n;
+void vertexNormals(std::span<const Vec3d> V, std::span<const std::array<int, 3>> F,
+                   std::vector<Vec3d>& N, const Vec3d& isolated) {
+  N.assign(V.size(), Vec3d::Zero());
+  for (const std::array<int, 3>& t : F) {
+    if (t[0] < 0) continue;
+    const Vec3d& p0 = V[static_cast<std::size_t>(t[0])];
+    const Vec3d n = (V[static_cast<std::size_t>(t[1])] - p0).cross(V[static_cast<std::size_t>(t[2])] - p0);
+    for (const int k : t) N[static_cast<std::size_t>(k)] += n;
   }
   for (Vec3d& n : N) {
     const double length = n.norm();
-    n = length > 0 ? Vec3d(n / length) : isolated;
+    n = length > 0.0 ? Vec3d(n / length) : isolated;
   }
-  return N;
 }
 
 }  // namespace voxcut

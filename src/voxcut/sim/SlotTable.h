@@ -1,0 +1,81 @@
+#pragma once
+/// @file SlotTable.h
+/// What turns the world's typed handles into positions in its dense arrays of bodies, tools
+/// and obstacles (sim/WorldTypes.h, Handle). Internal to the world.
+///
+/// Each handle names a slot and the slot's generation when it was made. A slot holds the
+/// position of its object in the dense array (the order of addition) or nothing once removed;
+/// removal bumps the generation, so old handles are refused, and a later addition may take
+/// the slot again under the new generation.
+
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "voxcut/sim/WorldTypes.h"
+
+namespace voxcut {
+
+template <class Tag>
+class SlotTable {
+ public:
+  using Id = Handle<Tag>;
+
+  /// A handle for a new object appended at the end of the dense array.
+  Id add() {
+    std::uint32_t slot;
+    if (!free_.empty()) {
+      slot = free_.back();
+      free_.pop_back();
+    } else {
+      slot = static_cast<std::uint32_t>(generation_.size());
+      generation_.push_back(0);
+      position_.push_back(kDead);
+    }
+    position_[slot] = static_cast<std::uint32_t>(order_.size());
+    order_.push_back(slot);
+    return Id(slot, generation_[slot]);
+  }
+
+  /// The dense position of the object `id` names, or nothing for an unknown or stale handle.
+  [[nodiscard]] std::optional<std::size_t> find(Id id) const {
+    if (!id.valid() || id.slot() >= generation_.size()) return std::nullopt;
+    if (generation_[id.slot()] != id.generation() || position_[id.slot()] == kDead)
+      return std::nullopt;
+    return position_[id.slot()];
+  }
+
+  /// Removes the object at dense position `p` (the caller erases it from its array): later
+  /// objects move one position down.
+  void removeAt(std::size_t p) {
+    const std::uint32_t slot = order_[p];
+    position_[slot] = kDead;
+    ++generation_[slot];
+    free_.push_back(slot);
+    order_.erase(order_.begin() + static_cast<std::ptrdiff_t>(p));
+    for (std::size_t q = p; q < order_.size(); ++q) position_[order_[q]] = static_cast<std::uint32_t>(q);
+  }
+
+  /// The handle of the object at dense position `p`.
+  [[nodiscard]] Id at(std::size_t p) const { return Id(order_[p], generation_[order_[p]]); }
+
+  /// Every live handle, in dense order.
+  [[nodiscard]] std::vector<Id> all() const {
+    std::vector<Id> out;
+    out.reserve(order_.size());
+    for (std::size_t p = 0; p < order_.size(); ++p) out.push_back(at(p));
+    return out;
+  }
+
+  [[nodiscard]] std::size_t size() const { return order_.size(); }
+
+ private:
+  static constexpr std::uint32_t kDead = 0xffffffffu;
+  std::vector<std::uint32_t> generation_;  ///< per slot
+  std::vector<std::uint32_t> position_;    ///< per slot: dense position, or kDead
+  std::vector<std::uint32_t> order_;       ///< per dense position: its slot
+  std::vector<std::uint32_t> free_;        ///< removed slots, taken again last in, first out
+};
+
+}  // namespace voxcut
