@@ -140,7 +140,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     params.threaded = false;
     voxcut::World sim = voxcut::World::fromScene(scene, std::move(grids), params);
     for (int f = 0; f < frames; ++f) (void)sim.step();
-    for (std::size_t b = 0; b < sim.bodyCount(); ++b) {
+    for (const voxcut::BodyId b : sim.bodies()) {
       (void)sim.pieces(b);
       (void)sim.surfaceMesh(b);
     }

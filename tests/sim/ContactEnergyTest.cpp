@@ -54,7 +54,8 @@ TEST(ContactEnergy, EnergyOfAFallingBody) {
   }
   // Backward Euler's drop after n steps is g dt^2 n (n + 1) / 2.
   const double drop = 9.81 * 0.004 * 0.004 * 25 * 26 / 2;
-  EXPECT_NEAR(start.gravitational - w.energy(w.bodies()[0]).gravitational, mass * 9.81 * drop, 1e-9);
+  EXPECT_NEAR(start.gravitational - w.energy(w.bodies()[0]).gravitational, mass * 9.81 * drop,
+              1e-9);
 }
 
 // Pieces must not drive themselves (the climbing pieces of the soak): with no gravity and

@@ -64,7 +64,8 @@ Landing land(double height, const std::string& obstacle, int frames,
   l.kinetic = b.solver.kineticEnergy(b.model);
   l.weight = b.model.totalMass() * 9.81;
   l.voxel = b.cut.grid.voxelSize();
-  for (const Vec3d& p : sim.surfaceMesh(sim.bodies()[0]).positions) l.lowest = std::min(l.lowest, p.y());
+  for (const Vec3d& p : sim.surfaceMesh(sim.bodies()[0]).positions)
+    l.lowest = std::min(l.lowest, p.y());
   return l;
 }
 

@@ -85,7 +85,8 @@ TEST(CutWork, ABladeThatCutsNothingCostsWhatItCostsOverTheUncutBody) {
   World w = freeBunny();
   const double h = w.bodyInfo(w.bodies()[0]).voxelSize;
   const Eigen::AlignedBox3d start = surfaceBox(w);
-  const ToolId blade = w.addBlade({start.min() - start.sizes(), start.min() - start.sizes() + Vec3d(h, 0, 0)});
+  const ToolId blade =
+      w.addBlade({start.min() - start.sizes(), start.min() - start.sizes() + Vec3d(h, 0, 0)});
   for (int f = 0; f < 10; ++f) (void)w.step();
   const PassWork before = passOver(w, blade);
   ASSERT_EQ(before.cut, 0u);

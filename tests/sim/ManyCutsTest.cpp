@@ -120,7 +120,8 @@ ManyCutsResult fiftyCuts(bool octree, int threads) {
   r.nodesEnd = w.bodyInfo(w.bodies()[0]).nodes;
   r.cutLinks = w.bodyInfo(w.bodies()[0]).cutLinks;
   r.pieces = w.pieces(w.bodies()[0]);
-  r.meshPieces = test::nodeConnectedComponents(WorldInternals::body(w, w.bodies()[0]).cut.deformation);
+  r.meshPieces =
+      test::nodeConnectedComponents(WorldInternals::body(w, w.bodies()[0]).cut.deformation);
   r.closedSurface = closed(w.surfaceMesh(w.bodies()[0]));
   return r;
 }

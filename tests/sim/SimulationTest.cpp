@@ -138,7 +138,8 @@ TEST(Simulation, SameResultsAtOneAndTwoThreadsAndWithoutOctree) {
     // The blade reaches the bunny at frame 110 and cuts until frame 161 (at frame 153 its
     // edge ends inside a level-1 cube whose mid-planes show no cut on their borders).
     for (int f = 0; f < 165; ++f) cut += sim.step().cutLinks;
-    return std::make_pair(cut, WorldInternals::body(sim, sim.bodies()[0]).cut.deformation.positions());
+    return std::make_pair(cut,
+                          WorldInternals::body(sim, sim.bodies()[0]).cut.deformation.positions());
   };
   const auto one = run(1, true), two = run(2, true), baseline = run(2, false);
   EXPECT_GT(one.first, 0u);

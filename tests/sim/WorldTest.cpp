@@ -241,7 +241,8 @@ TEST(World, PlacedToolsMoveWithoutCuttingAndReplay) {
   EXPECT_EQ(placedFirst, 0u);
   EXPECT_GT(sweptFirst, 0u);
   EXPECT_GT(placed.bodyInfo(placed.bodies()[0]).cutLinks, 0u);
-  EXPECT_LT(placed.bodyInfo(placed.bodies()[0]).cutLinks, swept.bodyInfo(swept.bodies()[0]).cutLinks);
+  EXPECT_LT(placed.bodyInfo(placed.bodies()[0]).cutLinks,
+            swept.bodyInfo(swept.bodies()[0]).cutLinks);
   const std::vector<ToolKey>& keys = placed.recording(placed.tools()[0]);
   EXPECT_EQ(std::count_if(keys.begin(), keys.end(), [](const ToolKey& k) { return k.jump; }), 2);
   // The recording as a file, played back as the scene's blade.
@@ -256,7 +257,8 @@ TEST(World, PlacedToolsMoveWithoutCuttingAndReplay) {
   for (int f = 0; f < placed.frame(); ++f) (void)replay.step();
   std::filesystem::remove(file);
   EXPECT_EQ(replay.cutSetHash(), placed.cutSetHash());
-  EXPECT_EQ(replay.bodyInfo(replay.bodies()[0]).cutLinks, placed.bodyInfo(placed.bodies()[0]).cutLinks);
+  EXPECT_EQ(replay.bodyInfo(replay.bodies()[0]).cutLinks,
+            placed.bodyInfo(placed.bodies()[0]).cutLinks);
 }
 
 // The voxel octree switched off and on while a blade cuts: the same cuts as with it on
@@ -300,7 +302,8 @@ TEST(World, OctreeSwitchedWhileCuttingGivesTheSameCuts) {
   EXPECT_EQ(on.bodyInfo(on.bodies()[0]).materialNames.size(), 1u);
   // Built afresh after the cut, the octree may keep larger cubes than the one subdivided
   // along the cut did.
-  EXPECT_LE(toggled.activity(toggled.bodies()[0]).activeLinks, on.activity(on.bodies()[0]).activeLinks);
+  EXPECT_LE(toggled.activity(toggled.bodies()[0]).activeLinks,
+            on.activity(on.bodies()[0]).activeLinks);
   EXPECT_LT(2 * toggled.activity(toggled.bodies()[0]).activeLinks, allLinks);
   EXPECT_FALSE(toggled.activity(toggled.bodies()[0]).cubes.empty());
   // The cubes' corners are where the material is: inside the box, which barely moves.
@@ -390,7 +393,8 @@ TEST(World, HapticForceFollowsTheProbeBetweenFrames) {
   EXPECT_EQ(w.hapticForce(w.tools()[0], at(f)).reaction.force, now);
   // Half way to the next frame's pose, the force lies between the two frames' forces.
   const Vec3d half =
-      w.hapticForce(w.tools()[0], {0.5 * (at(f).a + at(f + 1).a), 0.5 * (at(f).a + at(f + 1).a)}).reaction.force;
+      w.hapticForce(w.tools()[0], {0.5 * (at(f).a + at(f + 1).a), 0.5 * (at(f).a + at(f + 1).a)})
+          .reaction.force;
   w.setToolPose(w.tools()[0], at(f + 1));
   (void)w.step();
   const Vec3d next = w.toolReaction(w.tools()[0]).force;

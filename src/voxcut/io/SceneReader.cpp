@@ -404,7 +404,7 @@ SceneTool readTool(const Reader& r, const Json& v, const std::string& path) {
   else
     checkKeys(r, v, path, {"type", "radius", "friction", "keys", "trajectory", "trajectory_tool"});
   if (tool.kind == ToolKind::Probe) {
-    tool.radius = positive(r, required(r, v, path, "radius"), child(path, "radius"), 1e3, "1e3 m");
+    tool.radius = positive(r, required(r, v, path, "radius"), child(path, "radius"), kMaxProbeRadius, "1e3 m");
     if (v.contains("friction"))
       tool.friction = nonNegative(r, v["friction"], child(path, "friction"), kMaxFriction, "100");
   }

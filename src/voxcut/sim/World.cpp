@@ -38,13 +38,14 @@ World World::fromScene(const Scene& scene, std::vector<VoxelGrid> grids,
   s.gravity = scene.gravity;
   s.solver = scene.solver;
   s.contact = scene.contact;
-  World w(s);
+  World w;
   w.impl_->source = scene.source;
+  w.impl_->check([&] { checkWorldSettings(s); });
+  w.impl_->settings = s;
   // Tools first, so that each body sizes its fronts once.
   for (std::size_t i = 0; i < scene.tools.size(); ++i) {
     const SceneTool& t = scene.tools[i];
-    const std::string at = scene.source + ": tools[" + std::to_string(i) + "].";
-    checkKeys(t.keys, at + "keys");
+    w.impl_->check([&] { checkKeys(t.keys, "tools[" + std::to_string(i) + "].keys"); });
     const ToolId id = t.kind == ToolKind::Blade
                           ? w.addBlade(t.keys.front().pose)
                           : w.addProbe(t.radius, t.keys.front().pose, t.friction);
@@ -82,7 +83,7 @@ double World::time() const {
 BodyId World::addBody(VoxelGrid grid, const BodySettings& settings) {
   Impl& w = *impl_;
   const WorldSettings& ws = w.settings;
-  checkBodySettings(settings);
+  impl_->check([&] { checkBodySettings(settings); });
   SimBody& b = w.bodies.emplace_back();
   try {
     CutBodyParams cp;
@@ -144,7 +145,7 @@ bool World::contains(BodyId body) const {
 
 void World::setFixed(BodyId body, std::vector<FixedBox> fixed) {
   SimBody& b = impl_->body(body);
-  checkFixedBoxes(fixed, "fixed");
+  impl_->check([&] { checkFixedBoxes(fixed, "fixed"); });
   const bool had = !b.settings.fixed.empty();
   b.settings.fixed = std::move(fixed);
   if (had || !b.settings.fixed.empty())
@@ -153,7 +154,7 @@ void World::setFixed(BodyId body, std::vector<FixedBox> fixed) {
 
 void World::setMaterial(BodyId body, const SceneMaterial& material) {
   SimBody& b = impl_->body(body);
-  checkMaterial(material, "material");
+  impl_->check([&] { checkMaterial(material, "material"); });
   const std::vector<std::string>& names = b.cut.grid.materialNames();
   const auto it = std::find(names.begin(), names.end(), material.name);
   if (it == names.end()) {
@@ -207,7 +208,7 @@ ToolId World::Impl::addTool(WorldTool t) {
 }
 
 ToolId World::addBlade(const BladePose& pose) {
-  checkPose(pose, "pose");
+  impl_->check([&] { checkBladePose(pose, "pose"); });
   WorldTool t;
   t.kind = ToolKind::Blade;
   t.pose = pose;
@@ -215,9 +216,9 @@ ToolId World::addBlade(const BladePose& pose) {
 }
 
 ToolId World::addProbe(double radius, const BladePose& pose, double friction) {
-  checkRadius(radius, "radius");
-  checkPose(pose, "pose");
-  checkFriction(friction, "friction", true);
+  impl_->check([&] { checkRadius(radius, "radius"); });
+  impl_->check([&] { checkPose(pose, "pose"); });
+  impl_->check([&] { checkFriction(friction, "friction", true); });
   WorldTool t;
   t.kind = ToolKind::Probe;
   t.radius = radius;
@@ -268,7 +269,7 @@ ToolReaction World::toolReaction(ToolId tool) const {
 
 void World::setToolPose(ToolId tool, const BladePose& pose) {
   WorldTool& t = impl_->tool(tool);
-  checkPose(pose, "pose");
+  impl_->check([&] { (t.kind == ToolKind::Blade ? checkBladePose : checkPose)(pose, "pose"); });
   t.keys.clear();
   t.target = pose;
   t.longest = std::max(t.longest, (pose.b - pose.a).norm());
@@ -303,7 +304,9 @@ void World::Impl::place(std::size_t ti, const BladePose& pose) {
 
 void World::placeTool(ToolId tool, const BladePose& pose) {
   const std::size_t ti = impl_->toolAt(tool);
-  checkPose(pose, "pose");
+  impl_->check([&] {
+    (impl_->tools[ti].kind == ToolKind::Blade ? checkBladePose : checkPose)(pose, "pose");
+  });
   WorldTool& t = impl_->tools[ti];
   t.keys.clear();
   t.target.reset();
@@ -312,7 +315,12 @@ void World::placeTool(ToolId tool, const BladePose& pose) {
 
 void World::setToolTrajectory(ToolId tool, std::vector<ToolKey> keys) {
   WorldTool& t = impl_->tool(tool);
-  checkKeys(keys, "keys");
+  impl_->check([&] {
+    checkKeys(keys, "keys");
+    if (t.kind == ToolKind::Blade)
+      for (std::size_t k = 0; k < keys.size(); ++k)
+        checkBladePose(keys[k].pose, "keys[" + std::to_string(k) + "].pose");
+  });
   for (const ToolKey& k : keys) t.longest = std::max(t.longest, (k.pose.b - k.pose.a).norm());
   t.keys = std::move(keys);
   t.target.reset();
@@ -332,7 +340,7 @@ const std::vector<ToolKey>& World::recording(ToolId tool) const {
 // ---- obstacles ----
 
 ObstacleId World::addObstacle(const Obstacle& obstacle) {
-  checkObstacle(obstacle, "obstacle");
+  impl_->check([&] { checkObstacle(obstacle, "obstacle"); });
   impl_->obstacles.push_back(obstacle);
   return impl_->obstacleSlots.add();
 }

@@ -1,5 +1,6 @@
 #include "voxcut/sim/WorldChecks.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -88,8 +89,10 @@ void checkBodySettings(const BodySettings& s) {
   checkLevel(s.elementLevel, 0, kMaxElementLevel, "settings.elementLevel");
   checkLevel(s.finestLevel, -1, s.elementLevel, "settings.finestLevel");
   checkLevel(s.frontLevel, -1, s.elementLevel, "settings.frontLevel");
-  if (s.frontLevel >= 0 && s.finestLevel >= 0 && s.frontLevel < s.finestLevel)
-    fail("settings.frontLevel", "must be >= finestLevel (" + std::to_string(s.finestLevel) +
+  // The finest level refinement reaches: as set, or its default two below the element level.
+  const int finest = s.finestLevel >= 0 ? s.finestLevel : std::max(s.elementLevel - 2, 0);
+  if (s.frontLevel >= 0 && s.frontLevel < finest)
+    fail("settings.frontLevel", "must be >= the finest level (" + std::to_string(finest) +
                                     "), got " + std::to_string(s.frontLevel));
   checkLevel(s.surfaceLevel, -1, s.elementLevel, "settings.surfaceLevel");
   for (std::size_t i = 0; i < s.materials.size(); ++i)
@@ -103,8 +106,13 @@ void checkPose(const BladePose& pose, const std::string& argument) {
 }
 
 void checkRadius(double radius, const std::string& argument) {
-  if (!(radius > 0.0 && radius <= kMaxCoordinate))
-    fail(argument, "must be in (0, 1e6] m, got " + shown(radius));
+  if (!(radius > 0.0 && radius <= kMaxProbeRadius))
+    fail(argument, "must be in (0, 1e3] m, got " + shown(radius));
+}
+
+void checkBladePose(const BladePose& pose, const std::string& argument) {
+  checkPose(pose, argument);
+  if (pose.a == pose.b) fail(argument, "a blade's ends a and b must differ");
 }
 
 void checkFriction(double friction, const std::string& argument, bool defaultAllowed) {

@@ -28,6 +28,7 @@ inline constexpr double kMaxContactStiffness = 1e12;  ///< N/m
 inline constexpr int kMaxElementLevel = 6;          ///< deformation octree levels
 inline constexpr int kMaxOctreeLevel = 7;           ///< voxel octree cube levels
 inline constexpr int kMaxProjectionHistory = 64;
+inline constexpr double kMaxProbeRadius = 1e3;      ///< m
 
 void checkWorldSettings(const WorldSettings& s);
 void checkBodySettings(const BodySettings& s);
@@ -36,6 +37,8 @@ void checkFixedBoxes(const std::vector<FixedBox>& boxes, const std::string& argu
 /// Every coordinate finite and within core/CoordinateRange.h's range.
 void checkPose(const BladePose& pose, const std::string& argument);
 void checkRadius(double radius, const std::string& argument);
+/// checkPose's, and a != b (a blade is a segment).
+void checkBladePose(const BladePose& pose, const std::string& argument);
 /// A Coulomb coefficient: finite and >= 0, or negative for "the world's default" when
 /// `defaultAllowed`.
 void checkFriction(double friction, const std::string& argument, bool defaultAllowed);

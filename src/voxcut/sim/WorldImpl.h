@@ -353,6 +353,16 @@ struct World::Impl {
   /// After the frame: the tools at their end pose, with their reactions, haptic models and
   /// recordings.
   void finishTools(const Motion& motion, const FrameReport& report);
+  /// Runs an argument check (sim/WorldChecks.h); its InputError comes back with prefix().
+  template <class Check>
+  void check(Check&& run) const {
+    try {
+      run();
+    } catch (const InputError& e) {
+      if (source.empty()) throw;
+      throw InputError(prefix() + e.what());
+    }
+  }
   [[nodiscard]] std::string prefix() const { return source.empty() ? "" : source + ": "; }
   [[nodiscard]] double time() const { return frame * settings.timeStep; }
   /// After a body's cuts: cut topology, surface, distance field.
@@ -435,7 +445,7 @@ struct World::Impl {
     const std::optional<std::size_t> p = slots.find(id);
     if (!p)
       throw InputError(prefix() + argument + ": " + (id.valid() ? "stale" : "invalid") + " " +
-                       what + " handle (removed, or of another world)");
+                       what + " handle (its " + what + " was removed, or it was never made)");
     return *p;
   }
   [[nodiscard]] std::size_t bodyAt(BodyId id, const char* argument = "body") const {
