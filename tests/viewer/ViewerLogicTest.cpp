@@ -56,6 +56,35 @@ TEST(Camera, RaysGoThroughWhatProjectsThere) {
   EXPECT_NEAR(c.distance, 0.9 * d, 1e-12);
 }
 
+// Up on screen is the scene's up, opposite its gravity: for a z-up scene a point above the
+// target projects above the middle of the picture at any yaw, and a +y scene keeps the angles'
+// old meaning (yaw 0, pitch 0 looks along -z).
+TEST(Camera, UpOnScreenIsOppositeGravity) {
+  Camera y;
+  y.yaw = 0.0;
+  y.pitch = 0.0;
+  EXPECT_EQ(y.forward(), Vec3d(-0.0, -0.0, -1.0));
+  for (const Vec3d& gravity : {Vec3d(0, 0, -9.81), Vec3d(0, -9.81, 0), Vec3d(9.81, 0, 0)}) {
+    Camera c;
+    c.width = 320;
+    c.height = 200;
+    c.upAgainst(gravity);
+    EXPECT_LT((c.worldUp + gravity.normalized()).norm(), 1e-15);
+    for (const double yaw : {0.0, 1.0, 2.5, -2.0}) {
+      c.yaw = yaw;
+      c.fit(Eigen::AlignedBox3d(Vec3d::Constant(-1), Vec3d::Constant(1)));
+      EXPECT_NEAR(c.right().dot(c.worldUp), 0.0, 1e-12);
+      EXPECT_GT(c.up().dot(c.worldUp), 0.5);
+      double px = 0, py = 0;
+      ASSERT_TRUE(c.project(c.target + 0.5 * c.worldUp, px, py));
+      EXPECT_LT(py, 99.5) << "yaw " << yaw;  // above the middle: pixels count down
+    }
+  }
+  Camera still;
+  still.upAgainst(Vec3d::Zero());
+  EXPECT_EQ(still.worldUp, Vec3d::UnitY());
+}
+
 /// A small bunny to drive, with a camera fitted to it.
 struct Driven {
   Session session = Session::open("bunny", OpenOptions{40, true, {}});
