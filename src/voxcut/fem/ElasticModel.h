@@ -109,8 +109,8 @@ class ElasticModel {
   /// with a weight (products of prolongation weights).
   [[nodiscard]] const BlockSparsity& sparsity() const { return sparsity_; }
   /// Changes whenever sparsity() is rebuilt or updated (unique across models; copies share
-  /// it), so that a solver can keep structures derived from the sparsity (ImplicitEuler's
-  /// IC(0) pattern).
+  /// it), so that a solver can keep structures derived from the sparsity (the IC(0) pattern
+  /// of PreconditionerChoice.h).
   [[nodiscard]] std::uint64_t sparsityRevision() const { return sparsityRevision_; }
   /// Rows of the last sparsity build that were copied from the one before (updateTopology)
   /// rather than gathered anew; 0 after a full build.
