@@ -129,7 +129,8 @@ class ChunkedList {
 /// is exact, so it is the same for any thread count.
 class ChunkedMax {
  public:
-  explicit ChunkedMax(std::size_t chunks, double floor = 0.0) : parts_(chunks, floor), floor_(floor) {}
+  explicit ChunkedMax(std::size_t chunks, double floor = 0.0)
+      : parts_(chunks, floor), floor_(floor) {}
   void raise(std::size_t chunk, double value) { parts_[chunk] = std::max(parts_[chunk], value); }
   [[nodiscard]] double value() const {
     double best = floor_;

@@ -54,7 +54,8 @@ class SlotTable {
     ++generation_[slot];
     free_.push_back(slot);
     order_.erase(order_.begin() + static_cast<std::ptrdiff_t>(p));
-    for (std::size_t q = p; q < order_.size(); ++q) position_[order_[q]] = static_cast<std::uint32_t>(q);
+    for (std::size_t q = p; q < order_.size(); ++q)
+      position_[order_[q]] = static_cast<std::uint32_t>(q);
   }
 
   /// The handle of the object at dense position `p`.

@@ -78,7 +78,7 @@ inline constexpr double kPairClosing = 0.5;
 /// it between bodies, not the part of its gap that only follows the other body's motion), the
 /// tangential speed from the point's and the surface's velocities.
 inline void setFriction(PointContact& pc, double mu, double overlap, const Vec3d& pointVelocity,
-                 const Vec3d& surfaceVelocity) {
+                        const Vec3d& surfaceVelocity) {
   pc.surfaceVelocity = surfaceVelocity;
   const double normalForce = pc.stiffness * std::max(0.0, overlap);
   if (!(mu > 0.0) || !(normalForce > 0.0)) return;
@@ -112,7 +112,8 @@ inline bool samePose(const BladePose& p, const BladePose& q) {
 }
 
 /// Material table of a body indexed by grid material (entry 0, empty space, is unused).
-inline std::vector<ElasticMaterial> elasticMaterials(const BodySettings& body, const VoxelGrid& grid) {
+inline std::vector<ElasticMaterial> elasticMaterials(const BodySettings& body,
+                                                     const VoxelGrid& grid) {
   std::vector<ElasticMaterial> out(1);
   for (const std::string& name : grid.materialNames()) {
     const SceneMaterial m = sceneMaterial(body.materials, name);
