@@ -101,7 +101,7 @@ BodyId World::addBody(VoxelGrid grid, const BodySettings& settings) {
     solver.tolerance = ws.solver.tolerance;
     solver.maxIterations = ws.solver.maxIterations;
     solver.projectionHistory = ws.solver.projectionHistory;
-    b.solverChoice = resolveSolver(ws.solver.preconditioner, b.cut.deformation.nodeCount());
+    b.solverChoice = resolveSolver(ws.solver.preconditioner);
     solver.preconditioner = preconditionerOf(b.solverChoice);
     b.solver = ImplicitEuler(solver);
     w.rebuildModel(b);

@@ -87,8 +87,8 @@ inline void setFriction(PointContact& pc, double mu, double overlap, const Vec3d
   pc.friction = mu * normalForce / std::max(slip, kStickSpeed);
 }
 
-/// The solver a body of `nodes` nodes uses for `choice` (WorldTypes.h, SolverChoice).
-inline SolverChoice resolveSolver(SolverChoice choice, [[maybe_unused]] std::size_t nodes) {
+/// The solver a body uses for `choice` (WorldTypes.h, SolverChoice).
+inline SolverChoice resolveSolver(SolverChoice choice) {
   return choice == SolverChoice::Automatic ? SolverChoice::Cholesky : choice;
 }
 
