@@ -239,7 +239,7 @@ SoakRun runSeed(const SoakSetup& setup, std::uint64_t seed) {
     FrameReport r;
     try {
       r = world.step();
-    } catch (const InputError& e) {
+    } catch (const StepError& e) {
       std::fprintf(stderr, "%svoxcut: %s: %s\n", setup.terminal ? "\r\033[K" : "", run.name.c_str(),
                    e.what());
       run.status = "failed";

@@ -15,6 +15,7 @@
 #include "RunCommand.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/io/SurfaceWriter.h"
+#include "voxcut/sim/WorldTypes.h"
 
 namespace voxcut::app {
 namespace {
@@ -166,14 +167,17 @@ int main(int argc, char** argv) {
   mallopt(M_MMAP_THRESHOLD, 32 << 20);
   mallopt(M_TOP_PAD, 16 << 20);
   // Exit status: 0 success; 2 any error, reported as one "voxcut: error:" line (bad input or
-  // usage, a file that cannot be read or written, out of memory, or an internal error, which
-  // its line names as such); 130 interrupted (SIGINT or SIGTERM during `run` or a benchmark).
+  // usage, a file that cannot be read or written, a frame that cannot finish, out of memory,
+  // or an internal error, which its line names as such); 130 interrupted (SIGINT or SIGTERM during `run` or a benchmark).
   try {
     voxcut::app::prepareStandardOutput();
     const int status = voxcut::app::run(argc, argv);
     voxcut::app::checkStandardOutput();
     return status;
   } catch (const voxcut::InputError& e) {
+    std::fprintf(stderr, "voxcut: error: %s\n", e.what());
+  } catch (const voxcut::StepError& e) {
+    // A frame that could not finish (a diverged solve): the message names the body and frame.
     std::fprintf(stderr, "voxcut: error: %s\n", e.what());
   } catch (const voxcut::Interrupted&) {
     std::fprintf(stderr, "voxcut: interrupted\n");

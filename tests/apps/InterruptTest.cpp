@@ -171,8 +171,9 @@ TEST(CliInterrupt, ThirdSignalEndsAtOnceAndLeavesNoTemporary) {
   EXPECT_TRUE(r.status == 128 + SIGTERM || r.status == 130) << describe(args, r);
   // The second signal says that a third ends the run; where the run stopped at a frame
   // boundary before the second arrived, nothing was left to say.
-  if (r.status == 128 + SIGTERM)
+  if (r.status == 128 + SIGTERM) {
     EXPECT_NE(r.err.find("signal once more to end at once"), std::string::npos) << r.err;
+  }
   for (const std::string& name : folder.entries())
     EXPECT_EQ(name.find(".tmp"), std::string::npos) << "temporary left: " << name;
   for (const auto& e : fs::directory_iterator(dir)) expectCompleteObj(e.path().string());

@@ -21,6 +21,10 @@ SubdivisionWorkspace::SubdivisionWorkspace() = default;
 SubdivisionWorkspace::~SubdivisionWorkspace() = default;
 SubdivisionWorkspace::SubdivisionWorkspace(SubdivisionWorkspace&&) noexcept = default;
 SubdivisionWorkspace& SubdivisionWorkspace::operator=(SubdivisionWorkspace&&) noexcept = default;
+SubdivisionWorkspace::SubdivisionWorkspace(const SubdivisionWorkspace& /*other*/) {}
+SubdivisionWorkspace& SubdivisionWorkspace::operator=(const SubdivisionWorkspace& /*other*/) {
+  return *this;
+}
 
 void markCubesAroundLink(const VoxelOctree& oct, const VoxelGrid& grid, std::uint64_t link,
                          std::vector<std::uint8_t>& marked) {

@@ -81,16 +81,17 @@ struct SweepBoundary {
 /// Memory that the subdivision's workers keep from one run to the next: their buffers keep
 /// their capacity, so a frame does not grow them from nothing. Whoever runs subdivideCutCubes
 /// frame after frame holds one and passes it to every run (its contents between runs mean
-/// nothing; a fresh workspace gives the same results). Movable, not copyable. One run at a
-/// time may use it.
+/// nothing; a fresh workspace gives the same results). A copy is a fresh workspace and
+/// assigning one keeps this one's buffers (a body copied for a snapshot copies no scratch). One
+/// run at a time may use it.
 class SubdivisionWorkspace {
  public:
   SubdivisionWorkspace();
   ~SubdivisionWorkspace();
   SubdivisionWorkspace(SubdivisionWorkspace&&) noexcept;
   SubdivisionWorkspace& operator=(SubdivisionWorkspace&&) noexcept;
-  SubdivisionWorkspace(const SubdivisionWorkspace&) = delete;
-  SubdivisionWorkspace& operator=(const SubdivisionWorkspace&) = delete;
+  SubdivisionWorkspace(const SubdivisionWorkspace&);
+  SubdivisionWorkspace& operator=(const SubdivisionWorkspace&);
 
   /// One worker's buffers (defined in octree/SubdivisionWorker.h).
   struct WorkerMemory;

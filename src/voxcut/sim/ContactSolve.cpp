@@ -31,20 +31,20 @@ void World::Impl::solvePhase(SimBody& b, const Motion& motion, ContactShapes& sh
   // The step, solved again (from the same start) while the contact set it ends with differs
   // from the one it was given, a few times at most.
   constexpr int kContactPasses = 3;
-  const bool contacts = shapes.size() > 0 || !bodyContacts.empty() || !pairs.empty();
+  const bool touching = shapes.size() > 0 || !bodyContacts.empty() || !pairs.empty();
   const std::vector<Vec3d> startPositions =
-      contacts ? b.cut.deformation.positions() : std::vector<Vec3d>{};
+      touching ? b.cut.deformation.positions() : std::vector<Vec3d>{};
   const std::vector<Vec3d> startVelocities =
-      contacts ? b.solver.velocities() : std::vector<Vec3d>{};
+      touching ? b.solver.velocities() : std::vector<Vec3d>{};
   // The deepest a vertex ends inside a shape, when the last active-set check measured it on the
   // step's final positions (negative: not measured).
   double deepestAtEnd = -1.0;
   for (int pass = 1;; ++pass) {
     timer.restart();
-    const StepStatus status = b.solver.step(b.model, b.cut.deformation);
+    StepStatus status = b.solver.step(b.model, b.cut.deformation);
     ms[kDeformation] += timer.ms();
-    recordSolve(status, report);
-    if (!contacts || pass == kContactPasses) break;
+    recordSolve(b, status, report);
+    if (!touching || pass == kContactPasses) break;
     timer.restart();
     double deepest = 0.0;
     bool changed = shapes.size() > 0 && correctActiveSet(b, shapes, hits, edits, deepest);
@@ -154,15 +154,20 @@ void World::Impl::recordContacts(const SimBody& b, const ContactShapes& shapes,
   }
 }
 
-// The solve's counts in the frame's report; a diverged solve is an error.
-void World::Impl::recordSolve(const StepStatus& status, FrameReport& report) const {
+// The solve's counts in the frame's report; a diverged solve fails the step (StepError).
+void World::Impl::recordSolve(const SimBody& b, StepStatus& status, FrameReport& report) const {
+  const auto position = static_cast<std::size_t>(&b - bodies.data());
+  const BodyId id = bodySlots.at(position);
+  if (frame == failFrame && id == failBody) status.finite = false;  // sim/WorldTesting.h
   report.solverIterations += status.iterations;
   report.solverFactorisations += status.factorised ? 1 : 0;
   report.converged = report.converged && status.converged;
   if (!status.finite)
-    throw InputError(prefix() + "frame " + std::to_string(frame) +
-                     ": a node position became non-finite (the solve diverged); try a smaller "
-                     "time_step or stiffer solver settings");
+    throw StepError(prefix() + "frame " + std::to_string(frame) + ": body " +
+                        std::to_string(position) +
+                        ": a node position became non-finite (the solve diverged); the world is "
+                        "as before the frame; try a smaller time_step or stiffer solver settings",
+                    id, frame);
 }
 
 }  // namespace voxcut

@@ -29,6 +29,12 @@ constexpr double kNode = 100;
 constexpr double kSimulationNode = 2900;
 constexpr double kFactorBlocksPerNode43 = 4;
 constexpr double kFactorBlock = 80;
+// What a world's rollback copy holds per grid voxel (grid bits, the voxel octree's cube map and
+// state, the deformation octree's voxel embedding) and per surface link (Hermite entry,
+// surface vertex and triangles, the simulation's surface records): the sizes above less the
+// build's scratch.
+constexpr double kKeptDense = 2 + 9 + 8;
+constexpr double kKeptSurfaceLink = 48 + 56 + 24 + 400;
 
 // Whether voxelize would take the meshes (its own checks name what is wrong otherwise).
 bool usable(const std::vector<MaterialMesh>& materials) {
@@ -130,8 +136,13 @@ MemoryEstimate estimateModelMemory(const std::vector<MaterialMesh>& materials,
     node += kSimulationNode;
     if (params.factor) factor = kFactorBlocksPerNode43 * std::pow(nodes, 4.0 / 3.0) * kFactorBlock;
   }
-  const double one =
+  double one =
       n * dense + v * occupied + s * surface + elements * element + nodes * node + factor;
+  // A world keeps a copy of itself to roll a failed step back (docs/architecture.md,
+  // "Snapshots"): all of the above but the build's scratch.
+  if (params.simulation)
+    one += n * kKeptDense + v * occupied + s * kKeptSurfaceLink + elements * element +
+           nodes * node + factor;
   e.gridVoxels = clampToSize(n);
   e.occupiedVoxels = clampToSize(v);
   e.surfaceLinks = clampToSize(s);

@@ -39,6 +39,8 @@
 ///     27 3x3 blocks of the reduced matrix with their sparsity (2,900);
 ///   factor (a simulation with the Cholesky preconditioner): 4 P^(4/3) 3x3 blocks of 80
 ///     bytes, the fill of a sparse factor of a 3-D mesh.
+///   a simulation also keeps a copy of its world to roll a failed step back: all of the above
+///     but the build's scratch (19 per grid voxel, 528 per surface link).
 /// Each size is what the structure holds at its largest for the model as it is built. Cuts
 /// refine and duplicate elements as a scene runs, which the estimate does not foresee: the
 /// peak of a cutting scene can exceed it (by up to about 1.6x on the shipped scenes,

@@ -15,9 +15,9 @@ namespace voxcut {
 // probes).
 std::vector<ContactHit> World::Impl::findContacts(const SimBody& b, const ContactShapes& shapes,
                                                   const ActiveSetEdits& edits,
-                                                  std::vector<PointContact>& contacts) const {
+                                                  std::vector<PointContact>& found) const {
   std::vector<ContactHit> hits;
-  contacts.clear();
+  found.clear();
   if (shapes.size() == 0) return hits;
   const double dt = settings.timeStep;
   const std::size_t chunks = vertexChunks(shapes.vertices);
@@ -54,7 +54,7 @@ std::vector<ContactHit> World::Impl::findContacts(const SimBody& b, const Contac
         }
       },
       &shapes.startPositions);
-  chunkContacts.appendTo(contacts);
+  chunkContacts.appendTo(found);
   chunkHits.appendTo(hits);
   return hits;
 }

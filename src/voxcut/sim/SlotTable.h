@@ -5,9 +5,11 @@
 ///
 /// Each handle names a slot and the slot's generation when it was made. A slot holds the
 /// position of its object in the dense array (the order of addition) or nothing once removed;
-/// removal bumps the generation, so old handles are refused, and a later addition may take
-/// the slot again under the new generation.
+/// a later addition may take the slot again under a new generation. Generations come from one
+/// counter that only grows, also across restores (restoreFrom), so no two handles a table has
+/// made are ever equal: an old handle is refused, never taken for a newer object.
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -33,6 +35,7 @@ class SlotTable {
       generation_.push_back(0);
       position_.push_back(kDead);
     }
+    generation_[slot] = next_++;
     position_[slot] = static_cast<std::uint32_t>(order_.size());
     order_.push_back(slot);
     return Id(slot, generation_[slot]);
@@ -51,7 +54,6 @@ class SlotTable {
   void removeAt(std::size_t p) {
     const std::uint32_t slot = order_[p];
     position_[slot] = kDead;
-    ++generation_[slot];
     free_.push_back(slot);
     order_.erase(order_.begin() + static_cast<std::ptrdiff_t>(p));
     for (std::size_t q = p; q < order_.size(); ++q)
@@ -71,12 +73,21 @@ class SlotTable {
 
   [[nodiscard]] std::size_t size() const { return order_.size(); }
 
+  /// Becomes `earlier` (a copy of this table from before): its objects' handles are valid
+  /// again, every handle made since is refused, and the generation counter keeps growing.
+  void restoreFrom(const SlotTable& earlier) {
+    const std::uint32_t next = std::max(next_, earlier.next_);
+    *this = earlier;
+    next_ = next;
+  }
+
  private:
   static constexpr std::uint32_t kDead = 0xffffffffu;
   std::vector<std::uint32_t> generation_;  ///< per slot
   std::vector<std::uint32_t> position_;    ///< per slot: dense position, or kDead
   std::vector<std::uint32_t> order_;       ///< per dense position: its slot
   std::vector<std::uint32_t> free_;        ///< removed slots, taken again last in, first out
+  std::uint32_t next_ = 0;                 ///< the generation of the next handle made
 };
 
 }  // namespace voxcut

@@ -81,6 +81,7 @@ double World::time() const {
 // ---- bodies ----
 
 BodyId World::addBody(VoxelGrid grid, const BodySettings& settings) {
+  impl_->edited();
   Impl& w = *impl_;
   const WorldSettings& ws = w.settings;
   impl_->check([&] { checkBodySettings(settings); });
@@ -125,6 +126,7 @@ BodyId World::addBody(VoxelGrid grid, const BodySettings& settings) {
 }
 
 void World::removeBody(BodyId body) {
+  impl_->edited();
   Impl& w = *impl_;
   const std::size_t p = w.bodyAt(body);
   w.bodies.erase(w.bodies.begin() + static_cast<std::ptrdiff_t>(p));
@@ -144,6 +146,7 @@ bool World::contains(BodyId body) const {
 }
 
 void World::setFixed(BodyId body, std::vector<FixedBox> fixed) {
+  impl_->edited();
   SimBody& b = impl_->body(body);
   impl_->check([&] { checkFixedBoxes(fixed, "fixed"); });
   const bool had = !b.settings.fixed.empty();
@@ -153,6 +156,7 @@ void World::setFixed(BodyId body, std::vector<FixedBox> fixed) {
 }
 
 void World::setMaterial(BodyId body, const SceneMaterial& material) {
+  impl_->edited();
   SimBody& b = impl_->body(body);
   impl_->check([&] { checkMaterial(material, "material"); });
   const std::vector<std::string>& names = b.cut.grid.materialNames();
@@ -185,6 +189,7 @@ BodyInfo World::bodyInfo(BodyId body) const {
 }
 
 void World::setUseOctree(bool on) {
+  impl_->edited();
   impl_->settings.useOctree = on;
   for (SimBody& b : impl_->bodies)
     setActivity(b.cut, on, voxelOctreeParams(b.settings, b.cut.grid), impl_->settings.threaded);
@@ -195,8 +200,9 @@ int World::pieces(BodyId body) const {
 }
 
 ToolId World::Impl::addTool(WorldTool t) {
+  edited();
   t.longest = (t.pose.b - t.pose.a).norm();
-  t.slot = std::make_unique<HapticSlot>();
+  t.slot = std::make_shared<HapticSlot>();
   t.haptic.centre = t.slot->model.centre = 0.5 * (t.pose.a + t.pose.b);
   if (recording) t.recorded.push_back({time(), t.pose});
   tools.push_back(std::move(t));
@@ -228,6 +234,7 @@ ToolId World::addProbe(double radius, const BladePose& pose, double friction) {
 }
 
 void World::removeTool(ToolId tool) {
+  impl_->edited();
   Impl& w = *impl_;
   const std::size_t p = w.toolAt(tool);
   const auto at = static_cast<std::ptrdiff_t>(p);
@@ -270,12 +277,14 @@ ToolReaction World::toolReaction(ToolId tool) const {
 void World::setToolPose(ToolId tool, const BladePose& pose) {
   WorldTool& t = impl_->tool(tool);
   impl_->check([&] { (t.kind == ToolKind::Blade ? checkBladePose : checkPose)(pose, "pose"); });
+  if (!t.keys.empty()) impl_->edited();  // a trajectory stopped: not a logged control
   t.keys.clear();
   t.target = pose;
   t.longest = std::max(t.longest, (pose.b - pose.a).norm());
 }
 
 void World::Impl::place(std::size_t ti, const BladePose& pose) {
+  edited();
   WorldTool& t = tools[ti];
   t.pose = pose;
   t.longest = std::max(t.longest, (pose.b - pose.a).norm());
@@ -314,6 +323,7 @@ void World::placeTool(ToolId tool, const BladePose& pose) {
 }
 
 void World::setToolTrajectory(ToolId tool, std::vector<ToolKey> keys) {
+  impl_->edited();
   WorldTool& t = impl_->tool(tool);
   impl_->check([&] {
     checkKeys(keys, "keys");
@@ -328,6 +338,7 @@ void World::setToolTrajectory(ToolId tool, std::vector<ToolKey> keys) {
 }
 
 void World::setRecording(bool on) {
+  impl_->edited();
   impl_->recording = on;
   if (!on) return;
   for (WorldTool& t : impl_->tools) t.recorded.assign(1, ToolKey{impl_->time(), t.pose});
@@ -340,12 +351,14 @@ const std::vector<ToolKey>& World::recording(ToolId tool) const {
 // ---- obstacles ----
 
 ObstacleId World::addObstacle(const Obstacle& obstacle) {
+  impl_->edited();
   impl_->check([&] { checkObstacle(obstacle, "obstacle"); });
   impl_->obstacles.push_back(obstacle);
   return impl_->obstacleSlots.add();
 }
 
 void World::removeObstacle(ObstacleId obstacle) {
+  impl_->edited();
   Impl& w = *impl_;
   const std::size_t p = w.obstacleAt(obstacle);
   w.obstacles.erase(w.obstacles.begin() + static_cast<std::ptrdiff_t>(p));
@@ -421,6 +434,24 @@ void World::Impl::finishTools(const Motion& motion, const FrameReport& report) {
 // the cut topology and surface, the contacts and each body's step.
 FrameReport World::step() {
   Impl& w = *impl_;
+  const Timer timer;
+  w.beforeStep();
+  try {
+    FrameReport report = w.runFrame();
+    w.failFrame = -1;
+    Checkpoint& c = w.checkpoint;
+    c.frameMs += (report.totalMs - c.frameMs) / static_cast<double>(c.controls.size());
+    report.totalMs = timer.ms();  // with the rollback point's copy, when one was taken
+    return report;
+  } catch (...) {
+    w.rollBack();
+    w.failFrame = -1;
+    throw;
+  }
+}
+
+FrameReport World::Impl::runFrame() {
+  Impl& w = *this;
   Timer frameTimer;
   FrameReport report;
   report.frame = w.frame;

@@ -12,7 +12,10 @@
 /// - An invalid argument (an unknown or stale handle, a non-finite or out-of-range pose,
 ///   radius, material value or box, a trajectory out of order) throws voxcut::InputError
 ///   naming the argument, and the world is left as it was. No call aborts the process.
-/// - step() throws InputError naming the frame when a node position becomes non-finite.
+/// - A step that cannot finish (a solve that diverges, a non-finite state, memory running out)
+///   throws voxcut::StepError naming the body, the frame and the reason, and leaves the world
+///   exactly as it was before the step (cuts, octrees' deferred updates, tools, solver state);
+///   it can be stepped again or restored.
 /// - hapticForce never throws: a non-finite pose or a handle that names no probe gets a zero
 ///   force and a status saying why.
 ///
@@ -31,9 +34,35 @@
 
 namespace voxcut {
 
-class VoxelGrid;  // voxel/VoxelGrid.h
-struct Obstacle;  // collision/Obstacle.h
-struct Scene;     // sim/Scene.h
+class VoxelGrid;     // voxel/VoxelGrid.h
+struct Obstacle;     // collision/Obstacle.h
+struct Scene;        // sim/Scene.h
+struct WorldState;   // sim/WorldImpl.h
+struct WorldTesting; // sim/WorldTesting.h
+
+/// A world's complete state between two frames (World::snapshot): every body's nodes,
+/// velocities, cuts, octrees, surfaces and solver state, the tools' poses, trajectories and
+/// force models, the obstacles, the contacts, the handles and the clock. World::restore brings
+/// it back. Immutable: copies share it (cheap), and it stays valid after its world changes or
+/// is gone. Empty when default-made.
+class WorldSnapshot {
+ public:
+  WorldSnapshot();
+  ~WorldSnapshot();
+  WorldSnapshot(const WorldSnapshot&);
+  WorldSnapshot& operator=(const WorldSnapshot&);
+  WorldSnapshot(WorldSnapshot&&) noexcept;
+  WorldSnapshot& operator=(WorldSnapshot&&) noexcept;
+
+  [[nodiscard]] bool empty() const;
+  /// The world's frame() and time() when it was taken (0 for an empty one).
+  [[nodiscard]] int frame() const;
+  [[nodiscard]] double time() const;
+
+ private:
+  friend class World;
+  std::shared_ptr<const WorldState> state_;
+};
 
 /// A world in motion. Movable, not copyable.
 class World {
@@ -176,16 +205,29 @@ class World {
   [[nodiscard]] const Obstacle& obstacle(ObstacleId obstacle) const;
 
   // ---- time ----
-  /// Runs one frame from time() to time() + timeStep. Throws InputError naming the frame when
-  /// a node position becomes non-finite.
+  /// Runs one frame from time() to time() + timeStep. A frame that cannot finish throws
+  /// StepError and leaves the world as it was before the call (the error policy above).
   FrameReport step();
   [[nodiscard]] int frame() const;
   [[nodiscard]] double time() const;  ///< frame() * timeStep (s)
   [[nodiscard]] const WorldSettings& settings() const;
 
+  // ---- snapshots ----
+  /// The world as it is now (docs/architecture.md, "Snapshots"). O(state): a copy of every
+  /// body; the world keeps sharing it as its rollback point until the next edit.
+  [[nodiscard]] WorldSnapshot snapshot();
+  /// Brings back the world a snapshot was taken of, completely: stepping on gives, bit for
+  /// bit, what the world gave after the snapshot was taken (for the same tool poses). The
+  /// handles of its bodies, tools and obstacles are valid again; handles made since are
+  /// refused. Readers' surface revisions start afresh (SurfaceChanges::full). O(state),
+  /// reusing this world's memory. Throws InputError for an empty snapshot. Not concurrently
+  /// with hapticForce.
+  void restore(const WorldSnapshot& snapshot);
+
  private:
   struct Impl;
   friend struct WorldInternals;
+  friend struct WorldTesting;
   std::unique_ptr<Impl> impl_;
 };
 

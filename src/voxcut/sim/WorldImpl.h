@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -217,19 +218,27 @@ struct HapticSlot {
   }
 };
 
-/// A tool of the world: its shape, where it is, where it goes next frame, and what pushes on it.
-struct WorldTool {
-  ToolKind kind = ToolKind::Blade;
-  double radius = 0.0;
-  double friction = -1.0;           ///< Coulomb coefficient (negative: the world's default)
+/// What a tool's frames and the application's poses change; the rest of a WorldTool is fixed
+/// when it is made. A rollback (sim/Snapshots.cpp) assigns only this part, while haptic
+/// threads may be reading the rest.
+struct ToolState {
   BladePose pose;                   ///< now
   std::optional<BladePose> target;  ///< set by setToolPose for the end of the next frame
   std::vector<ToolKey> keys;        ///< trajectory (empty: none)
   double longest = 0.0;             ///< longest its segment has been (m): the fronts' sampling
   ToolReaction reaction;
   std::vector<ToolKey> recorded;
-  HapticModel haptic;                ///< this thread's copy of what `slot` holds
-  std::unique_ptr<HapticSlot> slot;  ///< shared with haptic threads (stable address)
+  HapticModel haptic;  ///< this thread's copy of what `slot` holds
+};
+
+/// A tool of the world: its shape, where it is, where it goes next frame, and what pushes on it.
+struct WorldTool : ToolState {
+  ToolKind kind = ToolKind::Blade;
+  double radius = 0.0;
+  double friction = -1.0;  ///< Coulomb coefficient (negative: the world's default)
+  /// Shared with haptic threads (a stable address). Copies of the tool (a snapshot) share it;
+  /// World::restore gives each restored tool its own again (sim/Snapshots.cpp).
+  std::shared_ptr<HapticSlot> slot;
 };
 
 /// A point contact handed to a body's solver: what it presses on and where.
@@ -323,7 +332,10 @@ struct ContactShapes {
   }
 };
 
-struct World::Impl {
+/// Everything a world is at one moment: what a snapshot holds and a restore brings back
+/// (docs/architecture.md, "Snapshots"). Copyable; a copy shares nothing that a step changes
+/// (mesh obstacles share their immutable hierarchies, tools their haptic slot).
+struct WorldState {
   WorldSettings settings;
   std::string source;  ///< prefix of error messages (the scene file), may be empty
   std::vector<SimBody> bodies;
@@ -336,6 +348,49 @@ struct World::Impl {
   std::vector<Contact> contacts;  ///< at the end of the last frame
   int frame = 0;
   bool recording = false;
+};
+
+/// What an application sets on a tool between frames without invalidating the rollback
+/// checkpoint (setToolPose on a tool without a trajectory): logged at each frame's start so
+/// that the frames since the checkpoint can be run again (sim/Snapshots.cpp).
+struct ToolControl {
+  BladePose pose;
+  std::optional<BladePose> target;
+  double longest = 0.0;
+};
+
+/// The state a failed step goes back to (docs/architecture.md, "Errors"): a copy of the world
+/// taken at some earlier frame's start and, per frame since, the tools' controls at its
+/// start. Running those frames again from the copy gives, bit for bit, the world before the
+/// failed step (results do not depend on timing or threads), so the copy is taken only every
+/// so many frames, as many as keep its cost a small share of the frames' (kCheckpointShare).
+struct Checkpoint {
+  std::shared_ptr<const WorldState> state;  ///< null: none yet
+  /// False when an edit since made it useless (its memory is kept to copy the next one into).
+  bool valid = false;
+  std::vector<std::vector<ToolControl>> controls;  ///< per frame since, per tool
+  /// A copy of the world's own that no snapshot shares, kept while `state` is a snapshot's:
+  /// the next copy goes into its memory (fresh memory costs page faults, several times the copy).
+  std::shared_ptr<WorldState> spare;
+  double copyMs = 0.0;   ///< what taking the last copy cost (wall clock)
+  double frameMs = 0.0;  ///< the frames' mean cost since it (wall clock)
+};
+
+/// The most of the frames' time that taking rollback copies may cost, on average.
+inline constexpr double kCheckpointShare = 0.02;
+/// The most frames a failed step may have to run again to go back (the longest a checkpoint
+/// is kept).
+inline constexpr std::size_t kCheckpointMaxFrames = 200;
+
+struct World::Impl : WorldState {
+  Checkpoint checkpoint;
+  /// A step of this frame fails in this body's solve, as a diverged one would (the error
+  /// policy's tests: sim/WorldTesting.h); -1: none.
+  int failFrame = -1;
+  BodyId failBody;
+  /// The highest surface revision any body of this world has had (World::restore starts the
+  /// restored bodies above it, so a reader's revision never names two surfaces).
+  std::uint64_t surfaceRevisionHigh = 0;
 
   /// Per moving blade: its sampled end pose this frame and the samples' ids (empty where the
   /// tool did not move, is a probe, or the blade is one segment).
@@ -347,6 +402,26 @@ struct World::Impl {
   struct Motion {
     std::vector<BladePose> from, to;
   };
+
+  /// One frame: the body of World::step (World.cpp).
+  FrameReport runFrame();
+  /// An edit other than setToolPose: the frames since the checkpoint can no longer be run
+  /// again from it.
+  void edited() {
+    checkpoint.valid = false;
+    checkpoint.controls.clear();
+  }
+  /// Makes a snapshot's state the rollback point (keeping the old one's memory as the spare
+  /// when no snapshot shares it).
+  void useAsCheckpoint(std::shared_ptr<const WorldState> state);
+  /// Before a step: takes a new checkpoint when due, logs the tools' controls.
+  void beforeStep();
+  /// After a step failed: the world as it was before it (the checkpoint, and the frames since
+  /// run again).
+  void rollBack();
+  /// Copies `from` into this world's state; with `keepSlots`, each tool keeps its own haptic
+  /// slot (haptic threads may be reading it).
+  void assignState(const WorldState& from, bool keepSlots);
 
   /// Where each tool goes this frame (placing those whose trajectory jumps), and the frame's
   /// contact shapes: the obstacles, then the probes at their end pose.
@@ -411,7 +486,7 @@ struct World::Impl {
   void applyTopologyChange(SimBody& body, const TopologyChange& change);
   void embedSurfaceChange(SimBody& body, SurfaceDelta delta, const TopologyChange& change);
   void renumberVertexElements(SimBody& body, const TopologyChange& change) const;
-  void recordSolve(const StepStatus& status, FrameReport& report) const;
+  void recordSolve(const SimBody& body, StepStatus& status, FrameReport& report) const;
   /// Changes to the contact set of a step found after solving it (docs/algorithms.md,
   /// "Contact", the active set): keys vertex * shapes + shape, ascending.
   struct ActiveSetEdits {
@@ -426,7 +501,7 @@ struct World::Impl {
   void nearShapes(const SimBody& body, ContactShapes& shapes) const;
   std::vector<ContactHit> findContacts(const SimBody& body, const ContactShapes& shapes,
                                        const ActiveSetEdits& edits,
-                                       std::vector<PointContact>& contacts) const;
+                                       std::vector<PointContact>& found) const;
   /// After a step with `hits`: the contacts that pulled and the vertices that ended inside a
   /// shape they had no contact with; false when there are none (the set was right). `deepest`:
   /// the deepest any of the vertices ends inside a shape (m; 0 when none).

@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -315,6 +316,24 @@ struct FrameReport {
   /// Per tool, in the order of World::tools(), the bodies' reaction on it at the frame's end
   /// (World::toolReaction).
   std::vector<ToolReaction> toolReactions;
+};
+
+/// A step that could not finish (World::step): a body's solve diverged or its state became
+/// non-finite, or the frame ran out of memory. The world is left exactly as it was before the
+/// step (docs/architecture.md, "Errors"): it can be stepped again (after a change of what made
+/// the step fail: a tool's pose, a material) or restored from a snapshot.
+class StepError : public std::runtime_error {
+ public:
+  StepError(const std::string& what, BodyId body, int frame)
+      : std::runtime_error(what), body_(body), frame_(frame) {}
+  /// The body whose step failed (invalid when the frame failed outside a body's step).
+  [[nodiscard]] BodyId body() const { return body_; }
+  /// The frame that failed (World::frame() before and after the call).
+  [[nodiscard]] int frame() const { return frame_; }
+
+ private:
+  BodyId body_;
+  int frame_ = 0;
 };
 
 /// A body's mechanical energy (J): what a soak or a test watches for energy the contacts

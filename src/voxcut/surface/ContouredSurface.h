@@ -48,14 +48,14 @@ struct SurfaceDelta {
   std::size_t solvedCells = 0;  ///< dual cells whose vertices were solved again (work done)
 };
 
-/// An incrementally updated dual-contoured surface. Movable, not copyable (it is large and a
-/// copy is never what a caller wants). Not thread-safe: one update at a time, and no reads
+/// An incrementally updated dual-contoured surface. Copyable (a world's snapshot holds a
+/// copy) and movable. Not thread-safe: one update at a time, and no reads
 /// while an update runs; concurrent const reads are fine.
 class ContouredSurface {
  public:
   ContouredSurface() = default;
-  ContouredSurface(const ContouredSurface&) = delete;
-  ContouredSurface& operator=(const ContouredSurface&) = delete;
+  ContouredSurface(const ContouredSurface&) = default;
+  ContouredSurface& operator=(const ContouredSurface&) = default;
   ContouredSurface(ContouredSurface&&) noexcept = default;
   ContouredSurface& operator=(ContouredSurface&&) noexcept = default;
 
