@@ -126,6 +126,8 @@ void Session::build() {
   if (addBlade_) blade_ = world_.addBlade(bladePark_);
   if (addProbe_) probe_ = world_.addProbe(probeRadius_, probePark_);
   world_.setRecording(true);
+  recent_ = undo_ = WorldSnapshot{};
+  cutting_ = false;
 }
 
 void Session::apply(const std::vector<ToolCommand>& commands) {
@@ -139,7 +141,25 @@ void Session::apply(const std::vector<ToolCommand>& commands) {
 }
 
 FrameReport Session::step() {
-  return world_.step();
+  if (!cutting_ && (recent_.empty() || world_.frame() - recent_.frame() >= kUndoEvery)) {
+    // Let go first: the world then copies into the memory it held (no page faults).
+    recent_ = WorldSnapshot{};
+    recent_ = world_.snapshot();
+  }
+  FrameReport report = world_.step();
+  const bool cut = report.cutLinks > 0;
+  if (cut && !cutting_) undo_ = recent_;
+  cutting_ = cut;
+  return report;
+}
+
+bool Session::undoCut() {
+  if (undo_.empty()) return false;
+  world_.restore(undo_);
+  recent_ = undo_;
+  undo_ = WorldSnapshot{};
+  cutting_ = false;
+  return true;
 }
 
 void Session::reset() {

@@ -61,6 +61,15 @@ class Session {
   FrameReport step();
   /// Back to the start: the world built again from the scene (the voxel grids are kept).
   void reset();
+  /// Undoes the last cut (Ctrl-Z): the world restored to a snapshot taken before the frame
+  /// the cut began in, at most kUndoEvery frames before it (the session takes one every
+  /// kUndoEvery frames while nothing is being cut; docs/viewer.md, "Undo"). One level: a
+  /// second call undoes nothing more. Returns false when there is no cut to undo.
+  bool undoCut();
+  [[nodiscard]] bool canUndoCut() const { return !undo_.empty(); }
+  /// Frames between the session's snapshots: a snapshot costs about a frame (copied into
+  /// memory kept from the one before), so this keeps them near 3 % of the frames' time.
+  static constexpr int kUndoEvery = 30;
   /// Switches the voxel octree on or off now and after resets.
   void setUseOctree(bool on);
   [[nodiscard]] bool useOctree() const { return useOctree_; }
@@ -89,6 +98,10 @@ class Session {
   BladePose bladePark_, probePark_;
   Eigen::AlignedBox3d bounds_;
   bool useOctree_ = true;
+  /// The latest snapshot taken between frames that cut nothing, and the one that was latest
+  /// when the last cut began (what undoCut restores).
+  WorldSnapshot recent_, undo_;
+  bool cutting_ = false;  ///< the last frame cut links
 };
 
 }  // namespace voxcut::view

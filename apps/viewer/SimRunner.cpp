@@ -53,6 +53,14 @@ void SimRunner::reset() {
   wake_.notify_all();
 }
 
+void SimRunner::undoCut() {
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    undo_ = true;
+  }
+  wake_.notify_all();
+}
+
 void SimRunner::setUseOctree(bool on) {
   {
     const std::lock_guard<std::mutex> lock(mutex_);
@@ -176,12 +184,12 @@ void SimRunner::loop() {
   for (;;) {
     std::vector<ToolCommand> commands;
     std::deque<std::function<void(Session&)>> tasks;
-    bool doReset = false, doStep = false, redraw = false;
+    bool doReset = false, doUndo = false, doStep = false, redraw = false;
     int octree = -1;
     {
       std::unique_lock<std::mutex> lock(mutex_);
       wake_.wait(lock, [&] {
-        return stop_ || playing_.load() || steps_ > 0 || reset_ || !commands_.empty() ||
+        return stop_ || playing_.load() || steps_ > 0 || reset_ || undo_ || !commands_.empty() ||
                !tasks_.empty() || octree_ >= 0 || optionsChanged_;
       });
       if (stop_) return;
@@ -189,6 +197,8 @@ void SimRunner::loop() {
       tasks.swap(tasks_);
       doReset = reset_;
       reset_ = false;
+      doUndo = undo_;
+      undo_ = false;
       octree = octree_;
       octree_ = -1;
       redraw = optionsChanged_;
@@ -208,6 +218,13 @@ void SimRunner::loop() {
         session_.reset();
         fpsTime_.clear();
         fps_.clear();
+        cutLinks_ = static_cast<std::size_t>(-1);
+        last_.reset();
+        redraw = true;
+        paceStart = Clock::now();
+        paceTime = session_.world().time();
+      }
+      if (doUndo && session_.undoCut()) {
         cutLinks_ = static_cast<std::size_t>(-1);
         last_.reset();
         redraw = true;

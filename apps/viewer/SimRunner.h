@@ -38,6 +38,8 @@ class SimRunner {
   /// Real-time pacing (default) or as fast as frames come.
   void setRealTime(bool on) { realTime_ = on; }
   void reset();
+  /// Undoes the last cut between frames (Session::undoCut).
+  void undoCut();
   void setUseOctree(bool on);
   void setDrawOptions(const DrawOptions& options);
   void send(std::vector<ToolCommand> commands);
@@ -67,7 +69,7 @@ class SimRunner {
   DrawOptions options_;
   bool optionsChanged_ = false;
   int steps_ = 0;
-  bool reset_ = false, stop_ = false;
+  bool reset_ = false, undo_ = false, stop_ = false;
   int octree_ = -1;  // -1: no change asked; else the setting asked for
   std::string error_;
   std::atomic<bool> playing_{false};

@@ -151,9 +151,9 @@ struct Viewer {
   int resolution = 64;  ///< of a model or mesh opened alone
 
   /// Opens `what`; on an error the viewer keeps what it had (and the error propagates).
-  void open(const std::string& what, int resolution) {
+  void open(const std::string& what, int modelResolution) {
     OpenOptions o;
-    o.resolution = resolution;
+    o.resolution = modelResolution;
     o.useOctree = octree;
     o.progress = terminalProgress();
     auto next = std::make_unique<Session>(Session::open(what, o));
@@ -183,6 +183,10 @@ struct Viewer {
   void reset() {
     input->cancel();
     runner->reset();
+  }
+  void undoCut() {
+    input->cancel();
+    runner->undoCut();
   }
 };
 
@@ -216,7 +220,7 @@ void onScroll(GLFWwindow* w, double, double dy) {
   v.runner->send(v.input->wheel(dy));
 }
 
-void onKey(GLFWwindow* w, int key, int, int action, int) {
+void onKey(GLFWwindow* w, int key, int, int action, int mods) {
   Viewer& v = *viewerOf(w);
   if (action != GLFW_PRESS || ImGui::GetIO().WantCaptureKeyboard) return;
   switch (key) {
@@ -228,6 +232,9 @@ void onKey(GLFWwindow* w, int key, int, int action, int) {
       break;
     case GLFW_KEY_R:
       v.reset();
+      break;
+    case GLFW_KEY_Z:
+      if ((mods & GLFW_MOD_CONTROL) != 0) v.undoCut();
       break;
     case GLFW_KEY_C:
       v.toolMode = 0;
@@ -278,6 +285,8 @@ void panel(Viewer& v) {
   if (ImGui::Button("Step")) v.runner->stepOnce();
   ImGui::SameLine();
   if (ImGui::Button("Reset")) v.reset();
+  ImGui::SameLine();
+  if (ImGui::Button("Undo cut")) v.undoCut();
   ImGui::SameLine();
   if (ImGui::Checkbox("real time", &v.realTime)) v.runner->setRealTime(v.realTime);
   ImGui::Text("tool:");
@@ -341,7 +350,8 @@ void panel(Viewer& v) {
   if (!error.empty()) ImGui::TextWrapped("error: %s", error.c_str());
   if (!v.status.empty()) ImGui::TextWrapped("%s", v.status.c_str());
   ImGui::TextWrapped(
-      "keys: space play/pause, N step, R reset, C/B/P camera/blade/probe, F fit, W wireframe, "
+      "keys: space play/pause, N step, R reset, Ctrl-Z undo the last cut, C/B/P "
+      "camera/blade/probe, F fit, W wireframe, "
       "O octree, F12 screenshot. Left drag orbits (on a body with a tool: drives it), right or "
       "shift drag pans, wheel zooms (while driving: depth).");
   ImGui::End();

@@ -168,6 +168,41 @@ TEST(Input, MouseDragCutsAndPressesTheBunnyAndReplays) {
   EXPECT_EQ(j["cut_set_hash"].get<std::string>(), hex(w.cutSetHash()));
 }
 
+// Ctrl-Z: a cut undone gives back the world from before it (its cuts and nodes as a twin
+// session that was stopped there); with nothing cut since, there is nothing to undo.
+TEST(Session, UndoCutGoesBackToBeforeTheCut) {
+  Driven d;
+  World& w = d.session.world();
+  EXPECT_FALSE(d.session.canUndoCut());
+  EXPECT_FALSE(d.session.undoCut());
+  for (int f = 0; f < 40; ++f) (void)d.session.step();
+  const std::uint64_t uncut = w.cutSetHash();
+  const double cx = 0.5 * d.input.camera.width, cy = 0.5 * d.input.camera.height;
+  d.drag(ToolMode::Blade, cx - 30, cx + 30, cy, 15);
+  d.release();
+  ASSERT_NE(w.cutSetHash(), uncut);
+  ASSERT_TRUE(d.session.canUndoCut());
+  const int cutAt = w.frame();
+  ASSERT_TRUE(d.session.undoCut());
+  EXPECT_EQ(w.cutSetHash(), uncut);
+  EXPECT_EQ(w.bodyInfo(w.bodies()[0]).cutLinks, 0u);
+  // At most kUndoEvery frames before the frame the cut began in.
+  EXPECT_LT(w.frame(), cutAt);
+  EXPECT_GE(w.frame(), 40 - Session::kUndoEvery);
+  EXPECT_FALSE(d.session.canUndoCut());
+  EXPECT_FALSE(d.session.undoCut());
+  // The undone world is the one an uncut twin had at that frame, bit for bit.
+  Driven twin;
+  while (twin.session.world().frame() < w.frame()) (void)twin.session.step();
+  const NodeState a = w.nodes(w.bodies()[0]);
+  const NodeState b = twin.session.world().nodes(twin.session.world().bodies()[0]);
+  EXPECT_EQ(a.positions, b.positions);
+  EXPECT_EQ(a.velocities, b.velocities);
+  // And it runs on: the same drag cuts again.
+  d.drag(ToolMode::Blade, cx - 30, cx + 30, cy, 15);
+  EXPECT_NE(w.cutSetHash(), uncut);
+}
+
 // The wheel pushes a dragged probe deeper along the line of sight, and zooms otherwise.
 TEST(Input, WheelPushesTheDraggedToolAndZoomsOtherwise) {
   Driven d;
