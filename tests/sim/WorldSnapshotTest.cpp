@@ -15,6 +15,7 @@
 #include "voxcut/io/SceneReader.h"
 #include "voxcut/sim/World.h"
 #include "voxcut/sim/WorldTesting.h"
+#include "voxcut/voxel/VoxelGrid.h"
 
 namespace voxcut {
 namespace {
@@ -118,6 +119,38 @@ TEST(Snapshot, HandlesAfterARestore) {
   EXPECT_TRUE(w.contains(again));
   EXPECT_FALSE(w.contains(added));
   EXPECT_THROW(w.restore(WorldSnapshot{}), InputError);
+}
+
+// A handle names an object of the world that made it (or of one that restored its snapshot):
+// another world's handles are refused, never taken for its own objects in the same slots.
+TEST(Snapshot, HandlesOfAnotherWorldAreRefused) {
+  Handles ha, hb;
+  World a = contractWorld(ha);
+  World b = contractWorld(hb);
+  EXPECT_FALSE(b.contains(ha.body));
+  EXPECT_FALSE(b.contains(ha.probe));
+  EXPECT_FALSE(b.contains(ha.floor));
+  EXPECT_THROW((void)b.bodyInfo(ha.body), InputError);
+  EXPECT_THROW(b.setToolPose(ha.probe, sphereAt(Vec3d(0, 1, 0))), InputError);
+  EXPECT_EQ(b.hapticForce(ha.probe, sphereAt(Vec3d(0, 1, 0))).status,
+            HapticAnswer::Status::NotAProbe);
+  // b restored from a's snapshot is a's world: a's handles name its objects there.
+  b.restore(a.snapshot());
+  EXPECT_TRUE(b.contains(ha.body));
+  EXPECT_FALSE(b.contains(hb.body));
+}
+
+// A body needs material: an empty grid is refused and the world is left without a body.
+TEST(Snapshot, AnEmptyGridIsNoBody) {
+  World w;
+  try {
+    (void)w.addBody(VoxelGrid({6, 6, 6}, Vec3d::Zero(), 0.01));
+    ADD_FAILURE() << "an empty grid was taken";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("grid"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(w.bodyCount(), 0u);
+  (void)w.step();
 }
 
 // A reader's surface revision from before a restore names no surface after it: it gets the

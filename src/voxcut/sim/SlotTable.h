@@ -6,10 +6,11 @@
 /// Each handle names a slot and the slot's generation when it was made. A slot holds the
 /// position of its object in the dense array (the order of addition) or nothing once removed;
 /// a later addition may take the slot again under a new generation. Generations come from one
-/// counter that only grows, also across restores (restoreFrom), so no two handles a table has
-/// made are ever equal: an old handle is refused, never taken for a newer object.
+/// counter of the process that only grows, so no two handles ever made are equal: an old
+/// handle is refused, never taken for a newer object, and a handle of another world names
+/// nothing in this one (unless this world restored that world's snapshot).
 
-#include <algorithm>
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -18,6 +19,12 @@
 #include "voxcut/sim/WorldTypes.h"
 
 namespace voxcut {
+
+/// A handle generation never given out before in this process (SlotTable::add).
+inline std::uint32_t newHandleGeneration() {
+  static std::atomic<std::uint32_t> last{0};
+  return last.fetch_add(1, std::memory_order_relaxed);
+}
 
 template <class Tag>
 class SlotTable {
@@ -35,7 +42,7 @@ class SlotTable {
       generation_.push_back(0);
       position_.push_back(kDead);
     }
-    generation_[slot] = next_++;
+    generation_[slot] = newHandleGeneration();
     position_[slot] = static_cast<std::uint32_t>(order_.size());
     order_.push_back(slot);
     return Id(slot, generation_[slot]);
@@ -74,12 +81,9 @@ class SlotTable {
   [[nodiscard]] std::size_t size() const { return order_.size(); }
 
   /// Becomes `earlier` (a copy of this table from before): its objects' handles are valid
-  /// again, every handle made since is refused, and the generation counter keeps growing.
-  void restoreFrom(const SlotTable& earlier) {
-    const std::uint32_t next = std::max(next_, earlier.next_);
-    *this = earlier;
-    next_ = next;
-  }
+  /// again, and every handle made since is refused (its generation is one `earlier` never
+  /// had).
+  void restoreFrom(const SlotTable& earlier) { *this = earlier; }
 
  private:
   static constexpr std::uint32_t kDead = 0xffffffffu;
@@ -87,7 +91,6 @@ class SlotTable {
   std::vector<std::uint32_t> position_;    ///< per slot: dense position, or kDead
   std::vector<std::uint32_t> order_;       ///< per dense position: its slot
   std::vector<std::uint32_t> free_;        ///< removed slots, taken again last in, first out
-  std::uint32_t next_ = 0;                 ///< the generation of the next handle made
 };
 
 }  // namespace voxcut

@@ -85,6 +85,7 @@ BodyId World::addBody(VoxelGrid grid, const BodySettings& settings) {
   Impl& w = *impl_;
   const WorldSettings& ws = w.settings;
   impl_->check([&] { checkBodySettings(settings); });
+  impl_->check([&] { checkGrid(grid, "grid"); });
   SimBody& b = w.bodies.emplace_back();
   try {
     CutBodyParams cp;

@@ -8,6 +8,7 @@
 #include "voxcut/core/CoordinateRange.h"
 #include "voxcut/core/Error.h"
 #include "voxcut/sim/Scene.h"
+#include "voxcut/voxel/VoxelGrid.h"
 
 namespace voxcut {
 
@@ -150,6 +151,14 @@ void checkObstacle(const Obstacle& o, const std::string& argument) {
       if (o.mesh == nullptr) fail(argument + ".mesh", "a mesh obstacle needs its mesh");
       break;
   }
+}
+
+void checkGrid(const VoxelGrid& grid, const std::string& argument) {
+  if (!(grid.voxelSize() > 0.0) || !std::isfinite(grid.voxelSize()) || !grid.origin().allFinite())
+    throw InputError(argument + ": needs a finite origin and a positive voxel size");
+  for (std::size_t v = 0; v < grid.voxelCount(); ++v)
+    if (grid.occupied(v)) return;
+  throw InputError(argument + ": no occupied voxel (an empty body)");
 }
 
 }  // namespace voxcut

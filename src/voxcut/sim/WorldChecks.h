@@ -12,6 +12,8 @@
 
 namespace voxcut {
 
+class VoxelGrid;
+
 struct Obstacle;
 
 /// The ranges of the physical parameters, shared with io/SceneReader.cpp: wide enough for any
@@ -45,5 +47,7 @@ void checkFriction(double friction, const std::string& argument, bool defaultAll
 /// At least one key, in order (keysInOrder), every time finite and every pose checkPose's.
 void checkKeys(const std::vector<ToolKey>& keys, const std::string& argument);
 void checkObstacle(const Obstacle& o, const std::string& argument);
+/// A body's grid: at least one occupied voxel, a finite origin and a positive voxel size.
+void checkGrid(const VoxelGrid& grid, const std::string& argument);
 
 }  // namespace voxcut
