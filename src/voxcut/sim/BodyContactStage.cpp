@@ -10,11 +10,11 @@
 
 namespace voxcut {
 
-std::vector<BodyContactSet> World::Impl::findBodyContactsAll(std::vector<double>& ms,
-                                                             FrameReport& report) {
+std::vector<BodyContactSet> World::Impl::findBodyContactsAll(Frame& f) {
+  FrameReport& report = f.report;
   std::vector<BodyContactSet> out(bodies.size());
   if (bodies.size() < 2 && !settings.contact.selfCollision) return out;
-  Timer timer;
+  const StageTimer time(f.ms(kObjectCollision));
   const double dt = settings.timeStep;
   // Which pairs can touch: bounding boxes of the current nodes, grown by a voxel.
   std::vector<Eigen::AlignedBox3d> bounds(bodies.size());
@@ -125,7 +125,6 @@ std::vector<BodyContactSet> World::Impl::findBodyContactsAll(std::vector<double>
         out[ib_].pointDepth.push_back(c.currentDepth);
       }
     }
-  ms[kObjectCollision] += timer.ms();
   return out;
 }
 

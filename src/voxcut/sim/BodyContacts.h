@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "voxcut/collision/LayeredHash.h"
-#include "voxcut/sim/WorldInternals.h"
+#include "voxcut/sim/SimBody.h"
 
 namespace voxcut {
 

@@ -9,10 +9,11 @@
 
 namespace voxcut {
 
-void World::Impl::solvePhase(SimBody& b, const Motion& motion, ContactShapes& shapes,
-                             BodyContactSet contactSet, std::vector<double>& ms,
-                             FrameReport& report) {
-  Timer timer;
+void World::Impl::solvePhase(SimBody& b, BodyContactSet contactSet, Frame& f) {
+  const Motion& motion = f.motion;
+  ContactShapes& shapes = f.shapes;
+  FrameReport& report = f.report;
+  StageTimer time(f.ms(kObjectCollision));
   nearShapes(b, shapes);
   ActiveSetEdits edits;
   std::vector<PointContact> shapeContacts;
@@ -26,7 +27,6 @@ void World::Impl::solvePhase(SimBody& b, const Motion& motion, ContactShapes& sh
     b.solver.setPairContacts(pairs);
   };
   setContacts();
-  ms[kObjectCollision] += timer.ms();
 
   // The step, solved again (from the same start) while the contact set it ends with differs
   // from the one it was given, a few times at most.
@@ -40,12 +40,11 @@ void World::Impl::solvePhase(SimBody& b, const Motion& motion, ContactShapes& sh
   // step's final positions (negative: not measured).
   double deepestAtEnd = -1.0;
   for (int pass = 1;; ++pass) {
-    timer.restart();
+    time.next(f.ms(kDeformation));
     StepStatus status = b.solver.step(b.model, b.cut.deformation);
-    ms[kDeformation] += timer.ms();
+    time.next(f.ms(kObjectCollision));
     recordSolve(b, status, report);
     if (!touching || pass == kContactPasses) break;
-    timer.restart();
     double deepest = 0.0;
     bool changed = shapes.size() > 0 && correctActiveSet(b, shapes, hits, edits, deepest);
     // Contacts with other bodies (and the body itself) that pulled: left out.
@@ -70,7 +69,6 @@ void World::Impl::solvePhase(SimBody& b, const Motion& motion, ContactShapes& sh
       hits = findContacts(b, shapes, edits, shapeContacts);
       setContacts();
     }
-    ms[kObjectCollision] += timer.ms();
     if (!changed) {
       if (shapes.size() > 0) deepestAtEnd = deepest;
       break;
@@ -82,27 +80,24 @@ void World::Impl::solvePhase(SimBody& b, const Motion& motion, ContactShapes& sh
     const ContactHit& h = hits[k];
     // On the obstacle or probe: what the step applied, a spring that still pulls after the
     // last solve included (docs/algorithms.md, "Contact").
-    const Vec3d f = -force[k] * h.normal - friction[k];
+    const Vec3d push = -force[k] * h.normal - friction[k];
     if (h.source < obstacles.size()) {
-      report.obstacleForces[h.source] += f;
+      report.obstacleForces[h.source] += push;
     } else {
       const std::size_t ti = shapes.probeTool[h.source - obstacles.size()];
       const BladePose& p = motion.to[ti];
-      report.toolReactions[ti].force += f;
-      report.toolReactions[ti].torque += (h.point - 0.5 * (p.a + p.b)).cross(f);
+      report.toolReactions[ti].force += push;
+      report.toolReactions[ti].torque += (h.point - 0.5 * (p.a + p.b)).cross(push);
     }
   }
   report.contacts += hits.size() + bodyContacts.size() + pairs.size();
 
-  timer.restart();
+  time.next(f.ms(kSurfaceVertices));
   updateVertexPositions(b);
-  ms[kSurfaceVertices] += timer.ms();
+  time.next(f.ms(kObjectCollision));
   recordContacts(b, shapes, hits, contactSet);
-
-  timer.restart();
   report.maxPenetration = std::max(
       report.maxPenetration, deepestAtEnd >= 0.0 ? deepestAtEnd : deepestPenetration(b, shapes));
-  ms[kObjectCollision] += timer.ms();
 }
 
 void World::Impl::recordContacts(const SimBody& b, const ContactShapes& shapes,

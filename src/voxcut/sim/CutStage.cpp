@@ -14,39 +14,37 @@ namespace voxcut {
 // What follows a body's cuts: its cut topology (the model's and solver's with it), its surface
 // and its rest distance field.
 void World::Impl::afterCut(SimBody& b, const std::vector<std::uint64_t>& cut, const BladeEnds& ends,
-                           std::vector<double>& ms) {
+                           Frame& f) {
   // The topology (deformation octree, model, solver, fronts) beside the surface's and the
   // distance field's own updates: all three only read the grid, and write apart.
   TopologyChange change;
   SurfaceDelta delta;
+  // Each branch times its own figures; they join the report once both are done.
   double topologyMs = 0.0, surfaceMs = 0.0, distanceMs = 0.0;
   parallelInvoke(
       [&] {
-        const Timer timer;
+        const StageTimer time(topologyMs);
         change = updateTopology(b, cut, ends);
-        topologyMs = timer.ms();
       },
       [&] {
         if (cut.empty()) return;
-        Timer timer;
+        StageTimer time(surfaceMs);
         delta = b.surface.update(b.cut.grid, cut);
-        surfaceMs = timer.ms();
-        timer.restart();
+        time.next(distanceMs);
         b.restDistance.update(b.cut.grid, cut);
-        distanceMs = timer.ms();
       },
       settings.threaded && !cut.empty());
-  ms[kCutTopology] += topologyMs;
-  ms[kObjectCollision] += distanceMs;
-  const Timer timer;
+  f.ms(kCutTopology) += topologyMs;
+  f.ms(kObjectCollision) += distanceMs;
+  f.ms(kSurfaceUpdate) += surfaceMs;
+  const StageTimer time(f.ms(kSurfaceUpdate));
   if (!cut.empty()) embedSurfaceChange(b, std::move(delta), change);
-  ms[kSurfaceUpdate] += surfaceMs + timer.ms();
 }
 
 // Cutting tool collision: per moving blade, the strip of sweeps from its cut front (carried
 // with the material since the last frame) to its new pose.
-std::vector<std::uint64_t> World::Impl::cutBody(SimBody& b, const Motion& motion, BladeEnds& ends,
-                                                std::vector<double>& ms) {
+std::vector<std::uint64_t> World::Impl::cutBody(SimBody& b, BladeEnds& ends, Frame& f) {
+  const Motion& motion = f.motion;
   std::vector<LinkCut> frameCuts;
   b.cutWork = {};
   ends.points.assign(tools.size(), {});
@@ -57,10 +55,11 @@ std::vector<std::uint64_t> World::Impl::cutBody(SimBody& b, const Motion& motion
     if (!moving || moving->empty()) continue;
     CutStepResult r = cutStepLeavingUpdates(b.cut, *moving, b.subdivision, settings.threaded);
     b.cutWork.add(r);
-    ms[kPositionUpdate] += r.positionUpdateMs;
-    ms[kIntersectionTest] += r.intersectionMs;
-    ms[kOctreeSubdivision] += r.subdivisionMs;
-    ms[kDeferredUpdates] += r.deferredMs;
+    // The cutting step times its own stages (cutting/CutStep.h).
+    f.ms(kPositionUpdate) += r.positionUpdateMs;
+    f.ms(kIntersectionTest) += r.intersectionMs;
+    f.ms(kOctreeSubdivision) += r.subdivisionMs;
+    f.ms(kDeferredUpdates) += r.deferredMs;
     frameCuts.insert(frameCuts.end(), std::make_move_iterator(r.cuts.begin()),
                      std::make_move_iterator(r.cuts.end()));
   }
@@ -206,11 +205,11 @@ std::vector<std::uint64_t> World::Impl::frontRegions(const SimBody& b) const {
   return out;
 }
 
-void World::Impl::refineRestingFronts(SimBody& b, std::vector<double>& ms) {
+void World::Impl::refineRestingFronts(SimBody& b, Frame& f) {
   const int S = b.settings.elementLevel;
   const int finest = finestLevelOf(b.settings);
   if (b.restingRegions.empty() || finest >= S) return;
-  const Timer timer;
+  const StageTimer time(f.ms(kCutTopology));
   // The cut links near the front points in resting regions: within two finest elements of a
   // point (other cuts' fronts in the region stay as they are).
   const VoxelGrid& g = b.cut.grid;
@@ -241,7 +240,6 @@ void World::Impl::refineRestingFronts(SimBody& b, std::vector<double>& ms) {
     noteRefinedRegions(b, change, true);
     b.quietPassDone = false;
   }
-  ms[kCutTopology] += timer.ms();
 }
 
 // The start-level regions holding new elements finer than the start level (refined around a
@@ -292,9 +290,9 @@ void World::Impl::applyTopologyChange(SimBody& b, const TopologyChange& change) 
   b.solver.updateTopology(change);
 }
 
-void World::Impl::coarsenBody(SimBody& b, std::vector<double>& ms) {
+void World::Impl::coarsenBody(SimBody& b, Frame& f) {
   if (b.cutRegions.empty()) return;
-  const Timer timer;
+  const StageTimer time(f.ms(kCutTopology));
   // Regions where a blade's front is stay as they are: the cut goes on there.
   const int S = b.settings.elementLevel;
   for (std::uint64_t key : b.frontRegions) {
@@ -336,10 +334,7 @@ void World::Impl::coarsenBody(SimBody& b, std::vector<double>& ms) {
     }
     if (ready) due.push_back(key);
   }
-  if (due.empty()) {
-    ms[kCutTopology] += timer.ms();
-    return;
-  }
+  if (due.empty()) return;
   // The oldest regions first, a bounded number a frame (all of them in a quiet pass).
   auto lastOf = [&](std::uint64_t k) {
     const auto it = b.cutRegions.find(k);
@@ -376,7 +371,6 @@ void World::Impl::coarsenBody(SimBody& b, std::vector<double>& ms) {
     applyFrameStartChange(b, res.change, front);
     noteRefinedRegions(b, res.change, false);
   }
-  ms[kCutTopology] += timer.ms();
 }
 
 }  // namespace voxcut

@@ -9,6 +9,7 @@
 
 #include "voxcut/sim/WorldChecks.h"
 #include "voxcut/sim/WorldImpl.h"
+#include "voxcut/sim/WorldInternals.h"
 #include "voxcut/voxel/Pieces.h"
 
 namespace voxcut {
@@ -452,30 +453,28 @@ FrameReport World::step() {
 }
 
 FrameReport World::Impl::runFrame() {
-  Impl& w = *this;
-  Timer frameTimer;
-  FrameReport report;
-  report.frame = w.frame;
-  report.stageMs.assign(kStageCount, 0.0);
-  report.obstacleForces.assign(w.obstacles.size(), Vec3d::Zero());
-  report.toolReactions.assign(w.tools.size(), ToolReaction{});
-  w.contacts.clear();
-  ContactShapes shapes;
-  const Impl::Motion motion = w.frameMotion(shapes);
-  const std::size_t n = w.bodies.size();
-  std::vector<std::vector<std::uint64_t>> cuts(n);
-  std::vector<Impl::BladeEnds> ends(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    w.refineRestingFronts(w.bodies[i], report.stageMs);
-    w.coarsenBody(w.bodies[i], report.stageMs);
+  const Timer frameTimer;
+  Frame f;
+  f.report.frame = frame;
+  f.report.stageMs.assign(kStageCount, 0.0);
+  f.report.obstacleForces.assign(obstacles.size(), Vec3d::Zero());
+  f.report.toolReactions.assign(tools.size(), ToolReaction{});
+  contacts.clear();
+  f.motion = frameMotion(f.shapes);
+  const std::size_t n = bodies.size();
+  f.cuts.resize(n);
+  f.ends.resize(n);
+  for (SimBody& b : bodies) {
+    refineRestingFronts(b, f);
+    coarsenBody(b, f);
   }
   for (std::size_t i = 0; i < n; ++i) {
-    cuts[i] = w.cutBody(w.bodies[i], motion, ends[i], report.stageMs);
-    report.cutLinks += cuts[i].size();
-    w.bodies[i].cutLinks += cuts[i].size();
-    report.positionedVoxels += w.bodies[i].cutWork.positionedVoxels;
-    report.testedLinks +=
-        w.bodies[i].cutWork.testedLinks + w.bodies[i].cutWork.subdivisionTestedLinks;
+    f.cuts[i] = cutBody(bodies[i], f.ends[i], f);
+    bodies[i].cutLinks += f.cuts[i].size();
+    f.report.cutLinks += f.cuts[i].size();
+    f.report.positionedVoxels += bodies[i].cutWork.positionedVoxels;
+    f.report.testedLinks +=
+        bodies[i].cutWork.testedLinks + bodies[i].cutWork.subdivisionTestedLinks;
   }
   // The octrees' deferred updates run beside the rest of the frame (the paper's figure 3):
   // they touch only each body's voxel octree, which nothing after the cut reads.
@@ -483,23 +482,20 @@ FrameReport World::Impl::runFrame() {
   parallelInvoke(
       [&] {
         for (std::size_t i = 0; i < n; ++i)
-          deferredMs[i] = runDeferredUpdates(w.bodies[i].cut, w.settings.threaded);
+          deferredMs[i] = runDeferredUpdates(bodies[i].cut, settings.threaded);
       },
       [&] {
-        for (std::size_t i = 0; i < n; ++i)
-          w.afterCut(w.bodies[i], cuts[i], ends[i], report.stageMs);
-        std::vector<BodyContactSet> bodyContacts = w.findBodyContactsAll(report.stageMs, report);
-        for (std::size_t i = 0; i < n; ++i)
-          w.solvePhase(w.bodies[i], motion, shapes, std::move(bodyContacts[i]), report.stageMs,
-                       report);
+        for (std::size_t i = 0; i < n; ++i) afterCut(bodies[i], f.cuts[i], f.ends[i], f);
+        std::vector<BodyContactSet> bodyContacts = findBodyContactsAll(f);
+        for (std::size_t i = 0; i < n; ++i) solvePhase(bodies[i], std::move(bodyContacts[i]), f);
       },
-      w.settings.threaded);
-  for (const double ms : deferredMs) report.stageMs[kDeferredUpdates] += ms;
-  ++w.frame;
-  w.finishTools(motion, report);
-  report.time = w.time();
-  report.totalMs = frameTimer.ms();
-  return report;
+      settings.threaded);
+  for (const double ms : deferredMs) f.ms(kDeferredUpdates) += ms;
+  ++frame;
+  finishTools(f.motion, f.report);
+  f.report.time = time();
+  f.report.totalMs = frameTimer.ms();
+  return std::move(f.report);
 }
 
 }  // namespace voxcut

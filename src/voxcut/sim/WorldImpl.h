@@ -24,7 +24,7 @@
 #include "voxcut/sim/Scene.h"
 #include "voxcut/sim/SlotTable.h"
 #include "voxcut/sim/World.h"
-#include "voxcut/sim/WorldInternals.h"
+#include "voxcut/sim/SimBody.h"
 
 namespace voxcut {
 
@@ -39,6 +39,26 @@ enum FrameStage : std::size_t {
   kDeformation,
   kSurfaceVertices,
   kStageCount
+};
+
+/// Adds the wall-clock time from its making to its end to one stage's time (a frame's report's
+/// FrameReport::stageMs entry, or a stage's own figure where branches run side by side);
+/// next() charges the time so far and times another stage from then on.
+class StageTimer {
+ public:
+  explicit StageTimer(double& ms) : ms_(&ms) {}
+  StageTimer(const StageTimer&) = delete;
+  StageTimer& operator=(const StageTimer&) = delete;
+  ~StageTimer() { *ms_ += timer_.ms(); }
+  void next(double& ms) {
+    *ms_ += timer_.ms();
+    ms_ = &ms;
+    timer_.restart();
+  }
+
+ private:
+  double* ms_;
+  Timer timer_;
 };
 
 /// Voxels from the boundary that a body's rest distance field reaches: deeper points of another
@@ -402,6 +422,18 @@ struct World::Impl : WorldState {
   struct Motion {
     std::vector<BladePose> from, to;
   };
+  /// One frame's working state, made at its start and dropped at its end (runFrame): the
+  /// report it fills (stage times through StageTimer), where the tools go, what the bodies are
+  /// pressed against, and per body the links cut and the blades' sampled ends.
+  struct Frame {
+    FrameReport report;
+    Motion motion;
+    ContactShapes shapes;
+    std::vector<std::vector<std::uint64_t>> cuts;  ///< per body
+    std::vector<BladeEnds> ends;                   ///< per body
+    /// The stage's time in the report, for a StageTimer.
+    double& ms(FrameStage stage) { return report.stageMs[stage]; }
+  };
 
   /// One frame: the body of World::step (World.cpp).
   FrameReport runFrame();
@@ -443,20 +475,17 @@ struct World::Impl : WorldState {
   [[nodiscard]] double time() const { return frame * settings.timeStep; }
   /// After a body's cuts: cut topology, surface, distance field.
   void afterCut(SimBody& body, const std::vector<std::uint64_t>& cut, const BladeEnds& ends,
-                std::vector<double>& stageMs);
+                Frame& f);
   /// The contacts between bodies (point contacts of each body's next step) and of bodies with
   /// themselves (pairs within the body's step); those the step's end finds pulling are left
   /// out and the step solved again.
-  std::vector<BodyContactSet> findBodyContactsAll(std::vector<double>& stageMs,
-                                                  FrameReport& report);
+  std::vector<BodyContactSet> findBodyContactsAll(Frame& f);
   /// A body's step with its contacts (the shapes', then `bodyContacts`), and its surface.
   /// Appends the body's contacts at the end of its step to `contacts` (World::contacts).
   void recordContacts(const SimBody& body, const ContactShapes& shapes,
                       const std::vector<ContactHit>& hits, const BodyContactSet& set);
-  void solvePhase(SimBody& body, const Motion& motion, ContactShapes& shapes,
-                  BodyContactSet bodyContacts, std::vector<double>& stageMs, FrameReport& report);
-  std::vector<std::uint64_t> cutBody(SimBody& body, const Motion& motion, BladeEnds& ends,
-                                     std::vector<double>& stageMs);
+  void solvePhase(SimBody& body, BodyContactSet bodyContacts, Frame& f);
+  std::vector<std::uint64_t> cutBody(SimBody& body, BladeEnds& ends, Frame& f);
   [[nodiscard]] std::optional<std::vector<BladeSweep>> toolSweeps(SimBody& body, std::size_t tool,
                                                                   const Motion& motion,
                                                                   BladeEnds& ends) const;
@@ -464,7 +493,7 @@ struct World::Impl : WorldState {
                                 const BladeEnds& ends);
   /// At a frame's start: coarsens the body's regions that cuts have left (docs/algorithms.md,
   /// "Coarsening after cuts"), with the model, solver, surface embedding and fronts.
-  void coarsenBody(SimBody& body, std::vector<double>& stageMs);
+  void coarsenBody(SimBody& body, Frame& f);
   /// Notes the start-level regions holding new elements finer than the start level: as cut
   /// now (`settled`), or, for refinement the node rule made while coarsening, as unsettled.
   void noteRefinedRegions(SimBody& body, const TopologyChange& change, bool settled);
@@ -475,7 +504,7 @@ struct World::Impl : WorldState {
   [[nodiscard]] std::vector<std::uint64_t> frontRegions(const SimBody& body) const;
   /// At a frame's start: refines, down to the body's finest level, the elements where a
   /// blade's front has rested since the last frame and a cut's two sides are still glued.
-  void refineRestingFronts(SimBody& body, std::vector<double>& stageMs);
+  void refineRestingFronts(SimBody& body, Frame& f);
   /// Where the body's blade fronts are now, per tool (empty for a tool without one).
   [[nodiscard]] std::vector<std::vector<Vec3d>> frontPoints(const SimBody& body) const;
   /// A topology change made at a frame's start: model, solver, the surface's embedding, the
