@@ -5,7 +5,9 @@
 // tried, whatever frame the world's rollback point was taken at.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "ContractWorld.h"
@@ -234,6 +236,34 @@ TEST(StepFailure, AfterEditsAndToolPoses) {
   expectSameWorld(a, b, "after the failed step");
   expectSameReport(a.step(), b.step(), "the step after");
   expectSameWorld(a, b, "one frame on");
+}
+
+// The haptic call may run on another thread while a step fails and the world goes back (the
+// frames since its rollback point run again): it keeps answering, never blocks or crashes,
+// and its answers stay finite. (Under the tsan preset, this is also the race check.)
+TEST(StepFailure, HapticCallsDuringARollBack) {
+  Handles h;
+  World w = contractWorld(h, false);
+  (void)stepTo(w, 8);
+  (void)w.snapshot();  // the rollback point: frames 8 to 14 run again
+  std::atomic<bool> done{false};
+  std::atomic<int> calls{0}, bad{0};
+  std::thread device([&] {
+    while (!done.load()) {
+      const HapticAnswer a = w.hapticForce(h.probe, sphereAt(Vec3d(0.03, 0.066, 0)));
+      if (!a.reaction.force.allFinite() || a.status != HapticAnswer::Status::Ok) ++bad;
+      ++calls;
+    }
+  });
+  (void)stepTo(w, 15);
+  WorldTesting::failNextStep(w, h.spareBody);
+  EXPECT_THROW((void)w.step(), StepError);
+  (void)stepTo(w, 20);
+  done = true;
+  device.join();
+  EXPECT_GT(calls.load(), 0);
+  EXPECT_EQ(bad.load(), 0);
+  EXPECT_EQ(w.frame(), 20);
 }
 
 // bunny-poke.json: a snapshot after 100 frames, restored, reproduces frames 101-200 bit for
