@@ -7,10 +7,8 @@
 #include <limits>
 
 #include "voxcut/core/Error.h"
-#include "voxcut/core/FlatHashMap.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/core/UnionFind.h"
-#include "voxcut/linalg/SparseRows.h"
 
 namespace voxcut {
 
@@ -23,13 +21,6 @@ constexpr std::size_t kGrain = 256;
 constexpr std::size_t kMaxGroupRows = 64;
 /// Relative lift of the coarse matrices' diagonals (Multigrid::galerkin).
 constexpr double kDiagonalLift = 1e-9;
-
-/// Key of a cell (coordinates shifted by one: a row on the grid's low planes also lies in the
-/// cell below them).
-std::uint64_t cellKey(const Index3& c) {
-  return (static_cast<std::uint64_t>(c.x + 1) << 42) | (static_cast<std::uint64_t>(c.y + 1) << 21) |
-         static_cast<std::uint64_t>(c.z + 1);
-}
 
 /// The slot of column `col` in row `row` of `a`, kNone when absent.
 std::uint32_t findSlot(const BlockMatrixView& a, std::size_t row, std::uint32_t col) {
@@ -100,131 +91,100 @@ void choleskySolve(const double* l, int n, double* x) {
   }
 }
 
-}  // namespace
+/// Rows in the groups the smoother relaxes together: rows of group k are
+/// rows[rowsStart[k] ...), ascending; groups are numbered in the order of their first row.
+struct RowGroups {
+  std::vector<std::uint32_t> rowsStart{0}, rows, groupOf;
+  std::size_t groupedRows = 0;  ///< rows in groups of more than one
+};
 
-Coarsening coarsenRows(const BlockMatrixView& a, const std::vector<Index3>& coords, int cellSize) {
-  VOXCUT_ASSERT(coords.size() == a.rows, "one grid point per row");
-  VOXCUT_ASSERT(cellSize >= 1 && (cellSize & (cellSize - 1)) == 0, "cell size a power of two");
+/// Per row, the root of its set of weak rows coupled to each other (a row is its own set
+/// unless weak: the trace of its diagonal block below `weakRatio` of the largest trace among
+/// the rows it is coupled to).
+std::vector<std::uint32_t> weakSets(const BlockMatrixView& a, double weakRatio) {
   const std::size_t n = a.rows;
-  const int s = cellSize;
-  // The cells around each row: along an axis, a coordinate on a cell boundary lies in the
-  // cells on both sides. Memberships (row, cell) are numbered row by row.
-  FlatHashMap<std::uint32_t> cellId;
-  std::vector<Index3> cellLow;  ///< per cell, its lowest corner (grid units)
-  std::vector<std::uint32_t> memberStart(n + 1, 0), memberCell;
-  memberCell.reserve(2 * n);
+  std::vector<double> trace(n);
+  for (std::size_t i = 0; i < n; ++i) trace[i] = a.blocks[a.diagonal[i]].trace();
+  std::vector<std::uint8_t> weak(n, 0);
   for (std::size_t i = 0; i < n; ++i) {
-    const Index3& x = coords[i];
-    VOXCUT_ASSERT(x.x >= 0 && x.y >= 0 && x.z >= 0, "grid points are non-negative");
-    std::array<std::array<int, 2>, 3> options{};
-    std::array<int, 3> count{};
-    for (int axis = 0; axis < 3; ++axis) {
-      const int v = axis == 0 ? x.x : axis == 1 ? x.y : x.z;
-      const int q = v / s;
-      if (v % s == 0) {
-        options[axis] = {q - 1, q};
-        count[axis] = 2;
-      } else {
-        options[axis] = {q, q};
-        count[axis] = 1;
-      }
-    }
-    for (int cz = 0; cz < count[2]; ++cz)
-      for (int cy = 0; cy < count[1]; ++cy)
-        for (int cx = 0; cx < count[0]; ++cx) {
-          const Index3 c{options[0][cx], options[1][cy], options[2][cz]};
-          const std::uint64_t key = cellKey(c);
-          std::uint32_t* id = cellId.find(key);
-          if (id == nullptr) {
-            cellId.set(key, static_cast<std::uint32_t>(cellLow.size()));
-            memberCell.push_back(static_cast<std::uint32_t>(cellLow.size()));
-            cellLow.push_back({c.x * s, c.y * s, c.z * s});
-          } else {
-            memberCell.push_back(*id);
-          }
-        }
-    memberStart[i + 1] = static_cast<std::uint32_t>(memberCell.size());
+    double strongest = 0.0;
+    for (std::uint32_t slot = a.rowStart[i]; slot < a.rowStart[i + 1]; ++slot)
+      strongest = std::max(strongest, trace[a.column[slot]]);
+    weak[i] = trace[i] < weakRatio * strongest ? 1 : 0;
   }
-  // Parts of each cell: memberships of one cell joined along the matrix's couplings.
-  UnionFind parts(memberCell.size());
+  UnionFind sets(n);
   for (std::size_t i = 0; i < n; ++i)
-    for (std::uint32_t slot = a.rowStart[i]; slot < a.rowStart[i + 1]; ++slot) {
-      const std::uint32_t j = a.column[slot];
-      if (j <= i) continue;
-      for (std::uint32_t mi = memberStart[i]; mi < memberStart[i + 1]; ++mi)
-        for (std::uint32_t mj = memberStart[j]; mj < memberStart[j + 1]; ++mj)
-          if (memberCell[mi] == memberCell[mj]) parts.unite(mi, mj);
-    }
-  // Cell copies: one per part, numbered by the part's lowest membership.
-  std::vector<std::uint32_t> copyOf(memberCell.size(), kNone);
-  std::uint32_t copies = 0;
-  for (std::uint32_t m = 0; m < memberCell.size(); ++m) {
-    const std::uint32_t root = parts.find(m);
-    if (copyOf[root] == kNone) copyOf[root] = copies++;
-    copyOf[m] = copyOf[root];
-  }
-  // The corners each row has a weight on, and their weights (from its first cell; every cell
-  // around it gives the same corners, those of the face, edge or corner it lies on).
-  struct Corner {
-    Index3 point;
-    double weight;
-  };
-  auto cornersOf = [&](std::size_t i, std::array<Corner, 8>& out) {
-    const Index3& x = coords[i];
-    const Index3& lo = cellLow[memberCell[memberStart[i]]];
-    const double t[3] = {static_cast<double>(x.x - lo.x) / s, static_cast<double>(x.y - lo.y) / s,
-                         static_cast<double>(x.z - lo.z) / s};
-    int count = 0;
-    for (int c = 0; c < 8; ++c) {
-      double w = 1.0;
-      for (int axis = 0; axis < 3; ++axis) w *= (c >> axis) & 1 ? t[axis] : 1.0 - t[axis];
-      if (w == 0.0) continue;
-      out[static_cast<std::size_t>(count++)] = {
-          {lo.x + (c & 1) * s, lo.y + ((c >> 1) & 1) * s, lo.z + ((c >> 2) & 1) * s}, w};
-    }
-    return count;
-  };
-  auto cornerIndex = [&](const Index3& lo, const Index3& p) {
-    return static_cast<std::uint32_t>((p.x - lo.x) / s + 2 * ((p.y - lo.y) / s) +
-                                      4 * ((p.z - lo.z) / s));
-  };
-  // Coarse rows: (cell copy, corner) pairs joined wherever a row of several copies has a
-  // weight on the corner.
-  UnionFind corners(static_cast<std::size_t>(copies) * 8);
-  std::array<Corner, 8> cs{};
-  for (std::size_t i = 0; i < n; ++i) {
-    const int count = cornersOf(i, cs);
-    const std::uint32_t m0 = memberStart[i];
-    for (int k = 0; k < count; ++k) {
-      const Index3& p = cs[static_cast<std::size_t>(k)].point;
-      const std::uint32_t first = copyOf[m0] * 8 + cornerIndex(cellLow[memberCell[m0]], p);
-      for (std::uint32_t m = m0 + 1; m < memberStart[i + 1]; ++m)
-        corners.unite(first, copyOf[m] * 8 + cornerIndex(cellLow[memberCell[m]], p));
-    }
-  }
-  Coarsening out;
-  Interpolation& p = out.interpolation;
-  p.start.assign(n + 1, 0);
-  std::vector<std::uint32_t> coarseOf(static_cast<std::size_t>(copies) * 8, kNone);
-  for (std::size_t i = 0; i < n; ++i) {
-    const int count = cornersOf(i, cs);
-    const std::uint32_t m0 = memberStart[i];
-    for (int k = 0; k < count; ++k) {
-      const Corner& c = cs[static_cast<std::size_t>(k)];
-      const std::uint32_t root =
-          corners.find(copyOf[m0] * 8 + cornerIndex(cellLow[memberCell[m0]], c.point));
-      if (coarseOf[root] == kNone) {
-        coarseOf[root] = static_cast<std::uint32_t>(out.coords.size());
-        out.coords.push_back(c.point);
-      }
-      p.index.push_back(coarseOf[root]);
-      p.weight.push_back(c.weight);
-    }
-    p.start[i + 1] = static_cast<std::uint32_t>(p.index.size());
-  }
-  transposeRows(p.start, p.index, p.weight, out.coords.size(), p.tStart, p.tIndex, p.tWeight);
-  return out;
+    if (weak[i])
+      for (std::uint32_t slot = a.rowStart[i]; slot < a.rowStart[i + 1]; ++slot)
+        if (weak[a.column[slot]]) sets.unite(static_cast<std::uint32_t>(i), a.column[slot]);
+  std::vector<std::uint32_t> root(n);
+  for (std::size_t i = 0; i < n; ++i) root[i] = sets.find(static_cast<std::uint32_t>(i));
+  return root;
 }
+
+/// Groups: a set of weak rows (by `root`) larger than `cap` is cut into pieces grown breadth
+/// first from its lowest row not yet taken, so a group holds rows coupled to each other.
+RowGroups growGroups(const BlockMatrixView& a, const std::vector<std::uint32_t>& root,
+                     std::size_t cap) {
+  const std::size_t n = a.rows;
+  RowGroups rg;
+  std::vector<std::uint32_t>& rowsStart = rg.rowsStart;
+  std::vector<std::uint32_t>& rows = rg.rows;
+  std::vector<std::uint32_t>& groupOf = rg.groupOf;
+  groupOf.assign(n, kNone);
+  rows.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (groupOf[i] != kNone) continue;
+    const auto group = static_cast<std::uint32_t>(rowsStart.size() - 1);
+    const std::size_t begin = rows.size();
+    groupOf[i] = group;
+    rows.push_back(static_cast<std::uint32_t>(i));
+    for (std::size_t k = begin; k < rows.size() && rows.size() - begin < cap; ++k) {
+      const std::uint32_t row = rows[k];
+      for (std::uint32_t slot = a.rowStart[row]; slot < a.rowStart[row + 1]; ++slot) {
+        const std::uint32_t j = a.column[slot];
+        if (groupOf[j] != kNone || root[j] != root[i]) continue;
+        groupOf[j] = group;
+        rows.push_back(j);
+        if (rows.size() - begin == cap) break;
+      }
+    }
+    std::sort(rows.begin() + static_cast<std::ptrdiff_t>(begin), rows.end());
+    if (rows.size() - begin > 1) rg.groupedRows += rows.size() - begin;
+    rowsStart.push_back(static_cast<std::uint32_t>(rows.size()));
+  }
+  return rg;
+}
+
+/// Per group, its colour: greedily, in group order, the lowest colour no coupled group has
+/// yet. Groups of one colour share no block, so a sweep relaxes them in any order, or in
+/// parallel, with the same result; and no row waits for the row just before it.
+std::vector<std::uint32_t> colourGroups(const BlockMatrixView& a, const RowGroups& rg,
+                                        std::uint32_t& colours) {
+  const std::vector<std::uint32_t>& rowsStart = rg.rowsStart;
+  const std::vector<std::uint32_t>& rows = rg.rows;
+  const std::size_t groups = rowsStart.size() - 1;
+  std::vector<std::uint32_t> colour(groups, kNone);
+  std::vector<std::uint32_t> seenBy;  // per colour, the last group that saw it taken
+  colours = 0;
+  for (std::size_t g = 0; g < groups; ++g) {
+    for (std::uint32_t k = rowsStart[g]; k < rowsStart[g + 1]; ++k)
+      for (std::uint32_t slot = a.rowStart[rows[k]]; slot < a.rowStart[rows[k] + 1]; ++slot) {
+        const std::uint32_t c = colour[rg.groupOf[a.column[slot]]];
+        if (c != kNone) seenBy[c] = static_cast<std::uint32_t>(g);
+      }
+    std::uint32_t c = 0;
+    while (c < colours && seenBy[c] == g) ++c;
+    if (c == colours) {
+      ++colours;
+      seenBy.push_back(kNone);
+    }
+    colour[g] = c;
+  }
+  return colour;
+}
+
+}  // namespace
 
 /// A level's smoother. Its rows are renumbered so that every group is a run of consecutive
 /// rows ("position" order; groups in the order of their lowest row), and it keeps its own copy
@@ -436,72 +396,13 @@ void Multigrid::galerkin(std::size_t level, bool threaded) {
 
 void Multigrid::groupRows(const BlockMatrixView& a, Smoother& s) const {
   const std::size_t n = a.rows;
-  std::vector<double> trace(n);
-  for (std::size_t i = 0; i < n; ++i) trace[i] = a.blocks[a.diagonal[i]].trace();
-  std::vector<std::uint8_t> weak(n, 0);
-  for (std::size_t i = 0; i < n; ++i) {
-    double strongest = 0.0;
-    for (std::uint32_t slot = a.rowStart[i]; slot < a.rowStart[i + 1]; ++slot)
-      strongest = std::max(strongest, trace[a.column[slot]]);
-    weak[i] = trace[i] < params_.weakRatio * strongest ? 1 : 0;
-  }
-  UnionFind sets(n);
-  for (std::size_t i = 0; i < n; ++i)
-    if (weak[i])
-      for (std::uint32_t slot = a.rowStart[i]; slot < a.rowStart[i + 1]; ++slot)
-        if (weak[a.column[slot]]) sets.unite(static_cast<std::uint32_t>(i), a.column[slot]);
-  // Groups: a set of weak rows larger than maxGroupRows is cut into pieces grown breadth
-  // first from its lowest row not yet taken, so a group holds rows coupled to each other.
-  // Groups are numbered in the order of their first row: rows of group k are
-  // rows[rowsStart[k] ...).
-  std::vector<std::uint32_t> rowsStart{0}, rows, groupOf(n, kNone);
-  rows.reserve(n);
-  s.groupedRows = 0;
   const std::size_t cap = std::clamp<std::size_t>(params_.maxGroupRows, 1, kMaxGroupRows);
-  std::vector<std::uint32_t> root(n);
-  for (std::size_t i = 0; i < n; ++i) root[i] = sets.find(static_cast<std::uint32_t>(i));
-  for (std::size_t i = 0; i < n; ++i) {
-    if (groupOf[i] != kNone) continue;
-    const auto group = static_cast<std::uint32_t>(rowsStart.size() - 1);
-    const std::size_t begin = rows.size();
-    groupOf[i] = group;
-    rows.push_back(static_cast<std::uint32_t>(i));
-    for (std::size_t k = begin; k < rows.size() && rows.size() - begin < cap; ++k) {
-      const std::uint32_t row = rows[k];
-      for (std::uint32_t slot = a.rowStart[row]; slot < a.rowStart[row + 1]; ++slot) {
-        const std::uint32_t j = a.column[slot];
-        if (groupOf[j] != kNone || root[j] != root[i]) continue;
-        groupOf[j] = group;
-        rows.push_back(j);
-        if (rows.size() - begin == cap) break;
-      }
-    }
-    std::sort(rows.begin() + static_cast<std::ptrdiff_t>(begin), rows.end());
-    if (rows.size() - begin > 1) s.groupedRows += rows.size() - begin;
-    rowsStart.push_back(static_cast<std::uint32_t>(rows.size()));
-  }
-  // Colours: greedily, in that order, the lowest colour no coupled group has yet. Groups of one
-  // colour share no block, so a sweep relaxes them in any order, or in parallel, with the same
-  // result; and no row waits for the row just before it.
-  const std::size_t groups = rowsStart.size() - 1;
-  std::vector<std::uint32_t> colour(groups, kNone);
-  std::vector<std::uint32_t> seenBy;  // per colour, the last group that saw it taken
+  const RowGroups rg = growGroups(a, weakSets(a, params_.weakRatio), cap);
+  s.groupedRows = rg.groupedRows;
   std::uint32_t colours = 0;
-  for (std::size_t g = 0; g < groups; ++g) {
-    for (std::uint32_t k = rowsStart[g]; k < rowsStart[g + 1]; ++k)
-      for (std::uint32_t slot = a.rowStart[rows[k]]; slot < a.rowStart[rows[k] + 1]; ++slot) {
-        const std::uint32_t c = colour[groupOf[a.column[slot]]];
-        if (c != kNone) seenBy[c] = static_cast<std::uint32_t>(g);
-      }
-    std::uint32_t c = 0;
-    while (c < colours && seenBy[c] == g) ++c;
-    if (c == colours) {
-      ++colours;
-      seenBy.push_back(kNone);
-    }
-    colour[g] = c;
-  }
+  const std::vector<std::uint32_t> colour = colourGroups(a, rg, colours);
   // Positions: colour by colour, groups in their order within a colour.
+  const std::size_t groups = rg.rowsStart.size() - 1;
   s.colourStart.assign(colours + 1, 0);
   for (std::uint32_t c : colour) ++s.colourStart[c + 1];
   for (std::uint32_t c = 0; c < colours; ++c) s.colourStart[c + 1] += s.colourStart[c];
@@ -513,7 +414,8 @@ void Multigrid::groupRows(const BlockMatrixView& a, Smoother& s) const {
   s.order.clear();
   s.order.reserve(n);
   for (std::uint32_t g : sorted) {
-    s.order.insert(s.order.end(), rows.begin() + rowsStart[g], rows.begin() + rowsStart[g + 1]);
+    s.order.insert(s.order.end(), rg.rows.begin() + rg.rowsStart[g],
+                   rg.rows.begin() + rg.rowsStart[g + 1]);
     s.groupStart.push_back(static_cast<std::uint32_t>(s.order.size()));
   }
   s.position.resize(n);
@@ -526,8 +428,13 @@ void Multigrid::groupRows(const BlockMatrixView& a, Smoother& s) const {
     total += dim * dim;
   }
   s.factor.resize(total);
+  copyPattern(a, s);
+}
+
+void Multigrid::copyPattern(const BlockMatrixView& a, Smoother& s) {
   // The copy by positions: each row's slots with their columns renumbered, sorted; then the
   // split points around the row's group.
+  const std::size_t n = a.rows;
   s.rowStart.assign(n + 1, 0);
   for (std::size_t p = 0; p < n; ++p) {
     const std::uint32_t i = s.order[p];

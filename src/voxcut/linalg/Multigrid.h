@@ -161,6 +161,8 @@ class Multigrid final : public LinearPreconditioner {
   bool analyseCoarsest(const BlockMatrixView& a, std::size_t fineBlocks);
   bool factorCoarsest(const BlockMatrixView& a, bool threaded);
   void groupRows(const BlockMatrixView& a, Smoother& s) const;
+  /// The smoother's copy of `a`'s pattern by positions, with its split points around groups.
+  static void copyPattern(const BlockMatrixView& a, Smoother& s);
   void galerkin(std::size_t level, bool threaded);
   void cycle(std::size_t level, bool threaded);
 

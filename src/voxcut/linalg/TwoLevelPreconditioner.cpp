@@ -55,6 +55,108 @@ std::uint32_t pairAggregates(const BlockSparsity& sp, std::vector<std::uint32_t>
   return next;
 }
 
+using LinkBlock = Eigen::Matrix<double, 3, 6>;
+/// Per aggregate I, its blocks A_c(I, J) for J <= I, per neighbour J in the order first
+/// reached.
+using CoarseRows = std::vector<std::vector<std::pair<std::uint32_t, Eigen::Matrix<double, 6, 6>>>>;
+
+/// Modes of each aggregate: translations, and rotations about its centroid (offsets scaled
+/// by its RMS radius) where it has positions that are not all on one line. Writes each row's
+/// scaled offset and each aggregate's first coarse column.
+void aggregateModes(const NodeAggregation& agg, const std::vector<Vec3d>* positions,
+                    std::vector<Vec3d>& offset, std::vector<std::uint32_t>& columnStart) {
+  offset.assign(agg.aggregate.size(), Vec3d::Zero());
+  columnStart.assign(agg.count() + 1, 0);
+  for (std::size_t g = 0; g < agg.count(); ++g) {
+    int modes = 3;
+    if (positions != nullptr && agg.start[g + 1] - agg.start[g] >= 3) {
+      Vec3d centre = Vec3d::Zero();
+      for (std::uint32_t m = agg.start[g]; m < agg.start[g + 1]; ++m)
+        centre += (*positions)[agg.member[m]];
+      centre /= static_cast<double>(agg.start[g + 1] - agg.start[g]);
+      Eigen::Matrix3d moment = Eigen::Matrix3d::Zero();
+      for (std::uint32_t m = agg.start[g]; m < agg.start[g + 1]; ++m) {
+        const Vec3d d = (*positions)[agg.member[m]] - centre;
+        moment += d * d.transpose();
+      }
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(moment, Eigen::EigenvaluesOnly);
+      const Vec3d lambda = eig.eigenvalues();  // ascending
+      if (lambda(2) > 0.0 && lambda(1) > 1e-3 * lambda(2)) {
+        modes = 6;
+        const double radius = std::sqrt(moment.trace() / (agg.start[g + 1] - agg.start[g]));
+        for (std::uint32_t m = agg.start[g]; m < agg.start[g + 1]; ++m)
+          offset[agg.member[m]] = ((*positions)[agg.member[m]] - centre) / radius;
+      }
+    }
+    columnStart[g + 1] = columnStart[g] + static_cast<std::uint32_t>(modes);
+  }
+}
+
+/// B_iJ = sum over the slots of row i reaching J of A_ij T_j, slots in ascending order, per
+/// row-to-aggregate link.
+void linkBlocks(const BlockSparsity& sp, const NodeAggregation& agg,
+                const std::vector<Eigen::Matrix3d>& blocks, const std::vector<Vec3d>& offset,
+                std::vector<LinkBlock>& link, bool threaded) {
+  link.resize(agg.linkAggregate.size());
+  parallelFor(
+      0, sp.diagonal.size(), 128,
+      [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) {
+          for (std::uint32_t k = agg.linkStart[i]; k < agg.linkStart[i + 1]; ++k)
+            link[k].setZero();
+          for (std::uint32_t s = sp.rowStart[i]; s < sp.rowStart[i + 1]; ++s) {
+            LinkBlock& out = link[agg.slotLink[s]];
+            const Eigen::Matrix3d& a = blocks[s];
+            out.leftCols<3>() += a;
+            // A S_j with S = -[d]x = [[0, dz, -dy], [-dz, 0, dx], [dy, -dx, 0]] (T_j = [I, S_j]
+            // maps (t, w) to t + w x d_j), written out: S's zeros cost nothing.
+            const Vec3d& d = offset[sp.column[s]];
+            out.col(3) += a.col(1) * (-d.z()) + a.col(2) * d.y();
+            out.col(4) += a.col(0) * d.z() + a.col(2) * (-d.x());
+            out.col(5) += a.col(0) * (-d.y()) + a.col(1) * d.x();
+          }
+        }
+      },
+      threaded);
+}
+
+/// A_c(I, J) = sum over the members i of I, ascending, of T_i^T B_iJ, per aggregate I in its
+/// own task, lower triangle only.
+CoarseRows coarseRows(const NodeAggregation& agg, const std::vector<Vec3d>& offset,
+                      const std::vector<LinkBlock>& link, bool threaded) {
+  CoarseRows rowBlocks(agg.count());
+  parallelFor(
+      0, agg.count(), 4,
+      [&](std::size_t b, std::size_t e) {
+        std::vector<std::int32_t> slot(agg.count(), -1);
+        for (std::size_t a = b; a < e; ++a) {
+          auto& out = rowBlocks[a];
+          for (std::uint32_t m = agg.start[a]; m < agg.start[a + 1]; ++m) {
+            const std::uint32_t i = agg.member[m];
+            const Vec3d& d = offset[i];
+            for (std::uint32_t k = agg.linkStart[i]; k < agg.linkStart[i + 1]; ++k) {
+              const std::uint32_t j = agg.linkAggregate[k];
+              if (j > a) continue;  // the lower triangle is enough
+              if (slot[j] < 0) {
+                slot[j] = static_cast<std::int32_t>(out.size());
+                out.emplace_back(j, Eigen::Matrix<double, 6, 6>::Zero());
+              }
+              Eigen::Matrix<double, 6, 6>& block = out[static_cast<std::size_t>(slot[j])].second;
+              const LinkBlock& l = link[k];
+              block.topRows<3>() += l;
+              // S_i^T B_iJ, written out.
+              block.row(3) += (-d.z()) * l.row(1) + d.y() * l.row(2);
+              block.row(4) += d.z() * l.row(0) + (-d.x()) * l.row(2);
+              block.row(5) += (-d.y()) * l.row(0) + d.x() * l.row(1);
+            }
+          }
+          for (const auto& entry : out) slot[entry.first] = -1;
+        }
+      },
+      threaded);
+  return rowBlocks;
+}
+
 }  // namespace
 
 NodeAggregation aggregateNodes(const BlockSparsity& sp, int pairings) {
@@ -151,89 +253,10 @@ bool TwoLevelPreconditioner::setup(const BlockSparsity& sp, const NodeAggregatio
   VOXCUT_ASSERT(blocks.size() == sp.blockCount() && agg.aggregate.size() == rows &&
                     (positions == nullptr || positions->size() == rows),
                 "the blocks, positions or aggregation do not match the sparsity");
-  // Modes of each aggregate: translations, and rotations about its centroid (offsets scaled
-  // by its RMS radius) where it has positions that are not all on one line.
-  offset_.assign(rows, Vec3d::Zero());
-  columnStart_.assign(agg.count() + 1, 0);
-  for (std::size_t g = 0; g < agg.count(); ++g) {
-    int modes = 3;
-    if (positions != nullptr && agg.start[g + 1] - agg.start[g] >= 3) {
-      Vec3d centre = Vec3d::Zero();
-      for (std::uint32_t m = agg.start[g]; m < agg.start[g + 1]; ++m)
-        centre += (*positions)[agg.member[m]];
-      centre /= static_cast<double>(agg.start[g + 1] - agg.start[g]);
-      Eigen::Matrix3d moment = Eigen::Matrix3d::Zero();
-      for (std::uint32_t m = agg.start[g]; m < agg.start[g + 1]; ++m) {
-        const Vec3d d = (*positions)[agg.member[m]] - centre;
-        moment += d * d.transpose();
-      }
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(moment, Eigen::EigenvaluesOnly);
-      const Vec3d lambda = eig.eigenvalues();  // ascending
-      if (lambda(2) > 0.0 && lambda(1) > 1e-3 * lambda(2)) {
-        modes = 6;
-        const double radius = std::sqrt(moment.trace() / (agg.start[g + 1] - agg.start[g]));
-        for (std::uint32_t m = agg.start[g]; m < agg.start[g + 1]; ++m)
-          offset_[agg.member[m]] = ((*positions)[agg.member[m]] - centre) / radius;
-      }
-    }
-    columnStart_[g + 1] = columnStart_[g] + static_cast<std::uint32_t>(modes);
-  }
+  aggregateModes(agg, positions, offset_, columnStart_);
   const auto n = static_cast<Eigen::Index>(columnStart_.back());
-  // B_iJ = sum over the slots of row i reaching J of A_ij T_j, slots in ascending order.
-  link_.resize(agg.linkAggregate.size());
-  parallelFor(
-      0, rows, 128,
-      [&](std::size_t b, std::size_t e) {
-        for (std::size_t i = b; i < e; ++i) {
-          for (std::uint32_t k = agg.linkStart[i]; k < agg.linkStart[i + 1]; ++k)
-            link_[k].setZero();
-          for (std::uint32_t s = sp.rowStart[i]; s < sp.rowStart[i + 1]; ++s) {
-            LinkBlock& out = link_[agg.slotLink[s]];
-            const Eigen::Matrix3d& a = blocks[s];
-            out.leftCols<3>() += a;
-            // A S_j with S = -[d]x = [[0, dz, -dy], [-dz, 0, dx], [dy, -dx, 0]] (T_j = [I, S_j]
-            // maps (t, w) to t + w x d_j), written out: S's zeros cost nothing.
-            const Vec3d& d = offset_[sp.column[s]];
-            out.col(3) += a.col(1) * (-d.z()) + a.col(2) * d.y();
-            out.col(4) += a.col(0) * d.z() + a.col(2) * (-d.x());
-            out.col(5) += a.col(0) * (-d.y()) + a.col(1) * d.x();
-          }
-        }
-      },
-      threaded);
-  // A_c(I, J) = sum over the members i of I, ascending, of T_i^T B_iJ, per aggregate I in its
-  // own task; the blocks of I's row are kept per neighbour J in the order first reached.
-  std::vector<std::vector<std::pair<std::uint32_t, Eigen::Matrix<double, 6, 6>>>> rowBlocks(
-      agg.count());
-  parallelFor(
-      0, agg.count(), 4,
-      [&](std::size_t b, std::size_t e) {
-        std::vector<std::int32_t> slot(agg.count(), -1);
-        for (std::size_t a = b; a < e; ++a) {
-          auto& out = rowBlocks[a];
-          for (std::uint32_t m = agg.start[a]; m < agg.start[a + 1]; ++m) {
-            const std::uint32_t i = agg.member[m];
-            const Vec3d& d = offset_[i];
-            for (std::uint32_t k = agg.linkStart[i]; k < agg.linkStart[i + 1]; ++k) {
-              const std::uint32_t j = agg.linkAggregate[k];
-              if (j > a) continue;  // the lower triangle is enough
-              if (slot[j] < 0) {
-                slot[j] = static_cast<std::int32_t>(out.size());
-                out.emplace_back(j, Eigen::Matrix<double, 6, 6>::Zero());
-              }
-              Eigen::Matrix<double, 6, 6>& block = out[static_cast<std::size_t>(slot[j])].second;
-              const LinkBlock& l = link_[k];
-              block.topRows<3>() += l;
-              // S_i^T B_iJ, written out.
-              block.row(3) += (-d.z()) * l.row(1) + d.y() * l.row(2);
-              block.row(4) += d.z() * l.row(0) + (-d.x()) * l.row(2);
-              block.row(5) += (-d.y()) * l.row(0) + d.x() * l.row(1);
-            }
-          }
-          for (const auto& entry : out) slot[entry.first] = -1;
-        }
-      },
-      threaded);
+  linkBlocks(sp, agg, blocks, offset_, link_, threaded);
+  const CoarseRows rowBlocks = coarseRows(agg, offset_, link_, threaded);
   // The lower triangle as a sparse matrix; factorised by a sparse Cholesky (fill-reducing
   // ordering): a cut multiplies the aggregates, and a dense factor grows with their cube.
   coarseTriplets_.clear();

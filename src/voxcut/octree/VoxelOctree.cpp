@@ -143,24 +143,34 @@ void activateCubeFrame(VoxelOctree& octree, const VoxelGrid& grid, const OctreeC
   });
 }
 
-VoxelOctree buildVoxelOctree(const VoxelGrid& grid, const OctreeParams& params, bool threaded) {
-  const std::size_t nMat = grid.materialNames().size();
+namespace {
+
+// Checks that `params` give levels in 0..16 for every material of the grid.
+void checkLevels(const OctreeParams& params, std::size_t nMat) {
   if (params.maxInternalLevel.size() < nMat || params.maxBoundaryLevel.size() < nMat)
     throw InputError("octree levels must be given for every material");
   for (std::size_t m = 0; m < nMat; ++m)
     if (params.maxInternalLevel[m] < 0 || params.maxBoundaryLevel[m] < 0 ||
         params.maxInternalLevel[m] > 16 || params.maxBoundaryLevel[m] > 16)
       throw InputError("octree levels must lie in 0..16");
-  VoxelOctree oct;
-  const Index3 d = grid.dims();
-  oct.dims = d;
+}
+
+// The highest cube level worth trying: the largest material level, lowered while a cube of
+// it does not fit the grid along any axis.
+int topLevel(const OctreeParams& params, std::size_t nMat, const Index3& d) {
   int top = 0;
   for (std::size_t m = 0; m < nMat; ++m)
     top = std::max({top, params.maxInternalLevel[m], params.maxBoundaryLevel[m]});
   while (top > 0 && ((d.x - 1) >> top) < 1 && ((d.y - 1) >> top) < 1 && ((d.z - 1) >> top) < 1)
     --top;
+  return top;
+}
 
-  // Candidates, level by level: level 1 from voxels and links, higher from 8 children.
+// Candidates, level by level up to `top`: level 1 from voxels and links, higher from 8
+// children (index 0 unused).
+std::vector<LevelGrid> candidateLevels(const VoxelGrid& grid, const OctreeParams& params,
+                                       int top, bool threaded) {
+  const Index3 d = grid.dims();
   std::vector<LevelGrid> levels(static_cast<std::size_t>(top) + 1);
   for (int L = 1; L <= top; ++L) {
     LevelGrid& lg = levels[L];
@@ -190,8 +200,12 @@ VoxelOctree buildVoxelOctree(const VoxelGrid& grid, const OctreeParams& params, 
         },
         threaded);
   }
+  return levels;
+}
 
-  // Keep the largest cubes: top down, a cube inside a kept cube is not kept.
+// Keeps the largest cubes into `cubes`: top down, a cube inside a kept cube is not kept.
+void keepLargestCubes(const std::vector<LevelGrid>& levels, const OctreeParams& params, int top,
+                      std::vector<OctreeCube>& cubes) {
   std::vector<std::vector<std::uint8_t>> covered(static_cast<std::size_t>(top) + 2);
   for (int L = top; L >= 1; --L) {
     const LevelGrid& lg = levels[L];
@@ -207,24 +221,18 @@ VoxelOctree buildVoxelOctree(const VoxelGrid& grid, const OctreeParams& params, 
               cov = covered[L + 1][up.index(x / 2, y / 2, z / 2)];
           }
           if (!cov && passes(lg.cand[i], L, params)) {
-            oct.cubes.push_back({{x << L, y << L, z << L}, static_cast<std::uint8_t>(L), false});
+            cubes.push_back({{x << L, y << L, z << L}, static_cast<std::uint8_t>(L), false});
             cov = true;
           }
           covered[L][i] = cov;
         }
   }
+}
 
-  // Cube map over unit cells.
-  oct.cellCube.assign(grid.voxelCount(), -1);
-  parallelFor(
-      0, oct.cubes.size(), 16,
-      [&](std::size_t c0, std::size_t c1) {
-        for (std::size_t c = c0; c < c1; ++c)
-          oct.setCubeCells(oct.cubes[c].origin, oct.cubes[c].level, static_cast<std::int32_t>(c));
-      },
-      threaded);
-
-  // Activation steps (2)-(4).
+// Activation step (2): each voxel's connected links that are not surrounded (all 4 cells
+// around the link exist and lie in cubes) are active.
+void activateUncoveredLinks(VoxelOctree& oct, const VoxelGrid& grid, bool threaded) {
+  const Index3 d = grid.dims();
   oct.state.assign(grid.voxelCount(), 0);
   parallelFor(
       0, static_cast<std::size_t>(d.z), 1,
@@ -248,13 +256,12 @@ VoxelOctree buildVoxelOctree(const VoxelGrid& grid, const OctreeParams& params, 
             }
       },
       threaded);
-  parallelFor(
-      0, oct.cubes.size(), 16,
-      [&](std::size_t c0, std::size_t c1) {
-        for (std::size_t c = c0; c < c1; ++c) activateCubeFrame(oct, grid, oct.cubes[c]);
-      },
-      threaded);
-  // Step (4): voxels touching an active link (own links or links from the -a neighbours).
+}
+
+// Step (4): voxels touching an active link (own links or links from the -a neighbours) are
+// active.
+void activateTouchedVoxels(VoxelOctree& oct, const VoxelGrid& grid, bool threaded) {
+  const Index3 d = grid.dims();
   std::vector<std::uint8_t> touched(grid.voxelCount(), 0);
   parallelFor(
       0, static_cast<std::size_t>(d.z), 1,
@@ -278,6 +285,36 @@ VoxelOctree buildVoxelOctree(const VoxelGrid& grid, const OctreeParams& params, 
           if (touched[v]) oct.state[v] = static_cast<std::uint8_t>(oct.state[v] | kActiveVoxel);
       },
       threaded);
+}
+
+}  // namespace
+
+VoxelOctree buildVoxelOctree(const VoxelGrid& grid, const OctreeParams& params, bool threaded) {
+  const std::size_t nMat = grid.materialNames().size();
+  checkLevels(params, nMat);
+  VoxelOctree oct;
+  oct.dims = grid.dims();
+  const int top = topLevel(params, nMat, oct.dims);
+  keepLargestCubes(candidateLevels(grid, params, top, threaded), params, top, oct.cubes);
+  // Cube map over unit cells.
+  oct.cellCube.assign(grid.voxelCount(), -1);
+  parallelFor(
+      0, oct.cubes.size(), 16,
+      [&](std::size_t c0, std::size_t c1) {
+        for (std::size_t c = c0; c < c1; ++c)
+          oct.setCubeCells(oct.cubes[c].origin, oct.cubes[c].level, static_cast<std::int32_t>(c));
+      },
+      threaded);
+  // Activation steps (2)-(4): links not surrounded by cubes, every cube's frame, and the
+  // voxels touching an active link.
+  activateUncoveredLinks(oct, grid, threaded);
+  parallelFor(
+      0, oct.cubes.size(), 16,
+      [&](std::size_t c0, std::size_t c1) {
+        for (std::size_t c = c0; c < c1; ++c) activateCubeFrame(oct, grid, oct.cubes[c]);
+      },
+      threaded);
+  activateTouchedVoxels(oct, grid, threaded);
   rebuildActiveVoxels(oct, threaded);
   return oct;
 }

@@ -59,6 +59,30 @@ struct SliceCells {
   std::vector<std::uint64_t> voxel;
 };
 
+// Cells whose occupancy, connectivity or Hermite data changed with `changedLinks` (the cells
+// around each link), sorted and unique; their face neighbours read their components.
+std::vector<std::uint64_t> directCells(const VoxelGrid& grid,
+                                       const std::vector<std::uint64_t>& changedLinks,
+                                       const Index3& d) {
+  std::vector<std::uint64_t> direct;
+  direct.reserve(4 * changedLinks.size());
+  for (const std::uint64_t id : changedLinks) {
+    const std::size_t v = static_cast<std::size_t>(id / 3);
+    const int a = static_cast<int>(id % 3);
+    VOXCUT_ASSERT(v < grid.voxelCount() && grid.hasLink(v, a), "changed link outside the grid");
+    const Index3 c = grid.coord(v);
+    const int u = (a + 1) % 3, w = (a + 2) % 3;
+    for (int k = 0; k < 4; ++k) {
+      Index3 m = c;
+      m[u] -= (k == 0 || k == 3) ? 1 : 0;
+      m[w] -= (k < 2) ? 1 : 0;
+      if (cellInside(d, m)) direct.push_back(grid.index(m));
+    }
+  }
+  sortUnique(direct);
+  return direct;
+}
+
 }  // namespace
 
 ContouredSurface ContouredSurface::build(const VoxelGrid& grid, const DualContourParams& params) {
@@ -135,34 +159,51 @@ ContouredSurface ContouredSurface::build(const VoxelGrid& grid, const DualContou
   return s;
 }
 
+// What update() re-solved: the cells whose vertices or patches changed, the links whose
+// sheets must be rebuilt, and the seal checks of the solves.
+struct ContouredSurface::UpdateWork {
+  // A cell around a cut link (both sides occupied) of a re-solved cell, with whether the link
+  // is sealed now: the 4 cells around a link decide that together, so a cell whose own links
+  // did not change loses or regains a sealed link's patch when a cell across the link changed.
+  struct SealCheck {
+    std::uint64_t cell;
+    std::int8_t slot;
+    bool sealed;
+    bool operator<(const SealCheck& o) const { return cell < o.cell; }
+  };
+  std::vector<std::uint64_t> changedCells, links;
+  std::vector<SealCheck> sealChecks;
+};
+
 SurfaceDelta ContouredSurface::update(const VoxelGrid& grid,
                                       const std::vector<std::uint64_t>& changedLinks) {
   VOXCUT_ASSERT(grid.dims() == dims_,
                 "ContouredSurface::update: grid dimensions differ from build");
   SurfaceDelta delta;
-  const Index3 d = dims_;
+  const std::vector<std::uint64_t> direct = directCells(grid, changedLinks, dims_);
+  const std::vector<std::uint64_t> readers = ringReaders(grid, direct);
+  // Solve them again; keep the cells whose vertices or patches changed.
+  UpdateWork work;
+  for (const std::uint64_t cell : direct) resolveCell(grid, cell, work, delta);
+  const std::vector<std::uint64_t> solvedReaders =
+      resolveReaders(grid, direct, readers, work, delta);
+  for (const std::uint64_t cell : staleCells(work, direct, solvedReaders))
+    resolveCell(grid, cell, work, delta);
+  refreshChangedFaces(grid, work, delta);
+  // Sheets of the links whose cells or faces changed.
+  sortUnique(work.links);
+  for (const std::uint64_t link : work.links)
+    refreshLink(grid, link / 3, static_cast<int>(link % 3), delta);
+  finish(delta);
+  return delta;
+}
 
-  // Cells whose occupancy, connectivity or Hermite data changed, and their face neighbours
-  // (whose patches read their components).
-  std::vector<std::uint64_t> direct;
-  direct.reserve(4 * changedLinks.size());
-  for (const std::uint64_t id : changedLinks) {
-    const std::size_t v = static_cast<std::size_t>(id / 3);
-    const int a = static_cast<int>(id % 3);
-    VOXCUT_ASSERT(v < grid.voxelCount() && grid.hasLink(v, a), "changed link outside the grid");
-    const Index3 c = grid.coord(v);
-    const int u = (a + 1) % 3, w = (a + 2) % 3;
-    for (int k = 0; k < 4; ++k) {
-      Index3 m = c;
-      m[u] -= (k == 0 || k == 3) ? 1 : 0;
-      m[w] -= (k < 2) ? 1 : 0;
-      if (cellInside(d, m)) direct.push_back(grid.index(m));
-    }
-  }
-  sortUnique(direct);
-  // Face neighbours whose ring rule read a cell of `direct`: only their patches can change
-  // besides those of `direct` (their vertices follow their patches).
-  std::vector<std::uint64_t> ringReaders;
+std::vector<std::uint64_t> ContouredSurface::ringReaders(
+    const VoxelGrid& grid, const std::vector<std::uint64_t>& direct) const {
+  // Only their patches can change besides those of `direct` (their vertices follow their
+  // patches).
+  const Index3 d = dims_;
+  std::vector<std::uint64_t> readers;
   for (const std::uint64_t cell : direct) {
     const Index3 m = grid.coord(static_cast<std::size_t>(cell));
     for (int f = 0; f < 6; ++f) {
@@ -170,70 +211,69 @@ SurfaceDelta ContouredSurface::update(const VoxelGrid& grid,
       if ((f & 1) ? m[a] + 2 >= d[a] : m[a] < 1) continue;
       const std::uint64_t across = (f & 1) ? cell + grid.stride(a) : cell - grid.stride(a);
       const CellRecord* rec = cells_.find(across);
-      if (rec && ((rec->ringFaces >> (f ^ 1)) & 1)) ringReaders.push_back(across);
+      if (rec && ((rec->ringFaces >> (f ^ 1)) & 1)) readers.push_back(across);
     }
   }
-  sortUnique(ringReaders);
+  sortUnique(readers);
+  return readers;
+}
 
-  // Solve them again; keep the cells whose vertices or patches changed.
-  std::vector<std::uint64_t> changedCells, links;
-  // Cells around the cut links (both sides occupied) of re-solved cells, with whether each
-  // such link is sealed now: the 4 cells around a link decide that together, so a cell whose
-  // own links did not change loses or regains a sealed link's patch when a cell across the
-  // link changed.
-  struct SealCheck {
-    std::uint64_t cell;
-    std::int8_t slot;
-    bool sealed;
-    bool operator<(const SealCheck& o) const { return cell < o.cell; }
-  };
-  std::vector<SealCheck> sealChecks;
-  auto solve = [&](std::uint64_t cell) {
-    const Index3 m = grid.coord(static_cast<std::size_t>(cell));
-    std::array<FaceSegments, 6> seg;
-    std::uint8_t ring = 0;
-    const DualCellVertices cv = dualCellVertices(grid, m, qefThreshold_, &seg, &ring);
-    ++delta.solvedCells;
-    const DualCell dc = gatherDualCell(grid, m);
-    for (int e = 0; e < 12; ++e) {
-      if (((dc.connected >> e) & 1) || !((dc.occupied >> edgeCorner(e, 0)) & 1) ||
-          !((dc.occupied >> edgeCorner(e, 1)) & 1))
-        continue;
-      const std::uint64_t link = edgeLink(grid, cell, e);
-      std::array<std::size_t, 4> around;
-      std::array<int, 4> edges;
-      cellsAroundLink(grid, static_cast<std::size_t>(link / 3), static_cast<int>(link % 3), around,
-                      edges);
-      for (int k = 0; k < 4; ++k)
-        if (around[k] != cell)
-          sealChecks.push_back(
-              {around[k], static_cast<std::int8_t>(2 * edges[k]), cv.patch[2 * e] < 0});
-    }
-    const int edges = applyCell(cell, cv, seg, ring, delta);
-    if (edges < 0) return;
-    changedCells.push_back(cell);
-    for (int e = 0; e < 12; ++e)
-      if ((edges >> e) & 1) links.push_back(edgeLink(grid, cell, e));
-  };
-  for (const std::uint64_t cell : direct) solve(cell);
+void ContouredSurface::resolveCell(const VoxelGrid& grid, std::uint64_t cell, UpdateWork& work,
+                                   SurfaceDelta& delta) {
+  const Index3 m = grid.coord(static_cast<std::size_t>(cell));
+  std::array<FaceSegments, 6> seg;
+  std::uint8_t ring = 0;
+  const DualCellVertices cv = dualCellVertices(grid, m, qefThreshold_, &seg, &ring);
+  ++delta.solvedCells;
+  const DualCell dc = gatherDualCell(grid, m);
+  for (int e = 0; e < 12; ++e) {
+    if (((dc.connected >> e) & 1) || !((dc.occupied >> edgeCorner(e, 0)) & 1) ||
+        !((dc.occupied >> edgeCorner(e, 1)) & 1))
+      continue;
+    const std::uint64_t link = edgeLink(grid, cell, e);
+    std::array<std::size_t, 4> around;
+    std::array<int, 4> edges;
+    cellsAroundLink(grid, static_cast<std::size_t>(link / 3), static_cast<int>(link % 3), around,
+                    edges);
+    for (int k = 0; k < 4; ++k)
+      if (around[k] != cell)
+        work.sealChecks.push_back(
+            {around[k], static_cast<std::int8_t>(2 * edges[k]), cv.patch[2 * e] < 0});
+  }
+  const int edges = applyCell(cell, cv, seg, ring, delta);
+  if (edges < 0) return;
+  work.changedCells.push_back(cell);
+  for (int e = 0; e < 12; ++e)
+    if ((edges >> e) & 1) work.links.push_back(edgeLink(grid, cell, e));
+}
+
+std::vector<std::uint64_t> ContouredSurface::resolveReaders(
+    const VoxelGrid& grid, const std::vector<std::uint64_t>& direct,
+    const std::vector<std::uint64_t>& readers, UpdateWork& work, SurfaceDelta& delta) {
   std::vector<std::uint64_t> solvedReaders;
-  for (const std::uint64_t cell : ringReaders) {
+  for (const std::uint64_t cell : readers) {
     if (std::binary_search(direct.begin(), direct.end(), cell)) continue;
     const Index3 m = grid.coord(static_cast<std::size_t>(cell));
     std::array<std::int8_t, 24> patch;
     const int n = dualCellPatches(gatherDualCell(grid, m), patch, gridNeighbour(grid, m));
     (void)dropSealedPatches(grid, m, patch, n);
     if (cells_.find(cell)->patch != patch) {
-      solve(cell);
+      resolveCell(grid, cell, work, delta);
       solvedReaders.push_back(cell);
     }
   }
-  // Cells not solved yet whose record disagrees with whether a link is sealed now: their
-  // patch of it dropped (-1) exactly when it is not sealed, or no record at all (every patch
-  // sealed) while it is not. The checks their own solves add need no answer: a link of theirs
-  // whose 4 cells hold no re-solved cell kept its state.
-  std::sort(sealChecks.begin(), sealChecks.end());
   std::sort(solvedReaders.begin(), solvedReaders.end());
+  return solvedReaders;
+}
+
+std::vector<std::uint64_t> ContouredSurface::staleCells(
+    UpdateWork& work, const std::vector<std::uint64_t>& direct,
+    const std::vector<std::uint64_t>& solvedReaders) const {
+  // Their patch of a link dropped (-1) exactly when it is not sealed, or no record at all
+  // (every patch sealed) while it is not. The checks their own solves add need no answer: a
+  // link of theirs whose 4 cells hold no re-solved cell kept its state.
+  std::vector<UpdateWork::SealCheck>& sealChecks = work.sealChecks;
+  std::sort(sealChecks.begin(), sealChecks.end());
   std::vector<std::uint64_t> stale;
   for (std::size_t i = 0; i < sealChecks.size();) {
     const std::uint64_t cell = sealChecks[i].cell;
@@ -246,11 +286,15 @@ SurfaceDelta ContouredSurface::update(const VoxelGrid& grid,
         !std::binary_search(solvedReaders.begin(), solvedReaders.end(), cell))
       stale.push_back(cell);
   }
-  for (const std::uint64_t cell : stale) solve(cell);
+  return stale;
+}
 
-  // Split vertices on the faces of changed cells (only faces that have or had them).
+void ContouredSurface::refreshChangedFaces(const VoxelGrid& grid, UpdateWork& work,
+                                           SurfaceDelta& delta) {
+  // Only faces that have or had split vertices.
+  const Index3 d = dims_;
   std::vector<std::uint64_t> faces;
-  for (const std::uint64_t cell : changedCells) {
+  for (const std::uint64_t cell : work.changedCells) {
     const Index3 m = grid.coord(static_cast<std::size_t>(cell));
     for (int a = 0; a < 3; ++a) {
       if (m[a] + 2 < d[a]) faces.push_back(faceKey(cell, a));
@@ -268,16 +312,8 @@ SurfaceDelta ContouredSurface::update(const VoxelGrid& grid,
     if (!candidate || !refreshFace(grid, cell, a, delta)) continue;
     for (int e = 0; e < 12; ++e)  // the 4 edges on the cell's +a face
       if (e / 4 != a && cornerBit(edgeCorner(e, 0), a) == 1)
-        links.push_back(edgeLink(grid, cell, e));
+        work.links.push_back(edgeLink(grid, cell, e));
   }
-
-  // Sheets of the links whose cells or faces changed.
-  sortUnique(links);
-  for (const std::uint64_t link : links)
-    refreshLink(grid, link / 3, static_cast<int>(link % 3), delta);
-
-  finish(delta);
-  return delta;
 }
 
 int ContouredSurface::applyCell(std::uint64_t cell, const DualCellVertices& cv,

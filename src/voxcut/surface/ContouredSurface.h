@@ -136,6 +136,26 @@ class ContouredSurface {
   void dropSheet(const SheetRecord& sheet, SurfaceDelta& delta);
   void finish(SurfaceDelta& delta);
 
+  // The steps of update() (ContouredSurface.cpp): what it re-solved and what follows.
+  struct UpdateWork;
+  // Face neighbours of `direct` cells whose ring rule read one of them (sorted, unique).
+  [[nodiscard]] std::vector<std::uint64_t> ringReaders(
+      const VoxelGrid& grid, const std::vector<std::uint64_t>& direct) const;
+  // Solves `cell` again, noting its seal checks, and stores it (a changed cell and its links).
+  void resolveCell(const VoxelGrid& grid, std::uint64_t cell, UpdateWork& work,
+                   SurfaceDelta& delta);
+  // Re-solves the ring readers whose patches differ now; returns those re-solved, sorted.
+  std::vector<std::uint64_t> resolveReaders(const VoxelGrid& grid,
+                                            const std::vector<std::uint64_t>& direct,
+                                            const std::vector<std::uint64_t>& readers,
+                                            UpdateWork& work, SurfaceDelta& delta);
+  // Cells not solved yet whose record disagrees with the seal checks of the solves.
+  [[nodiscard]] std::vector<std::uint64_t> staleCells(
+      UpdateWork& work, const std::vector<std::uint64_t>& direct,
+      const std::vector<std::uint64_t>& solvedReaders) const;
+  // Refreshes the split vertices on the faces of changed cells, noting the links they touch.
+  void refreshChangedFaces(const VoxelGrid& grid, UpdateWork& work, SurfaceDelta& delta);
+
   Index3 dims_;
   double qefThreshold_ = 0.1;
   std::vector<Vec3d> positions_;

@@ -366,12 +366,9 @@ void balance(Leaves& lv) {
   }
 }
 
-}  // namespace
-
-DeformationOctree buildDeformationOctree(const VoxelGrid& grid,
-                                         const DeformationOctreeParams& params) {
+/// Checks the levels of `params` (start, max and surface level in their ranges).
+void checkLevels(const DeformationOctreeParams& params) {
   const int S = params.startLevel;
-  const int M = params.merge ? params.maxLevel : params.startLevel;
   if (S < 0 || S > 7)
     throw InputError("deformation octree start level must be in [0, 7], got " + std::to_string(S));
   if (params.maxLevel < S || params.maxLevel > 7)
@@ -381,14 +378,13 @@ DeformationOctree buildDeformationOctree(const VoxelGrid& grid,
   if (params.surfaceLevel < -1 || params.surfaceLevel > 7)
     throw InputError("deformation octree surface level must be in [-1, 7], got " +
                      std::to_string(params.surfaceLevel));
-  const int F = initialFinestLevel(S, params.surfaceLevel,
-                                   std::max({grid.dims().x, grid.dims().y, grid.dims().z}));
-  Leaves lv = initialLeaves(grid, F, S, M, params.threaded);
-  balance(lv);
+}
 
-  // Elements, ordered by their first voxel's index (unique: elements do not overlap).
+/// The elements of the leaves, ordered by their first voxel's index (unique: elements do not
+/// overlap).
+std::vector<OctreeElement> sortedElements(const Leaves& lv, const VoxelGrid& grid) {
   std::vector<std::pair<std::size_t, OctreeElement>> keyed;
-  for (int L = F; L <= M; ++L) {
+  for (int L = lv.F; L <= lv.M; ++L) {
     const LevelGrid& g = lv.leaf[static_cast<std::size_t>(L)];
     for (std::size_t b = 0; b < g.flag.size(); ++b) {
       if (!g.flag[b]) continue;
@@ -402,22 +398,36 @@ DeformationOctree buildDeformationOctree(const VoxelGrid& grid,
             [](const auto& a, const auto& b) { return a.first < b.first; });
   std::vector<OctreeElement> elements(keyed.size());
   for (std::size_t i = 0; i < keyed.size(); ++i) elements[i] = keyed[i].second;
-  keyed.clear();
+  return elements;
+}
 
-  // Nodes: the node grid spans every startLevel block (elements may overhang the voxel grid).
-  LevelGrid nodeGrid;
+/// Corner c (bit i set: high along axis i) of element e, in node-grid coordinates.
+Index3 elementCorner(const OctreeElement& e, int c) {
+  const Index3 f = e.firstVoxel();
+  const int s = e.size();
+  return Index3{f.x + (c & 1) * s, f.y + ((c >> 1) & 1) * s, f.z + ((c >> 2) & 1) * s};
+}
+
+/// The node grid and, per point of it, its node id (kNoElement: no node there).
+struct NodeNumbers {
+  LevelGrid grid;
+  std::vector<std::uint32_t> id;
+};
+
+/// Numbers the element corners in node-grid order (their coordinates into `nodeCoords`) and
+/// sets each element's nodes. The node grid spans every startLevel block (elements may
+/// overhang the voxel grid).
+NodeNumbers numberNodes(const VoxelGrid& grid, int S, std::vector<OctreeElement>& elements,
+                        std::vector<Index3>& nodeCoords) {
+  NodeNumbers nn;
+  LevelGrid& nodeGrid = nn.grid;
   nodeGrid.dims = {(ceilShift(grid.dims().x, S) << S) + 1, (ceilShift(grid.dims().y, S) << S) + 1,
                    (ceilShift(grid.dims().z, S) << S) + 1};
-  std::vector<std::uint32_t> nodeId(
-      static_cast<std::size_t>(nodeGrid.dims.x) * nodeGrid.dims.y * nodeGrid.dims.z, kNoElement);
-  auto corner = [](const OctreeElement& e, int c) {
-    const Index3 f = e.firstVoxel();
-    const int s = e.size();
-    return Index3{f.x + (c & 1) * s, f.y + ((c >> 1) & 1) * s, f.z + ((c >> 2) & 1) * s};
-  };
+  std::vector<std::uint32_t>& nodeId = nn.id;
+  nodeId.assign(static_cast<std::size_t>(nodeGrid.dims.x) * nodeGrid.dims.y * nodeGrid.dims.z,
+                kNoElement);
   for (const OctreeElement& e : elements)
-    for (int c = 0; c < 8; ++c) nodeId[nodeGrid.index(corner(e, c))] = 0;
-  std::vector<Index3> nodeCoords;
+    for (int c = 0; c < 8; ++c) nodeId[nodeGrid.index(elementCorner(e, c))] = 0;
   for (std::size_t i = 0; i < nodeId.size(); ++i) {
     if (nodeId[i] == kNoElement) continue;
     nodeId[i] = static_cast<std::uint32_t>(nodeCoords.size());
@@ -425,21 +435,25 @@ DeformationOctree buildDeformationOctree(const VoxelGrid& grid,
   }
   for (OctreeElement& e : elements)
     for (int c = 0; c < 8; ++c)
-      e.nodes[static_cast<std::size_t>(c)] = nodeId[nodeGrid.index(corner(e, c))];
+      e.nodes[static_cast<std::size_t>(c)] = nodeId[nodeGrid.index(elementCorner(e, c))];
+  return nn;
+}
 
-  // Hanging nodes: a node at a coarse element's edge midpoint or face centre. Only a finer
-  // element can put a corner there, and the point's coordinates fix the coarse level, so
-  // every record of one node is the same; keep the first.
+/// Hanging nodes: a node at a coarse element's edge midpoint or face centre, coarse levels
+/// descending, then by node. Only a finer element can put a corner there, and the point's
+/// coordinates fix the coarse level, so every record of one node is the same; keep the first.
+std::vector<HangingNode> hangingNodes(const std::vector<OctreeElement>& elements,
+                                      const NodeNumbers& nodes, std::size_t nodeCount) {
   std::vector<HangingNode> hanging;
-  std::vector<std::uint8_t> seen(nodeCoords.size(), 0);
+  std::vector<std::uint8_t> seen(nodeCount, 0);
   auto record = [&](const OctreeElement& e, std::initializer_list<int> cs) {
     Index3 sum{0, 0, 0};
     for (int c : cs) {
-      const Index3 p = corner(e, c);
+      const Index3 p = elementCorner(e, c);
       sum = {sum.x + p.x, sum.y + p.y, sum.z + p.z};
     }
     const int k = static_cast<int>(cs.size());
-    const std::uint32_t n = nodeId[nodeGrid.index({sum.x / k, sum.y / k, sum.z / k})];
+    const std::uint32_t n = nodes.id[nodes.grid.index({sum.x / k, sum.y / k, sum.z / k})];
     if (n == kNoElement || seen[n]) return;
     seen[n] = 1;
     HangingNode hn;
@@ -463,8 +477,14 @@ DeformationOctree buildDeformationOctree(const VoxelGrid& grid,
   std::sort(hanging.begin(), hanging.end(), [](const HangingNode& a, const HangingNode& b) {
     return a.coarseLevel != b.coarseLevel ? a.coarseLevel > b.coarseLevel : a.node < b.node;
   });
+  return hanging;
+}
 
-  // Embedding: each element writes the voxels it covers, so no two tasks write one voxel.
+/// Embedding: each element writes the occupied voxels it covers, so no two tasks write one
+/// voxel.
+std::vector<VoxelEmbedding> embedVoxels(const VoxelGrid& grid,
+                                        const std::vector<OctreeElement>& elements,
+                                        bool threaded) {
   std::vector<VoxelEmbedding> embedding(grid.voxelCount());
   const Index3 gd = grid.dims();
   parallelFor(
@@ -486,7 +506,26 @@ DeformationOctree buildDeformationOctree(const VoxelGrid& grid,
               }
         }
       },
-      params.threaded);
+      threaded);
+  return embedding;
+}
+
+}  // namespace
+
+DeformationOctree buildDeformationOctree(const VoxelGrid& grid,
+                                         const DeformationOctreeParams& params) {
+  checkLevels(params);
+  const int S = params.startLevel;
+  const int M = params.merge ? params.maxLevel : params.startLevel;
+  const int F = initialFinestLevel(S, params.surfaceLevel,
+                                   std::max({grid.dims().x, grid.dims().y, grid.dims().z}));
+  Leaves lv = initialLeaves(grid, F, S, M, params.threaded);
+  balance(lv);
+  std::vector<OctreeElement> elements = sortedElements(lv, grid);
+  std::vector<Index3> nodeCoords;
+  const NodeNumbers nodes = numberNodes(grid, S, elements, nodeCoords);
+  std::vector<HangingNode> hanging = hangingNodes(elements, nodes, nodeCoords.size());
+  std::vector<VoxelEmbedding> embedding = embedVoxels(grid, elements, params.threaded);
 
   DeformationOctree oc(grid, M, std::move(elements), std::move(nodeCoords), std::move(hanging),
                        std::move(embedding));

@@ -141,11 +141,8 @@ Hermite linkHermite(const PreparedMesh& pm, const GridFrame& frame, const Index3
   return h;
 }
 
-}  // namespace
-
-VoxelGrid voxelize(const std::vector<MaterialMesh>& materials, const VoxelizeParams& params,
-                   VoxelizeReport* report) {
-  validate(materials);
+// The bounding box of all material meshes.
+std::array<Vec3d, 2> meshBounds(const std::vector<MaterialMesh>& materials) {
   std::array<Vec3d, 2> bounds{Vec3d::Constant(std::numeric_limits<double>::infinity()),
                               Vec3d::Constant(-std::numeric_limits<double>::infinity())};
   for (const auto& m : materials) {
@@ -153,57 +150,35 @@ VoxelGrid voxelize(const std::vector<MaterialMesh>& materials, const VoxelizePar
     bounds[0] = bounds[0].cwiseMin(b[0]);
     bounds[1] = bounds[1].cwiseMax(b[1]);
   }
-  const GridFrame frame = gridFrameFor(bounds, params.resolution, params.maxVoxels);
-  VoxelGrid grid(frame.dims, frame.origin, frame.voxelSize, params.maxVoxels);
-  std::vector<std::string> names;
-  for (const auto& m : materials) names.push_back(m.name);
-  grid.setMaterialNames(names);
+  return bounds;
+}
 
-  VoxelizeReport rep;
-  const std::size_t nVox = grid.voxelCount();
-  const int nMat = static_cast<int>(materials.size());
-  std::vector<PreparedMesh> prepared(materials.size());
-  std::vector<std::uint8_t> inside(nVox);
-  std::uint8_t* mat = grid.materialData();
-  const double steps = 2.0 * nMat + 1.0;
-  for (int m = 0; m < nMat; ++m) {
-    reportProgress(params.progress, "voxelize", (2.0 * m) / steps);
-    PreparedMesh& pm = prepared[m];
-    RepairReport rr;
-    pm.mesh = repairMesh(materials[m].mesh, &rr);
-    rep.repairs.push_back(rr);
-    rep.usedWindingNumber.push_back(!rr.watertight);
-    if (pm.mesh.faces.empty())
-      throw InputError("mesh '" + materials[m].name + "' has no non-degenerate triangles");
-    pm.faceNormals.resize(pm.mesh.faces.size());
-    for (std::size_t f = 0; f < pm.mesh.faces.size(); ++f) {
-      const auto& t = pm.mesh.faces[f];
-      const Vec3d n = (pm.mesh.vertices[t[1]] - pm.mesh.vertices[t[0]])
-                          .cross(pm.mesh.vertices[t[2]] - pm.mesh.vertices[t[0]]);
-      const double len = n.norm();
-      pm.faceNormals[f] = len > 0 ? Vec3f((n / len).cast<float>()) : Vec3f::Zero();
-    }
-    pm.crossings = scanConvert(pm.mesh, frame, params.threaded);
-    if (!rr.watertight) pm.gwn = std::make_unique<WindingNumberTree>(pm.mesh);
-    reportProgress(params.progress, "voxelize", (2.0 * m + 1.0) / steps);
-    labelInside(pm, frame, params.threaded, inside);
-    const auto id = static_cast<std::uint8_t>(m + 1);
-    parallelFor(
-        0, nVox, 1 << 16,
-        [&](std::size_t b, std::size_t e) {
-          for (std::size_t v = b; v < e; ++v)
-            if (inside[v]) mat[v] = id;
-        },
-        params.threaded);
+// Repairs a material's mesh into `pm` (noting the repair in `rep`), with its face normals,
+// crossings with the grid lines and, when it is not watertight, its winding-number tree.
+void prepareMesh(const MaterialMesh& material, const GridFrame& frame, bool threaded,
+                 PreparedMesh& pm, VoxelizeReport& rep) {
+  RepairReport rr;
+  pm.mesh = repairMesh(material.mesh, &rr);
+  rep.repairs.push_back(rr);
+  rep.usedWindingNumber.push_back(!rr.watertight);
+  if (pm.mesh.faces.empty())
+    throw InputError("mesh '" + material.name + "' has no non-degenerate triangles");
+  pm.faceNormals.resize(pm.mesh.faces.size());
+  for (std::size_t f = 0; f < pm.mesh.faces.size(); ++f) {
+    const auto& t = pm.mesh.faces[f];
+    const Vec3d n = (pm.mesh.vertices[t[1]] - pm.mesh.vertices[t[0]])
+                        .cross(pm.mesh.vertices[t[2]] - pm.mesh.vertices[t[0]]);
+    const double len = n.norm();
+    pm.faceNormals[f] = len > 0 ? Vec3f((n / len).cast<float>()) : Vec3f::Zero();
   }
-  const Index3 d = frame.dims;
-  reportProgress(params.progress, "voxelize", (2.0 * nMat) / steps);
+  pm.crossings = scanConvert(pm.mesh, frame, threaded);
+  if (!rr.watertight) pm.gwn = std::make_unique<WindingNumberTree>(pm.mesh);
+}
 
-  // Links and Hermite data, one z slice per task; entries are inserted in slice order.
-  std::uint8_t* links = grid.linkData();
-  std::vector<std::vector<std::pair<std::uint64_t, Hermite>>> slices(static_cast<std::size_t>(d.z));
-  std::vector<std::size_t> holeLinks(static_cast<std::size_t>(d.z), 0);
-  // Padding stays empty whatever the labels said; then note which voxel rows hold material.
+// Padding stays empty whatever the labels said: clears the grid's six boundary planes.
+void clearPadding(VoxelGrid& grid) {
+  std::uint8_t* mat = grid.materialData();
+  const Index3 d = grid.dims();
   for (int a = 0; a < 3; ++a)
     for (int side = 0; side < 2; ++side) {
       const int u = (a + 1) % 3, w = (a + 2) % 3;
@@ -212,6 +187,12 @@ VoxelGrid voxelize(const std::vector<MaterialMesh>& materials, const VoxelizePar
       for (c[w] = 0; c[w] < d[w]; ++c[w])
         for (c[u] = 0; c[u] < d[u]; ++c[u]) mat[grid.index(c)] = 0;
     }
+}
+
+// Per voxel row (y + dims.y z), whether it holds material.
+std::vector<std::uint8_t> occupiedRows(const VoxelGrid& grid, const std::uint8_t* mat,
+                                       bool threaded) {
+  const Index3 d = grid.dims();
   const std::size_t nRows = static_cast<std::size_t>(d.y) * static_cast<std::size_t>(d.z);
   std::vector<std::uint8_t> rowOccupied(nRows, 0);
   parallelFor(
@@ -222,7 +203,22 @@ VoxelGrid voxelize(const std::vector<MaterialMesh>& materials, const VoxelizePar
           rowOccupied[r] = std::any_of(row, row + d.x, [](std::uint8_t m) { return m != 0; });
         }
       },
-      params.threaded);
+      threaded);
+  return rowOccupied;
+}
+
+// Links and Hermite data, one z slice per task: writes each voxel's connected links, and
+// returns per slice its links between different materials with their Hermite data, in
+// order; `holeLinks` counts per slice those found through a hole.
+std::vector<std::vector<std::pair<std::uint64_t, Hermite>>> linkSlices(
+    VoxelGrid& grid, const std::vector<PreparedMesh>& prepared, const GridFrame& frame,
+    bool threaded, std::vector<std::size_t>& holeLinks) {
+  const Index3 d = frame.dims;
+  const std::uint8_t* mat = grid.materialData();
+  std::uint8_t* links = grid.linkData();
+  std::vector<std::vector<std::pair<std::uint64_t, Hermite>>> slices(static_cast<std::size_t>(d.z));
+  holeLinks.assign(static_cast<std::size_t>(d.z), 0);
+  const std::vector<std::uint8_t> rowOccupied = occupiedRows(grid, mat, threaded);
   parallelFor(
       0, static_cast<std::size_t>(d.z), 1,
       [&](std::size_t z0, std::size_t z1) {
@@ -253,7 +249,48 @@ VoxelGrid voxelize(const std::vector<MaterialMesh>& materials, const VoxelizePar
             }
           }
       },
-      params.threaded);
+      threaded);
+  return slices;
+}
+
+}  // namespace
+
+VoxelGrid voxelize(const std::vector<MaterialMesh>& materials, const VoxelizeParams& params,
+                   VoxelizeReport* report) {
+  validate(materials);
+  const GridFrame frame = gridFrameFor(meshBounds(materials), params.resolution, params.maxVoxels);
+  VoxelGrid grid(frame.dims, frame.origin, frame.voxelSize, params.maxVoxels);
+  std::vector<std::string> names;
+  for (const auto& m : materials) names.push_back(m.name);
+  grid.setMaterialNames(names);
+
+  VoxelizeReport rep;
+  const std::size_t nVox = grid.voxelCount();
+  const int nMat = static_cast<int>(materials.size());
+  std::vector<PreparedMesh> prepared(materials.size());
+  std::vector<std::uint8_t> inside(nVox);
+  std::uint8_t* mat = grid.materialData();
+  const double steps = 2.0 * nMat + 1.0;
+  for (int m = 0; m < nMat; ++m) {
+    reportProgress(params.progress, "voxelize", (2.0 * m) / steps);
+    PreparedMesh& pm = prepared[m];
+    prepareMesh(materials[m], frame, params.threaded, pm, rep);
+    reportProgress(params.progress, "voxelize", (2.0 * m + 1.0) / steps);
+    labelInside(pm, frame, params.threaded, inside);
+    const auto id = static_cast<std::uint8_t>(m + 1);
+    parallelFor(
+        0, nVox, 1 << 16,
+        [&](std::size_t b, std::size_t e) {
+          for (std::size_t v = b; v < e; ++v)
+            if (inside[v]) mat[v] = id;
+        },
+        params.threaded);
+  }
+  reportProgress(params.progress, "voxelize", (2.0 * nMat) / steps);
+  clearPadding(grid);
+  std::vector<std::size_t> holeLinks;
+  const auto slices = linkSlices(grid, prepared, frame, params.threaded, holeLinks);
+  // Entries are inserted in slice order.
   std::size_t total = 0;
   for (const auto& s : slices) total += s.size();
   grid.hermite().reserve(total);
