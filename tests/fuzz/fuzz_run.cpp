@@ -35,7 +35,6 @@
 #include "voxcut/io/SceneBodies.h"
 #include "voxcut/io/SceneReader.h"
 #include "voxcut/sim/World.h"
-#include "voxcut/sim/WorldInternals.h"
 
 // libFuzzer's built-in mutator, for the custom one below.
 extern "C" std::size_t LLVMFuzzerMutate(std::uint8_t* data, std::size_t size, std::size_t maxSize);

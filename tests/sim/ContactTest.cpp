@@ -1,15 +1,16 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "voxcut/core/Parallel.h"
 #include "voxcut/io/SceneBodies.h"
 #include "voxcut/io/SceneReader.h"
 #include "voxcut/sim/World.h"
-#include "voxcut/sim/WorldInternals.h"
 #include "voxcut/voxel/BuiltinModels.h"
 
 namespace voxcut {
@@ -18,6 +19,13 @@ namespace {
 World simulationOf(const std::string& json) {
   const Scene scene = parseScene(json, "test.json", std::filesystem::current_path());
   return World::fromScene(scene, voxelizeSceneBodies(scene));
+}
+
+// Body 0's mass (kg): its nodes' lumped masses summed.
+double totalMass(const World& sim) {
+  double sum = 0.0;
+  for (const double m : sim.nodes(sim.bodies()[0]).masses) sum += m;
+  return sum;
 }
 
 // A soft box (0.1 x 0.06 x 0.08 m, 0.48 kg, level-2 elements: docs/algorithms.md, "Contact",
@@ -60,10 +68,9 @@ Landing land(double height, const std::string& obstacle, int frames,
     l.deepest = std::max(l.deepest, r.maxPenetration);
     l.force = r.obstacleForces.at(0);
   }
-  const SimBody& b = WorldInternals::body(sim, sim.bodies()[0]);
-  l.kinetic = b.solver.kineticEnergy(b.model);
-  l.weight = b.model.totalMass() * 9.81;
-  l.voxel = b.cut.grid.voxelSize();
+  l.kinetic = sim.energy(sim.bodies()[0]).kinetic;
+  l.weight = totalMass(sim) * 9.81;
+  l.voxel = sim.bodyInfo(sim.bodies()[0]).voxelSize;
   for (const Vec3d& p : sim.surfaceMesh(sim.bodies()[0]).positions)
     l.lowest = std::min(l.lowest, p.y());
   return l;
@@ -137,10 +144,9 @@ TEST(Contact, BoxSlidesDownTheRampSceneAndRestsOnTheFloor) {
     ASSERT_TRUE(last.converged) << "frame " << f;
     deepest = std::max(deepest, last.maxPenetration);
   }
-  const SimBody& b = WorldInternals::body(sim, sim.bodies()[0]);
-  const double weight = b.model.totalMass() * 9.81;
-  EXPECT_LT(deepest, 0.5 * b.cut.grid.voxelSize());
-  EXPECT_LT(b.solver.kineticEnergy(b.model), 1e-6 * weight * 0.06);
+  const double weight = totalMass(sim) * 9.81;
+  EXPECT_LT(deepest, 0.5 * sim.bodyInfo(sim.bodies()[0]).voxelSize);
+  EXPECT_LT(sim.energy(sim.bodies()[0]).kinetic, 1e-6 * weight * 0.06);
   Vec3d centre = Vec3d::Zero();
   const std::vector<Vec3d>& positions = sim.surfaceMesh(sim.bodies()[0]).positions;
   for (const Vec3d& p : positions) centre += p;
@@ -164,10 +170,9 @@ TEST(Contact, BunnyOnAFloorComesToRest) {
     last = sim.step();
     deepest = std::max(deepest, last.maxPenetration);
   }
-  const SimBody& b = WorldInternals::body(sim, sim.bodies()[0]);
-  const double weight = b.model.totalMass() * 9.81;
-  EXPECT_LT(deepest, 0.5 * b.cut.grid.voxelSize());
-  EXPECT_LT(b.solver.kineticEnergy(b.model), 1e-6 * weight * 0.01);
+  const double weight = totalMass(sim) * 9.81;
+  EXPECT_LT(deepest, 0.5 * sim.bodyInfo(sim.bodies()[0]).voxelSize);
+  EXPECT_LT(sim.energy(sim.bodies()[0]).kinetic, 1e-6 * weight * 0.01);
   EXPECT_LT(last.contacts, 1000u);
   EXPECT_NEAR(last.obstacleForces[0].y(), -weight, 0.01 * weight);
   EXPECT_LT(sim.maxDisplacement(), 0.01);
@@ -180,7 +185,7 @@ TEST(Contact, SameForAnyThreadCount) {
     ThreadLimit limit(threads);
     World sim = simulationOf(droppedBox(0.01, kTable));
     for (int f = 0; f < 40; ++f) (void)sim.step();
-    return WorldInternals::body(sim, sim.bodies()[0]).cut.deformation.positions();
+    return sim.nodes(sim.bodies()[0]).positions;
   };
   EXPECT_EQ(run(1), run(2));
 }

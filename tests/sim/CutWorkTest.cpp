@@ -14,7 +14,6 @@
 #include "voxcut/io/SceneBodies.h"
 #include "voxcut/io/SceneReader.h"
 #include "voxcut/sim/World.h"
-#include "voxcut/sim/WorldInternals.h"
 
 namespace voxcut {
 namespace {

@@ -9,12 +9,11 @@
 #include <cmath>
 #include <string>
 #include <tuple>
+#include <vector>
 
 #include "voxcut/io/SceneBodies.h"
 #include "voxcut/io/SceneReader.h"
 #include "voxcut/sim/World.h"
-#include "voxcut/sim/WorldInternals.h"
-#include "voxcut/voxel/Pieces.h"
 
 namespace voxcut {
 namespace {
@@ -96,10 +95,10 @@ struct RigidFit {
 };
 
 RigidFit rigidFit(const World& sim) {
-  const SimBody& b = WorldInternals::body(sim, sim.bodies()[0]);
-  const auto& x = b.cut.deformation.positions();
-  const auto& rest = b.cut.deformation.restPositions();
-  const auto& m = b.model.nodeMass();
+  const NodeState nodes = sim.nodes(sim.bodies()[0]);
+  const auto& x = nodes.positions;
+  const auto& rest = nodes.restPositions;
+  const auto& m = nodes.masses;
   Vec3d cx = Vec3d::Zero(), cr = Vec3d::Zero();
   double mass = 0.0;
   for (std::size_t n = 0; n < x.size(); ++n) {
@@ -177,31 +176,31 @@ TEST_P(EarCut, TakesTheEarOff) {
   const auto [resolution, level] = GetParam();
   World sim = simulationOf(earCut(resolution, level));
   for (int f = 0; f < 250; ++f) sim.step();
-  const VoxelGrid& grid = WorldInternals::body(sim, sim.bodies()[0]).cut.grid;
-  const PieceLabels pieces = findPieces(grid);
-  ASSERT_GE(pieces.count, 2);
+  const BodyVoxels voxels = sim.voxels(sim.bodies()[0]);
+  const std::vector<std::size_t>& sizes = voxels.pieceVoxels;
+  const int count = static_cast<int>(sizes.size());
+  ASSERT_GE(count, 2);
   // The two largest pieces are the bunny and its ear; the blade sweeping on past the falling
   // ear may nick a speck off it (a few tens of voxels at resolution 303), nothing more.
-  std::vector<int> order(static_cast<std::size_t>(pieces.count));
-  for (int p = 0; p < pieces.count; ++p) order[static_cast<std::size_t>(p)] = p;
+  std::vector<int> order(static_cast<std::size_t>(count));
+  for (int p = 0; p < count; ++p) order[static_cast<std::size_t>(p)] = p;
   std::sort(order.begin(), order.end(), [&](int a, int b) {
-    return pieces.voxels[static_cast<std::size_t>(a)] > pieces.voxels[static_cast<std::size_t>(b)];
+    return sizes[static_cast<std::size_t>(a)] > sizes[static_cast<std::size_t>(b)];
   });
   const int ear = order[1];
   std::size_t specks = 0;
   for (std::size_t i = 2; i < order.size(); ++i)
-    specks += pieces.voxels[static_cast<std::size_t>(order[i])];
-  EXPECT_LT(specks, pieces.voxels[static_cast<std::size_t>(ear)] / 200);
+    specks += sizes[static_cast<std::size_t>(order[i])];
+  EXPECT_LT(specks, sizes[static_cast<std::size_t>(ear)] / 200);
   // The ear: above the blade's plane at rest, and it has fallen.
-  const DeformationOctree& octree = WorldInternals::body(sim, sim.bodies()[0]).cut.deformation;
   Vec3d rest = Vec3d::Zero(), now = Vec3d::Zero();
-  for (std::size_t v = 0; v < grid.voxelCount(); ++v)
-    if (pieces.label[v] == ear) {
-      rest += grid.position(v);
-      now += octree.voxelPosition(v);
+  for (std::size_t v = 0; v < voxels.pieces.size(); ++v)
+    if (voxels.pieces[v] == ear) {
+      rest += voxels.restPositions[v];
+      now += voxels.positions[v];
     }
-  rest /= static_cast<double>(pieces.voxels[static_cast<std::size_t>(ear)]);
-  now /= static_cast<double>(pieces.voxels[static_cast<std::size_t>(ear)]);
+  rest /= static_cast<double>(sizes[static_cast<std::size_t>(ear)]);
+  now /= static_cast<double>(sizes[static_cast<std::size_t>(ear)]);
   EXPECT_GT(rest.y(), 0.129);
   EXPECT_LT(now.y(), rest.y() - 0.05) << "the ear did not fall";
 }

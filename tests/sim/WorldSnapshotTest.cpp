@@ -197,6 +197,7 @@ void expectFailedStepChangesNothing(int failAt, int snapshotAt) {
         << e.what();
   }
   EXPECT_EQ(b.frame(), failAt);
+  for (const BodyId body : b.bodies()) EXPECT_EQ(b.selfCheck(body), "") << "after the failed step";
   expectSameWorld(a, b, "after the failed step");
   EXPECT_EQ(a.contacts().size(), b.contacts().size());
   for (World* w : {&a, &b}) EXPECT_EQ(w->pieces(w->bodies()[0]), a.pieces(a.bodies()[0]));

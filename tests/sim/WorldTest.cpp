@@ -16,10 +16,8 @@
 #include "voxcut/io/Recording.h"
 #include "voxcut/io/SceneBodies.h"
 #include "voxcut/io/SceneReader.h"
-#include "voxcut/sim/BodyContacts.h"
 #include "voxcut/sim/World.h"
-#include "voxcut/sim/WorldInternals.h"
-#include "voxcut/voxel/Pieces.h"
+#include "voxcut/surface/SurfaceMesh.h"
 
 namespace voxcut {
 namespace {
@@ -65,8 +63,7 @@ TEST(World, ToolsSetEveryFrameCutAsTheirTrajectory) {
   EXPECT_GT(live.bodyInfo(live.bodies()[0]).cutLinks, 0u);
   EXPECT_EQ(live.cutSetHash(), byKeys.cutSetHash());
   EXPECT_EQ(live.pieces(live.bodies()[0]), 2);
-  EXPECT_EQ(WorldInternals::body(live, live.bodies()[0]).cut.deformation.positions(),
-            WorldInternals::body(byKeys, byKeys.bodies()[0]).cut.deformation.positions());
+  EXPECT_EQ(live.nodes(live.bodies()[0]).positions, byKeys.nodes(byKeys.bodies()[0]).positions);
 }
 
 TEST(World, SurfaceChangesReplayTheView) {
@@ -110,21 +107,12 @@ TEST(World, SurfaceVerticesStayEmbeddedThroughTopologyChanges) {
   std::size_t checked = 0;
   for (int f = 0; f < 35; ++f) {
     w.step();
-    const SimBody& b = WorldInternals::body(w, w.bodies()[0]);
-    const DeformationOctree& d = b.cut.deformation;
-    ASSERT_EQ(b.embedding.size(), b.surface.vertexSlots());
-    for (std::size_t v = 0; v < b.embedding.size(); ++v) {
-      if (!b.surface.alive(static_cast<std::int32_t>(v))) continue;
-      const std::uint32_t e = d.owner(static_cast<std::size_t>(b.surface.vertexVoxels()[v]));
-      const OctreeElement& el = d.element(e);
-      const Vec3d local = (b.surface.positions()[v] - d.nodeGridPosition(el.firstVoxel())) /
-                          (d.voxelSize() * el.size());
-      ASSERT_EQ(b.embedding[v].element, e) << "frame " << f << " vertex " << v;
-      ASSERT_EQ(b.embedding[v].local, local) << "frame " << f << " vertex " << v;
-      ++checked;
-    }
+    // World::selfCheck compares every live vertex's embedding with a fresh lookup (among the
+    // body's other invariants).
+    ASSERT_EQ(w.selfCheck(w.bodies()[0]), "") << "frame " << f;
+    checked += w.bodyInfo(w.bodies()[0]).surfaceVertices;
   }
-  EXPECT_GT(WorldInternals::body(w, w.bodies()[0]).cutLinks, 100u);
+  EXPECT_GT(w.bodyInfo(w.bodies()[0]).cutLinks, 100u);
   EXPECT_GT(checked, 1000u);
 }
 
@@ -161,7 +149,9 @@ TEST(World, PlaneCarriesWeightAndProbe) {
   World w = worldOf(box(extra, "", -9.81));
   FrameReport r;
   for (int f = 0; f < 300; ++f) r = w.step();
-  const double weight = WorldInternals::body(w, w.bodies()[0]).model.totalMass() * 9.81;
+  double mass = 0.0;
+  for (const double m : w.nodes(w.bodies()[0]).masses) mass += m;
+  const double weight = mass * 9.81;
   const Vec3d probe = w.toolReaction(w.tools()[0]).force;
   EXPECT_GT(probe.y(), 0.1 * weight);
   EXPECT_NEAR(-r.obstacleForces[0].y(), weight + probe.y(), 0.01 * (weight + probe.y()));
@@ -346,8 +336,7 @@ TEST(World, ProbeResultsSameForAnyThreadCount) {
     ThreadLimit limit(threads);
     World w = worldOf(box(probe, kBaseFixed));
     for (int f = 0; f < 60; ++f) (void)w.step();
-    return std::make_pair(WorldInternals::body(w, w.bodies()[0]).cut.deformation.positions(),
-                          w.toolReaction(w.tools()[0]).torque);
+    return std::make_pair(w.nodes(w.bodies()[0]).positions, w.toolReaction(w.tools()[0]).torque);
   };
   const auto one = run(1), two = run(2);
   EXPECT_EQ(one.first, two.first);
@@ -429,8 +418,8 @@ TEST(World, BunnyPokeSpringsBack) {
   EXPECT_GT(pressed, 0.005);  // most of the 1 cm the probe goes down
   EXPECT_GT(force, 1.0);
   EXPECT_EQ(poked.toolReaction(poked.tools()[0]).force, Vec3d::Zero());
-  const auto& a = WorldInternals::body(poked, poked.bodies()[0]).cut.deformation.positions();
-  const auto& b = WorldInternals::body(alone, alone.bodies()[0]).cut.deformation.positions();
+  const std::vector<Vec3d> a = poked.nodes(poked.bodies()[0]).positions;
+  const std::vector<Vec3d> b = alone.nodes(alone.bodies()[0]).positions;
   double apart = 0.0;
   for (std::size_t n = 0; n < a.size(); ++n) apart = std::max(apart, (a[n] - b[n]).norm());
   EXPECT_LT(apart, 0.05 * pressed);
@@ -439,14 +428,7 @@ TEST(World, BunnyPokeSpringsBack) {
 // The deepest any surface vertex of body a lies inside body b (a == b: itself, away from its
 // own neighbourhood), measured in b's rest frame, where they are now.
 double deepestInside(const World& w, std::size_t a, std::size_t b) {
-  const SimBody& ba = WorldInternals::body(w, w.bodies()[a]);
-  const SimBody& bb = WorldInternals::body(w, w.bodies()[b]);
-  LayeredHash hash;
-  buildElementHash(bb, hash, true);
-  double deepest = 0.0;
-  for (const BodyContactPoint& c : findBodyContacts(ba, bb, hash, a == b, 0.0, true))
-    deepest = std::max(deepest, c.currentDepth);
-  return deepest;
+  return w.penetration(w.bodies()[a], w.bodies()[b]);
 }
 
 // A box fixed at its base, slit from the top by a blade (not cut through), then its left flap
@@ -477,31 +459,35 @@ TEST(World, SelfCollisionKeepsTheSidesOfACutApart) {
 }
 
 // Self collision's candidates kept between frames (a Verlet list) find the same contacts as a
-// fresh query every frame, while the slit box's flap is pushed against its other side; and
-// they are reused, not rebuilt every frame.
+// fresh query every frame, while the slit box's flap is pushed against its other side: a world
+// that keeps them and one that queries afresh every frame run bit for bit the same; and they
+// are reused, not queried every frame.
 TEST(World, SelfCandidatesKeptBetweenFramesFindTheSameContacts) {
-  World w = worldOf(slitBoxPressed(true));
-  SelfCandidateCache cache;
-  int rebuilt = 0, found = 0;
+  const Scene keptScene = sceneOf(slitBoxPressed(true));
+  Scene freshScene = keptScene;
+  freshScene.contact.keepSelfCandidates = false;
+  World kept = World::fromScene(keptScene, voxelizeSceneBodies(keptScene));
+  World fresh = World::fromScene(freshScene, voxelizeSceneBodies(freshScene));
+  std::size_t found = 0;
   for (int f = 0; f < 100; ++f) {
-    (void)w.step();
-    const SimBody& b = WorldInternals::body(w, w.bodies()[0]);
-    LayeredHash hash;
-    buildElementHash(b, hash, true);
-    const std::vector<Vec3d> before = cache.nodes;
-    const auto kept = findBodyContacts(b, b, hash, true, 0.004, true, &cache);
-    const auto fresh = findBodyContacts(b, b, hash, true, 0.004, true);
-    rebuilt += cache.nodes != before ? 1 : 0;
-    ASSERT_EQ(kept.size(), fresh.size()) << "frame " << f;
-    for (std::size_t k = 0; k < kept.size(); ++k) {
-      EXPECT_EQ(kept[k].vertex, fresh[k].vertex);
-      EXPECT_EQ(kept[k].other, fresh[k].other);
-      EXPECT_EQ(kept[k].depth, fresh[k].depth);
+    const FrameReport a = kept.step(), b = fresh.step();
+    ASSERT_EQ(a.contacts, b.contacts) << "frame " << f;
+    ASSERT_EQ(kept.contacts().size(), fresh.contacts().size()) << "frame " << f;
+    for (std::size_t k = 0; k < kept.contacts().size(); ++k) {
+      const Contact& ck = kept.contacts()[k];
+      const Contact& cf = fresh.contacts()[k];
+      EXPECT_EQ(ck.with, cf.with);
+      EXPECT_EQ(ck.point, cf.point);
+      EXPECT_EQ(ck.depth, cf.depth);
+      EXPECT_EQ(ck.force, cf.force);
+      found += ck.with == Contact::With::Self ? 1 : 0;
     }
-    found += static_cast<int>(kept.size());
+    ASSERT_EQ(kept.nodes(kept.bodies()[0]).positions, fresh.nodes(fresh.bodies()[0]).positions)
+        << "frame " << f;
   }
-  EXPECT_GT(found, 0);
-  EXPECT_LT(rebuilt, 50);
+  EXPECT_GT(found, 0u);
+  EXPECT_EQ(fresh.bodyInfo(fresh.bodies()[0]).selfCandidateQueries, 100u);
+  EXPECT_LT(kept.bodyInfo(kept.bodies()[0]).selfCandidateQueries, 50u);
 }
 
 // A small soft box dropped onto a larger one fixed at its base comes to rest on it, no vertex
@@ -526,21 +512,20 @@ TEST(World, BodyDroppedOnAnotherComesToRest) {
     World w = worldOf(scene(0.01));
     double deepest = 0.0;
     for (int f = 0; f < 300; ++f) deepest = std::max(deepest, w.step().maxPenetration);
-    const SimBody& top = WorldInternals::body(w, w.bodies()[1]);
-    EXPECT_LT(deepest, 0.5 * top.cut.grid.voxelSize());
-    EXPECT_LT(top.solver.kineticEnergy(top.model), 1e-7);
-    EXPECT_LT(deepestInside(w, 1, 0), 0.5 * top.cut.grid.voxelSize());
+    const double voxel = w.bodyInfo(w.bodies()[1]).voxelSize;
+    EXPECT_LT(deepest, 0.5 * voxel);
+    EXPECT_LT(w.energy(w.bodies()[1]).kinetic, 1e-7);
+    EXPECT_LT(deepestInside(w, 1, 0), 0.5 * voxel);
     // It rests on the lower box's top (y = 0.06), not beside or in it.
     double lowest = 1e9;
-    for (const Vec3d& x : top.cut.deformation.positions()) lowest = std::min(lowest, x.y());
+    for (const Vec3d& x : w.nodes(w.bodies()[1]).positions) lowest = std::min(lowest, x.y());
     EXPECT_GT(lowest, 0.055);
   }
   {
     World w = worldOf(scene(0.3));
     for (int f = 0; f < 200; ++f) (void)w.step();
-    const SimBody& top = WorldInternals::body(w, w.bodies()[1]);
     double lowest = 1e9;
-    for (const Vec3d& x : top.cut.deformation.positions()) lowest = std::min(lowest, x.y());
+    for (const Vec3d& x : w.nodes(w.bodies()[1]).positions) lowest = std::min(lowest, x.y());
     EXPECT_GT(lowest, 0.055);
   }
 }
@@ -564,7 +549,7 @@ TEST(World, FrictionHoldsOrSlidesAsCoulombSays) {
     World w = worldOf(scene);
     auto centreX = [&] {
       double x = 0.0;
-      const auto& p = WorldInternals::body(w, w.bodies()[0]).cut.deformation.positions();
+      const std::vector<Vec3d> p = w.nodes(w.bodies()[0]).positions;
       for (const Vec3d& q : p) x += q.x();
       return x / static_cast<double>(p.size());
     };
@@ -591,12 +576,12 @@ TEST(World, FrictionHoldsOrSlidesAsCoulombSays) {
 TEST(World, EarOnTableComesToRestOnItsStump) {
   const Scene scene = readScene(std::string(VOXCUT_SOURCE_DIR) + "/scenes/ear-on-table.json");
   World w = World::fromScene(scene, voxelizeSceneBodies(scene));
-  const SimBody& b = WorldInternals::body(w, w.bodies()[0]);
-  auto earCentre = [&](const PieceLabels& pieces, int ear) {
+  const BodyId b = w.bodies()[0];
+  auto earCentre = [&](const BodyVoxels& voxels, int ear) {
     Vec3d c = Vec3d::Zero();
-    for (std::size_t v = 0; v < b.cut.grid.voxelCount(); ++v)
-      if (pieces.label[v] == ear) c += b.cut.deformation.voxelPosition(v);
-    return Vec3d(c / static_cast<double>(pieces.voxels[static_cast<std::size_t>(ear)]));
+    for (std::size_t v = 0; v < voxels.pieces.size(); ++v)
+      if (voxels.pieces[v] == ear) c += voxels.positions[v];
+    return Vec3d(c / static_cast<double>(voxels.pieceVoxels[static_cast<std::size_t>(ear)]));
   };
   double deepest = 0.0;
   Vec3d before = Vec3d::Zero();
@@ -605,24 +590,23 @@ TEST(World, EarOnTableComesToRestOnItsStump) {
     ASSERT_TRUE(r.converged) << "frame " << f;
     deepest = std::max(deepest, r.maxPenetration);
     if (f == *scene.frames - 51) {
-      const PieceLabels pieces = findPieces(b.cut.grid);
-      ASSERT_EQ(pieces.count, 2);
-      before = earCentre(pieces, pieces.voxels[0] < pieces.voxels[1] ? 0 : 1);
+      const BodyVoxels voxels = w.voxels(b);
+      ASSERT_EQ(voxels.pieceVoxels.size(), 2u);
+      before = earCentre(voxels, voxels.pieceVoxels[0] < voxels.pieceVoxels[1] ? 0 : 1);
     }
   }
-  const PieceLabels pieces = findPieces(b.cut.grid);
-  ASSERT_EQ(pieces.count, 2);
-  const int ear = pieces.voxels[0] < pieces.voxels[1] ? 0 : 1;
-  const Vec3d now = earCentre(pieces, ear);
-  const double voxel = b.cut.grid.voxelSize();
+  const BodyVoxels voxels = w.voxels(b);
+  ASSERT_EQ(voxels.pieceVoxels.size(), 2u);
+  const int ear = voxels.pieceVoxels[0] < voxels.pieceVoxels[1] ? 0 : 1;
+  const Vec3d now = earCentre(voxels, ear);
+  const double voxel = w.bodyInfo(b).voxelSize;
   EXPECT_LT((now - before).norm(), 0.1 * voxel) << "the ear still moves";
   // The ear's lowest voxel at the cut's height (the blade's), the bunny's on the table (y = 0).
   const double cutHeight = scene.tools.at(0).keys.at(0).pose.a.y();
   double earLowest = 1e9, bunnyLowest = 1e9;
-  for (std::size_t v = 0; v < b.cut.grid.voxelCount(); ++v) {
-    if (pieces.label[v] < 0) continue;
-    double& lowest = pieces.label[v] == ear ? earLowest : bunnyLowest;
-    lowest = std::min(lowest, b.cut.deformation.voxelPosition(v).y());
+  for (std::size_t v = 0; v < voxels.pieces.size(); ++v) {
+    double& lowest = voxels.pieces[v] == ear ? earLowest : bunnyLowest;
+    lowest = std::min(lowest, voxels.positions[v].y());
   }
   EXPECT_NEAR(earLowest, cutHeight, 1.5 * voxel);
   EXPECT_GT(bunnyLowest, -0.5 * voxel);
@@ -640,13 +624,12 @@ TEST(World, StarfishStackArmsRestOnEachOther) {
   World w = World::fromScene(scene, voxelizeSceneBodies(scene));
   // Per body, the cut-off arm's voxels where they are now (the smaller piece).
   auto armVoxels = [&](std::size_t body) {
-    const SimBody& b = WorldInternals::body(w, w.bodies()[body]);
-    const PieceLabels pieces = findPieces(b.cut.grid);
-    EXPECT_EQ(pieces.count, 2);
-    const int arm = pieces.voxels[0] < pieces.voxels[1] ? 0 : 1;
+    const BodyVoxels voxels = w.voxels(w.bodies()[body]);
+    EXPECT_EQ(voxels.pieceVoxels.size(), 2u);
+    const int arm = voxels.pieceVoxels[0] < voxels.pieceVoxels[1] ? 0 : 1;
     std::vector<Vec3d> out;
-    for (std::size_t v = 0; v < b.cut.grid.voxelCount(); ++v)
-      if (pieces.label[v] == arm) out.push_back(b.cut.deformation.voxelPosition(v));
+    for (std::size_t v = 0; v < voxels.pieces.size(); ++v)
+      if (voxels.pieces[v] == arm) out.push_back(voxels.positions[v]);
     return out;
   };
   auto centre = [](const std::vector<Vec3d>& xs) {
@@ -689,21 +672,20 @@ TEST(World, LiverProbeCutLiftsTheColumn) {
   const Scene scene = readScene(std::string(VOXCUT_SOURCE_DIR) + "/scenes/liver-probe-cut.json");
   World w = World::fromScene(scene, voxelizeSceneBodies(scene));
   for (int f = 0; f < *scene.frames; ++f) ASSERT_TRUE(w.step().converged) << "frame " << f;
-  const SimBody& b = WorldInternals::body(w, w.bodies()[0]);
-  const PieceLabels pieces = findPieces(b.cut.grid);
-  ASSERT_EQ(pieces.count, 2);
+  const BodyVoxels voxels = w.voxels(w.bodies()[0]);
+  ASSERT_EQ(voxels.pieceVoxels.size(), 2u);
   // The column is the piece that no fixed box holds: the smaller one.
-  const int column = pieces.voxels[0] < pieces.voxels[1] ? 0 : 1;
+  const int column = voxels.pieceVoxels[0] < voxels.pieceVoxels[1] ? 0 : 1;
   Vec3d rest = Vec3d::Zero(), now = Vec3d::Zero();
-  for (std::size_t v = 0; v < b.cut.grid.voxelCount(); ++v)
-    if (pieces.label[v] == column) {
-      rest += b.cut.grid.position(v);
-      now += b.cut.deformation.voxelPosition(v);
+  for (std::size_t v = 0; v < voxels.pieces.size(); ++v)
+    if (voxels.pieces[v] == column) {
+      rest += voxels.restPositions[v];
+      now += voxels.positions[v];
     }
-  const double n = static_cast<double>(pieces.voxels[static_cast<std::size_t>(column)]);
+  const double n = static_cast<double>(voxels.pieceVoxels[static_cast<std::size_t>(column)]);
   EXPECT_GT((now - rest).z() / n, 0.015) << "the column was not lifted";
   // The probe carries the column's weight (it is at rest on it, within a fifth).
-  const double weight = 1060.0 * n * std::pow(b.cut.grid.voxelSize(), 3) * 9.81;
+  const double weight = 1060.0 * n * std::pow(w.bodyInfo(w.bodies()[0]).voxelSize, 3) * 9.81;
   EXPECT_NEAR(-w.toolReaction(w.tools()[1]).force.z(), weight, 0.2 * weight);
   EXPECT_TRUE(surfaceTopology(w.surfaceMesh(w.bodies()[0])).closed);
 }
@@ -724,7 +706,7 @@ TEST(World, BodyContactsSameForAnyThreadCount) {
     std::size_t contacts = 0;
     for (int f = 0; f < 40; ++f) contacts += w.step().contacts;
     EXPECT_GT(contacts, 0u);
-    return WorldInternals::body(w, w.bodies()[1]).cut.deformation.positions();
+    return w.nodes(w.bodies()[1]).positions;
   };
   EXPECT_EQ(run(1), run(2));
 }

@@ -51,6 +51,7 @@ std::vector<BodyContactSet> World::Impl::findBodyContactsAll(Frame& f) {
         buildElementHash(b, hashes[ib_], settings.threaded);
         hashed[ib_] = 1;
       }
+      if (self && !settings.contact.keepSelfCandidates) bodies[ia_].selfCandidates.valid = false;
       for (const BodyContactPoint& c : findBodyContacts(
                a, b, hashes[ib_], self, dt, settings.threaded,
                self ? &bodies[ia_].selfCandidates : nullptr, &bodies[ia_].verticesByElement)) {

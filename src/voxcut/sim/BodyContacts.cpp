@@ -228,6 +228,7 @@ void refreshSelfCandidates(const SimBody& a, const LayeredHash& hash,
       },
       threaded);
   cache.valid = true;
+  ++cache.queries;
 }
 
 /// Vertex v of A against the `candidates` elements of B: the deepest contact (depth 0 when

@@ -46,6 +46,7 @@ struct SelfCandidateCache {
   std::vector<std::vector<std::uint32_t>> candidates;  ///< per element, ascending
   std::size_t cutLinks = 0;                            ///< the body's cut links when built
   bool valid = false;
+  std::size_t queries = 0;  ///< times built (BodyInfo::selfCandidateQueries)
 };
 
 /// A body's surface vertex slots grouped by the element holding them (a counting sort): the

@@ -9,14 +9,9 @@
 
 #include "voxcut/sim/WorldChecks.h"
 #include "voxcut/sim/WorldImpl.h"
-#include "voxcut/sim/WorldInternals.h"
 #include "voxcut/voxel/Pieces.h"
 
 namespace voxcut {
-
-const SimBody& WorldInternals::body(const World& world, BodyId b) {
-  return world.impl_->body(b);
-}
 
 World::World(const WorldSettings& settings) : impl_(std::make_unique<Impl>()) {
   checkWorldSettings(settings);
@@ -187,6 +182,7 @@ BodyInfo World::bodyInfo(BodyId body) const {
   info.voxelSize = b.cut.grid.voxelSize();
   info.materialNames = b.cut.grid.materialNames();
   info.solver = b.solverChoice;
+  info.selfCandidateQueries = b.selfCandidates.queries;
   return info;
 }
 

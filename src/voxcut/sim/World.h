@@ -137,6 +137,26 @@ class World {
   [[nodiscard]] BodyEnergy energy(BodyId body) const;
   // ---- end energy ----
 
+  // ---- inspection ----
+  /// The body's occupied voxels where they are at rest and now, and the piece each belongs to
+  /// (numbered as World::pieces counts them). O(voxels).
+  [[nodiscard]] BodyVoxels voxels(BodyId body) const;
+  /// The deepest any surface vertex of `body` lies inside the material of `other` now (m, >= 0;
+  /// `other` == `body`: inside itself, away from each vertex's own neighbourhood; the other
+  /// side of a cut counts), measured in other's rest frame; what contact keeps below half a
+  /// voxel. Found afresh, whatever the contact settings. O(surface + elements).
+  [[nodiscard]] double penetration(BodyId body, BodyId other) const;
+  /// Checks the body's invariants and returns "" when they hold, else what is broken, first
+  /// failure only: every occupied voxel lies in an element copy that covers it; hanging nodes
+  /// lie where their coarse element puts them and the element copies on the two sides of every
+  /// connected link agree on the face between them (no gap opens where no link was cut), both
+  /// to 1e-9 of the body's size; the deformation mesh (elements joined by shared nodes) falls
+  /// apart into as many parts as the voxels (World::pieces); every live surface vertex is
+  /// embedded in the element copy owning its voxel, at that copy's trilinear coordinates of its
+  /// rest position; the surface is closed. For tests and debugging. O(voxels + elements +
+  /// surface log surface).
+  [[nodiscard]] std::string selfCheck(BodyId body) const;
+
   // ---- tools ----
   /// Adds a blade with its edge from pose.a to pose.b; returns its handle.
   ToolId addBlade(const BladePose& pose);
@@ -226,7 +246,6 @@ class World {
 
  private:
   struct Impl;
-  friend struct WorldInternals;
   friend struct WorldTesting;
   std::unique_ptr<Impl> impl_;
 };

@@ -1,13 +1,20 @@
 /// @file WorldReads.cpp
 /// What the world lets an application read (sim/World.h): surfaces, their changes, the
-/// pseudo voxel octree, nodes, energy, contacts and the cut set's hash.
+/// pseudo voxel octree, nodes, energy, contacts, the cut set's hash, and the inspection reads
+/// (voxels and pieces, penetration, the body's invariants).
 
 #include <algorithm>
+#include <numeric>
+#include <sstream>
 #include <string>
 
+#include "voxcut/collision/LayeredHash.h"
 #include "voxcut/core/Fnv.h"
+#include "voxcut/sim/BodyContacts.h"
 #include "voxcut/sim/WorldImpl.h"
+#include "voxcut/surface/SurfaceMesh.h"
 #include "voxcut/surface/VertexNormals.h"
+#include "voxcut/voxel/Pieces.h"
 
 namespace voxcut {
 
@@ -176,6 +183,7 @@ NodeState World::nodes(BodyId body) const {
   const SimBody& b = impl_->body(body);
   NodeState s;
   s.positions = b.cut.deformation.positions();
+  s.restPositions = b.cut.deformation.restPositions();
   s.velocities = b.solver.velocities();
   s.velocities.resize(s.positions.size(), Vec3d::Zero());
   s.masses = b.model.nodeMass();
@@ -192,6 +200,164 @@ std::uint64_t World::cutSetHash() const {
   Fnv1a h;
   for (const SimBody& b : impl_->bodies) h.add(voxcut::cutSetHash(b.cuts));
   return h.value();
+}
+
+// ---- inspection ----
+
+BodyVoxels World::voxels(BodyId body) const {
+  const SimBody& b = impl_->body(body);
+  const VoxelGrid& grid = b.cut.grid;
+  const PieceLabels labels = findPieces(grid);
+  BodyVoxels s;
+  for (std::size_t v = 0; v < grid.voxelCount(); ++v) {
+    if (!grid.occupied(v)) continue;
+    s.restPositions.push_back(grid.position(v));
+    s.positions.push_back(b.cut.deformation.voxelPosition(v));
+    s.pieces.push_back(labels.label[v]);
+  }
+  s.pieceVoxels = labels.voxels;
+  return s;
+}
+
+double World::penetration(BodyId body, BodyId other) const {
+  const SimBody& a = impl_->body(body);
+  const SimBody& b = impl_->body(other);
+  LayeredHash hash;
+  buildElementHash(b, hash, impl_->settings.threaded);
+  double deepest = 0.0;
+  for (const BodyContactPoint& c :
+       findBodyContacts(a, b, hash, body == other, 0.0, impl_->settings.threaded))
+    deepest = std::max(deepest, c.currentDepth);
+  return deepest;
+}
+
+namespace {
+
+// The node-grid point c as element copy e's trilinear map puts it now (extrapolating).
+Vec3d pointAt(const DeformationOctree& d, std::uint32_t e, const Index3& c) {
+  const OctreeElement& el = d.element(e);
+  const Index3 f = el.firstVoxel();
+  const double s = el.size();
+  return d.pointInElement(e, Vec3d((c.x - f.x) / s, (c.y - f.y) / s, (c.z - f.z) / s));
+}
+
+// Components of the elements joined by shared node ids.
+int meshComponents(const DeformationOctree& d) {
+  std::vector<std::uint32_t> parent(d.nodeCount());
+  std::iota(parent.begin(), parent.end(), 0u);
+  const auto find = [&](std::uint32_t n) {
+    while (parent[n] != n) n = parent[n] = parent[parent[n]];
+    return n;
+  };
+  for (const OctreeElement& e : d.elements())
+    for (const std::uint32_t n : e.nodes) parent[find(n)] = find(e.nodes[0]);
+  std::vector<std::uint8_t> root(d.nodeCount(), 0);
+  int count = 0;
+  for (const OctreeElement& e : d.elements()) {
+    const std::uint32_t r = find(e.nodes[0]);
+    count += root[r] == 0;
+    root[r] = 1;
+  }
+  return count;
+}
+
+// The first broken invariant of the body's deformation octree and grid ("" when none).
+std::string octreeProblem(const SimBody& b) {
+  const VoxelGrid& g = b.cut.grid;
+  const DeformationOctree& d = b.cut.deformation;
+  const double tol = 1e-9 * (1.0 + d.restVoxelBounds().diagonal().norm());
+  std::ostringstream out;
+  for (std::size_t v = 0; v < g.voxelCount(); ++v) {
+    if (!g.occupied(v)) continue;
+    const std::uint32_t e = d.owner(v);
+    const Index3 p = g.coord(v);
+    if (e >= d.elementCount()) {
+      out << "occupied voxel " << v << " lies in no element";
+      return out.str();
+    }
+    const OctreeElement& el = d.element(e);
+    const Index3 f = el.firstVoxel();
+    for (int a = 0; a < 3; ++a)
+      if (p[a] < f[a] || p[a] >= f[a] + el.size()) {
+        out << "voxel " << v << " owned by element " << e << ", which does not cover it";
+        return out.str();
+      }
+  }
+  for (const HangingNode& h : d.hangingNodes()) {
+    const double off = (pointAt(d, h.element, d.nodeCoord(h.node)) - d.positions()[h.node]).norm();
+    if (off > tol) {
+      out << "hanging node " << h.node << " lies " << off << " m off element " << h.element;
+      return out.str();
+    }
+  }
+  // Connected links between voxels of two element copies: the copies agree on the 4 corners of
+  // the face between the voxels.
+  for (std::size_t v = 0; v < g.voxelCount(); ++v) {
+    if (!g.occupied(v)) continue;
+    const Index3 p = g.coord(v);
+    for (int a = 0; a < 3; ++a) {
+      if (p[a] + 1 >= g.dims()[a] || !g.connected(v, a)) continue;
+      const std::size_t w = v + g.stride(a);
+      if (!g.occupied(w)) continue;
+      const std::uint32_t ev = d.owner(v), ew = d.owner(w);
+      if (ev == ew) continue;
+      const int u = (a + 1) % 3, t = (a + 2) % 3;
+      for (int k = 0; k < 4; ++k) {
+        Index3 c = p;
+        c[a] += 1;
+        c[u] += k & 1;
+        c[t] += k >> 1;
+        const double gap = (pointAt(d, ev, c) - pointAt(d, ew, c)).norm();
+        if (gap > tol) {
+          out << "gap of " << gap << " m at connected link " << v << " axis " << a;
+          return out.str();
+        }
+      }
+    }
+  }
+  const int pieces = findPieces(g).count, mesh = meshComponents(d);
+  if (mesh != pieces) {
+    out << "the deformation mesh has " << mesh << " components, the voxels " << pieces
+        << " pieces";
+    return out.str();
+  }
+  return "";
+}
+
+// The first surface vertex embedded elsewhere than a fresh lookup puts it ("" when none).
+std::string embeddingProblem(const SimBody& b) {
+  const DeformationOctree& d = b.cut.deformation;
+  std::ostringstream out;
+  if (b.embedding.size() != b.surface.vertexSlots()) {
+    out << b.embedding.size() << " vertex embeddings for " << b.surface.vertexSlots()
+        << " vertex slots";
+    return out.str();
+  }
+  for (std::size_t v = 0; v < b.embedding.size(); ++v) {
+    if (!b.surface.alive(static_cast<std::int32_t>(v))) continue;
+    const std::uint32_t e = d.owner(static_cast<std::size_t>(b.surface.vertexVoxels()[v]));
+    const OctreeElement& el = d.element(e);
+    const Vec3d local = (b.surface.positions()[v] - d.nodeGridPosition(el.firstVoxel())) /
+                        (d.voxelSize() * el.size());
+    if (b.embedding[v].element != e || b.embedding[v].local != local) {
+      out << "surface vertex " << v << " embedded in element " << b.embedding[v].element
+          << " at (" << b.embedding[v].local.transpose() << "), not in " << e << " at ("
+          << local.transpose() << ")";
+      return out.str();
+    }
+  }
+  return "";
+}
+
+}  // namespace
+
+std::string World::selfCheck(BodyId body) const {
+  const SimBody& b = impl_->body(body);
+  std::string problem = octreeProblem(b);
+  if (problem.empty()) problem = embeddingProblem(b);
+  if (problem.empty() && !surfaceTopology(surfaceMesh(body)).closed)
+    problem = "the surface is not closed";
+  return problem;
 }
 
 // ---- tools ----

@@ -148,6 +148,11 @@ struct ContactSettings {
   /// Coulomb friction coefficient of contacts, >= 0, where an obstacle or tool does not set
   /// its own (and always between bodies).
   double friction = 0.3;
+  /// Self collision keeps its broad phase's candidates between frames (a Verlet list:
+  /// queried afresh only when a node has moved out of their skin or a cut changed the
+  /// elements); false queries afresh every frame, the same contacts at a higher cost (for
+  /// comparisons). BodyInfo::selfCandidateQueries counts the queries.
+  bool keepSelfCandidates = true;
 };
 
 /// Settings of a world that do not belong to one body or tool.
@@ -199,6 +204,9 @@ struct BodyInfo {
   double voxelSize = 0.0;                  ///< m
   std::vector<std::string> materialNames;  ///< of materials 1..N (element 0 is material 1)
   SolverChoice solver = SolverChoice::Cholesky;  ///< what its step uses (never Automatic)
+  /// Times self collision's broad phase was queried afresh for the body
+  /// (ContactSettings::keepSelfCandidates).
+  std::size_t selfCandidateQueries = 0;
 };
 
 /// A body's deformed surface, read in place: arrays indexed by slot, where a removed vertex
@@ -245,8 +253,21 @@ struct ActivityView {
 /// face, at the mean of their masters) follow.
 struct NodeState {
   std::vector<Vec3d> positions;   ///< m
+  std::vector<Vec3d> restPositions;  ///< m, where each node is at rest (its node-grid point)
   std::vector<Vec3d> velocities;  ///< m/s; zero before the first frame
   std::vector<double> masses;     ///< kg, lumped from the material each node's elements hold
+};
+
+/// A body's material points, its occupied voxels' centres in ascending voxel order, and the
+/// pieces they make (World::pieces): what a cut-off part is measured by (where it rests, how
+/// far it fell).
+struct BodyVoxels {
+  std::vector<Vec3d> restPositions;  ///< m, each voxel's centre at rest
+  std::vector<Vec3d> positions;      ///< m, where it is at the end of the last frame
+  /// Per voxel, its piece (connected through connected links): 0 .. pieceVoxels.size() - 1,
+  /// numbered in order of their first voxel.
+  std::vector<int> pieces;
+  std::vector<std::size_t> pieceVoxels;  ///< per piece, its number of voxels
 };
 
 /// The force and torque the bodies exert on a tool at the end of the last frame (N, N m; the
