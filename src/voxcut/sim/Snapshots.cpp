@@ -38,22 +38,23 @@ WorldSnapshot World::snapshot() {
   Impl& w = *impl_;
   WorldSnapshot s;
   const Timer timer;
-  // Into memory of the world's own when it has some that no snapshot shares (a copy into
-  // fresh memory costs its page faults, several times the copy).
-  Checkpoint& c = w.checkpoint;
-  std::shared_ptr<WorldState> into = std::move(c.spare);
-  c.spare.reset();
-  if (into == nullptr && c.state != nullptr && c.state.use_count() == 1)
-    into = std::const_pointer_cast<WorldState>(std::exchange(c.state, nullptr));
-  if (into != nullptr)
-    *into = static_cast<const WorldState&>(w);
-  else
-    into = std::make_shared<WorldState>(static_cast<const WorldState&>(w));
-  s.state_ = std::move(into);
+  s.state_ = w.copyState();
   // The world's rollback point from now on: nothing to run again to reach it.
   w.useAsCheckpoint(s.state_);
   w.checkpoint.copyMs = timer.ms();
   return s;
+}
+
+std::shared_ptr<WorldState> World::Impl::copyState() {
+  // Into memory of the world's own when it has some that no snapshot shares (a copy into
+  // fresh memory costs its page faults, several times the copy).
+  Checkpoint& c = checkpoint;
+  std::shared_ptr<WorldState> into = std::exchange(c.spare, nullptr);
+  if (into == nullptr && c.state != nullptr && c.state.use_count() == 1)
+    into = std::const_pointer_cast<WorldState>(std::exchange(c.state, nullptr));
+  if (into == nullptr) return std::make_shared<WorldState>(static_cast<const WorldState&>(*this));
+  *into = static_cast<const WorldState&>(*this);
+  return into;
 }
 
 void World::restore(const WorldSnapshot& snapshot) {
@@ -118,20 +119,8 @@ void World::Impl::beforeStep() {
   if (!c.valid || c.controls.size() >= kCheckpointMaxFrames ||
       (c.controls.size() > 0 && c.copyMs <= kCheckpointShare * framesMs)) {
     const Timer timer;
-    if (c.state != nullptr && c.state.use_count() == 1) {
-      // Ours alone (no snapshot shares it): copied into, its memory reused (no page faults).
-      *std::const_pointer_cast<WorldState>(c.state) = static_cast<const WorldState&>(*this);
-    } else if (c.spare != nullptr) {
-      *c.spare = static_cast<const WorldState&>(*this);
-      c.state = std::move(c.spare);
-      c.spare.reset();
-    } else {
-      c.state = std::make_shared<const WorldState>(static_cast<const WorldState&>(*this));
-    }
-    c.valid = true;
-    c.controls.clear();
+    useAsCheckpoint(copyState());
     c.copyMs = timer.ms();
-    c.frameMs = 0.0;
   }
   std::vector<ToolControl>& controls = c.controls.emplace_back();
   controls.reserve(tools.size());

@@ -443,6 +443,9 @@ struct World::Impl : WorldState {
     checkpoint.valid = false;
     checkpoint.controls.clear();
   }
+  /// A copy of the world's state, into the memory of the spare or of a rollback point that no
+  /// snapshot shares when there is one.
+  [[nodiscard]] std::shared_ptr<WorldState> copyState();
   /// Makes a snapshot's state the rollback point (keeping the old one's memory as the spare
   /// when no snapshot shares it).
   void useAsCheckpoint(std::shared_ptr<const WorldState> state);
