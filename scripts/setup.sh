@@ -7,6 +7,9 @@ packages=(
   build-essential cmake pkg-config
   libeigen3-dev libtbb-dev libcli11-dev nlohmann-json3-dev libspdlog-dev libassimp-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  # label volumes: zlib (NRRD, MetaImage, gzip) and nifticlib (NIfTI); the AAL atlas and
+  # nibabel for the orientation tests
+  zlib1g-dev libnifti2-dev mricron-data python3-nibabel
   # bench_fem: CHOLMOD, the direct solver our block Cholesky is compared with
   libsuitesparse-dev
   # voxcut-view: window, OpenGL 3.3, Dear ImGui (with its GLFW and OpenGL 3 backends), PNG;

@@ -129,6 +129,13 @@ DrawData buildDrawData(World& world, const std::vector<Obstacle>& obstacles,
   // triangles keep their colour up to their edges.
   for (const BodyId b : world.bodies()) {
     const SurfaceView s = world.surface(b);
+    // The model's own colours (a segmentation's) where it has them, else the palette.
+    const auto colours = world.bodyInfo(b).materialColours;
+    const auto colourOf = [&colours](std::uint8_t m) {
+      if (m >= 1 && m <= colours.size() && colours[m - 1u])
+        return Colour((*colours[m - 1u])[0], (*colours[m - 1u])[1], (*colours[m - 1u])[2]);
+      return materialColour(m);
+    };
     const auto base = static_cast<std::uint32_t>(d.bodyVertices.size() / kTriangleStride);
     std::vector<std::uint8_t> material(s.positions.size(), 0);
     for (std::size_t t = 0; t < s.triangles.size(); ++t) {
@@ -142,7 +149,7 @@ DrawData buildDrawData(World& world, const std::vector<Obstacle>& obstacles,
     }
     for (std::size_t v = 0; v < s.positions.size(); ++v) {
       // Dead slots (material 0 here) are never indexed; they keep the arrays aligned.
-      pushVertex(d.bodyVertices, s.positions[v], s.normals[v], materialColour(material[v]));
+      pushVertex(d.bodyVertices, s.positions[v], s.normals[v], colourOf(material[v]));
       pushVertex(d.bodyVertices, s.positions[v], s.normals[v], cutColour(material[v]));
       if (material[v] != 0) d.bodyBounds.extend(s.positions[v]);
     }

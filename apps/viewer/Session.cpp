@@ -43,8 +43,11 @@ Session Session::open(const std::string& what, const OpenOptions& options) {
     s.scene_ = parseScene(text, what, dir);
     s.json_ = nlohmann::ordered_json::parse(text);
     // Paths made absolute, so that a saved recording works from anywhere.
-    for (std::size_t b = 0; b < s.scene_.bodies.size(); ++b)
+    for (std::size_t b = 0; b < s.scene_.bodies.size(); ++b) {
       s.json_["bodies"][b]["model"] = s.scene_.bodies[b].model;
+      if (!s.scene_.bodies[b].labelNames.empty())
+        s.json_["bodies"][b]["label_names"] = s.scene_.bodies[b].labelNames;
+    }
     if (s.json_.contains("obstacles"))
       for (auto& o : s.json_["obstacles"])
         if (o["type"] == "mesh")

@@ -39,15 +39,17 @@ std::string hex(std::uint64_t h) {
 
 // Loads and voxelizes the model of the options; `name` receives its name. Refuses first when
 // the memory estimate of what `use` builds exceeds `maxMemory` bytes.
-VoxelGrid voxelizeModel(const ModelOptions& mo, std::string& name, MemoryEstimateParams use,
-                        std::size_t maxMemory) {
-  const Model model = loadFromOptions(mo);
+VoxelGrid buildGrid(const ModelOptions& mo, std::string& name, MemoryEstimateParams use,
+                    std::size_t maxMemory) {
+  const Model model = loadFromOptions(mo, maxMemory);
   name = model.name;
   const VoxelizeParams vp = voxelizeParams(mo, model);
   use.resolution = vp.resolution;
   use.maxVoxels = vp.maxVoxels;
-  checkMemory(estimateModelMemory(model.materials, use), maxMemory, "model " + name);
-  VoxelGrid grid = voxelize(model.materials, vp);
+  checkMemory(estimateModelMemory(model, use), maxMemory, "model " + name);
+  LabelResampleReport report;
+  VoxelGrid grid = voxelizeModel(model, vp, nullptr, &report);
+  printModelWarnings(model, report);
   requireVoxels(grid, modelSubject(mo, model));
   return grid;
 }
@@ -100,7 +102,7 @@ int runCut(const CutOptions& opt) {
   if (!opt.output.empty()) checkSurfacePath(opt.output);
   std::string name;
   const CutBody body =
-      prepareBody(voxelizeModel(opt.model, name, cutBodies(opt.noOctree), maxMemory), opt.model,
+      prepareBody(buildGrid(opt.model, name, cutBodies(opt.noOctree), maxMemory), opt.model,
                   !opt.noOctree, opt.deform);
   BladeMotion motion = defaultBladeMotion(body);
   if (!opt.blade.empty()) motion = {parsePose(opt.blade, "--blade"), parsePose(opt.to, "--to")};
@@ -199,7 +201,7 @@ int runBench(const BenchOptions& opt) {
     mo.model = m;
     std::string name;
     // One voxelization serves both bodies.
-    const VoxelGrid grid = voxelizeModel(mo, name, cutBodies(true), maxMemory);
+    const VoxelGrid grid = buildGrid(mo, name, cutBodies(true), maxMemory);
     const CutBody withOctree = prepareBody(grid, mo, true, opt.deform);
     const CutBody baseline = prepareBody(grid, mo, false, opt.deform);
     const BladeMotion motion = defaultBladeMotion(withOctree);

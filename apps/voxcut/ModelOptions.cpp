@@ -87,8 +87,9 @@ OctreeParams octreeParams(const ModelOptions& opt, const std::vector<std::string
 
 void addModelOptions(CLI::App& cmd, ModelOptions& opt, bool cutPlanes) {
   cmd.add_option("model", opt.model,
-                 "Built-in model (bunny, liver, starfish, box:LX,LY,LZ, sphere:R; metres) or a "
-                 "mesh file (OBJ, STL, PLY, OFF, ...)");
+                 "Built-in model (bunny, liver, starfish, box:LX,LY,LZ, sphere:R; metres), a "
+                 "mesh file (OBJ, STL, PLY, OFF, ...) or a label volume (NIfTI .nii/.nii.gz, "
+                 "NRRD .nrrd/.nhdr/.seg.nrrd, MetaImage .mha/.mhd)");
   cmd.add_option("--material", opt.materials,
                  "NAME=MESH, repeatable, in order, instead of MODEL; later materials win inside "
                  "themselves (a tumor after its liver)");
@@ -117,6 +118,16 @@ void addModelOptions(CLI::App& cmd, ModelOptions& opt, bool cutPlanes) {
   cmd.add_option("--boundary-level", opt.boundaryLevel,
                  "Voxel octree maximum inter-material boundary level, B or NAME=B (repeatable; "
                  "default 0)");
+  cmd.add_option("--labels", opt.labels,
+                 "Label volumes: the labels to make materials, VALUE=NAME,... (e.g. "
+                 "255=liver,85=tumor), or all (default: every non-zero label, named by the "
+                 "file or label_VALUE)");
+  cmd.add_option("--label-names", opt.labelNames,
+                 "Label volumes: a names file of 'VALUE NAME' lines (as the AAL atlas's "
+                 "aal.nii.txt)");
+  cmd.add_option("--min-island", opt.minIsland,
+                 "Label volumes: drop pieces of a label smaller than N grid voxels (default 8; "
+                 "0 keeps all)");
   cmd.add_option("--threads", opt.threads, "Worker threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
   cmd.add_flag("--json", opt.json, "Print one JSON object on stdout");
@@ -135,9 +146,11 @@ std::size_t memoryLimit(const std::string& maxMemory) {
   return availableMemory();
 }
 
-Model loadFromOptions(const ModelOptions& opt) {
+Model loadFromOptions(const ModelOptions& opt, std::size_t maxMemory) {
   if (!opt.materials.empty()) {
     if (!opt.model.empty()) throw InputError("give either MODEL or --material, not both");
+    if (!opt.labels.empty() || !opt.labelNames.empty())
+      throw InputError("--labels and --label-names apply to a label volume, not to --material");
     std::vector<std::pair<std::string, std::string>> pairs;
     for (const auto& m : opt.materials) {
       const auto eq = m.find('=');
@@ -148,7 +161,32 @@ Model loadFromOptions(const ModelOptions& opt) {
     return loadMaterials(pairs);
   }
   if (opt.model.empty()) throw InputError("no model given (try 'bunny', or see --help)");
-  return loadModel(opt.model);
+  ModelLoadParams lp;
+  lp.maxMemory = maxMemory;
+  lp.labelNames = opt.labelNames;
+  Model model = loadModel(opt.model, lp);
+  if (!model.isVolume()) {
+    if (!opt.labels.empty() || !opt.labelNames.empty())
+      throw InputError("--labels and --label-names apply to a label volume (.nii, .nii.gz, "
+                       ".nrrd, .nhdr, .seg.nrrd, .mha, .mhd), not to model '" +
+                       opt.model + "'");
+    return model;
+  }
+  if (opt.minIsland < 0) throw InputError("--min-island must be 0 or more voxels");
+  model.minIsland = opt.minIsland;
+  if (!opt.labels.empty()) model.labels = parseLabelList(opt.labels, "--labels");
+  checkLabelChoices(*model.volume,
+                    model.labels.empty() ? defaultLabelChoices(*model.volume) : model.labels,
+                    "--labels");
+  return model;
+}
+
+void printModelWarnings(const Model& model, const LabelResampleReport& report) {
+  if (model.volume)
+    for (const std::string& w : model.volume->warnings)
+      std::fprintf(stderr, "voxcut: warning: %s\n", w.c_str());
+  for (const std::string& w : report.warnings)
+    std::fprintf(stderr, "voxcut: warning: %s\n", w.c_str());
 }
 
 VoxelizeParams voxelizeParams(const ModelOptions& opt, const Model& model) {
@@ -179,17 +217,16 @@ ProgressCallback terminalProgress() {
 
 ModelBuild buildFromOptions(const ModelOptions& opt, std::string& modelName, bool octrees) {
   const std::size_t limit = memoryLimit(opt.maxMemory);
-  const Model model = loadFromOptions(opt);
+  const Model model = loadFromOptions(opt, limit);
   modelName = model.name;
   ModelBuildParams params;
   params.voxelize = voxelizeParams(opt, model);
-  std::vector<std::string> names;
-  for (const auto& m : model.materials) names.push_back(m.name);
-  params.octree = octreeParams(opt, names);
+  params.octree = octreeParams(opt, model.materialNames());
   params.octrees = octrees;
   params.maxMemory = limit;
   for (const auto& p : opt.cutPlanes) params.cuts.push_back(parsePlane(p));
-  ModelBuild build = buildModel(model.materials, params);
+  ModelBuild build = buildModel(model, params);
+  printModelWarnings(model, build.resampleReport);
   requireVoxels(build.grid, modelSubject(opt, model));
   return build;
 }

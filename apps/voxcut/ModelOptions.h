@@ -24,6 +24,9 @@ struct ModelOptions {
   int threads = 0;                         // 0: all cores
   bool json = false;
   std::string maxMemory;  // --max-memory SIZE; empty: the available memory
+  std::string labels;     // --labels VALUE=NAME,... or all (label volumes)
+  std::string labelNames; // --label-names FILE
+  int minIsland = 8;      // --min-island N
 };
 
 /// Adds `--max-memory SIZE` to a command that builds models.
@@ -41,8 +44,14 @@ std::vector<double> parseNumberList(const std::string& text, const char* option,
 /// Adds the model options to a subcommand (the cut-plane option only when `cutPlanes`).
 void addModelOptions(CLI::App& cmd, ModelOptions& opt, bool cutPlanes = true);
 
-/// Loads MODEL or the --material meshes. Throws InputError.
-Model loadFromOptions(const ModelOptions& opt);
+/// Loads MODEL or the --material meshes; for a label volume, applies --labels, --label-names
+/// and --min-island, and refuses a header asking for more than `maxMemory` bytes (0: no
+/// limit). Throws InputError.
+Model loadFromOptions(const ModelOptions& opt, std::size_t maxMemory = 0);
+
+/// Prints the resampling's warnings (islands dropped, labels too small for the grid) and the
+/// volume's (NIfTI sform and qform disagreeing) as "voxcut: warning: ..." lines on stderr.
+void printModelWarnings(const Model& model, const LabelResampleReport& report);
 
 /// Progress of long stages on stderr when it is a terminal; asks them to stop (Interrupted)
 /// once a signal was caught (Interrupt.h; only while an InterruptGuard is alive).

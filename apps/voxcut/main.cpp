@@ -3,6 +3,8 @@
 #include <malloc.h>
 
 #include <CLI/CLI.hpp>
+#include <cctype>
+#include <filesystem>
 #include <cstdio>
 #include <iostream>
 #include <new>
@@ -20,6 +22,30 @@
 namespace voxcut::app {
 namespace {
 
+// The label volume as read: its grid, placement in world space (metres, RAS) and labels.
+nlohmann::json volumeJson(const LabelVolume& v) {
+  nlohmann::json j;
+  j["dims"] = {v.dims.x, v.dims.y, v.dims.z};
+  const Vec3d spacing = v.spacing();
+  j["spacing"] = {spacing.x(), spacing.y(), spacing.z()};
+  j["origin"] = {v.origin.x(), v.origin.y(), v.origin.z()};
+  nlohmann::json axes = nlohmann::json::array();
+  for (int a = 0; a < 3; ++a) {
+    const Vec3d dir = v.axes.col(a) / spacing[a];
+    axes.push_back({dir.x(), dir.y(), dir.z()});
+  }
+  j["axes"] = axes;
+  j["placement"] = v.placement;
+  nlohmann::json labels = nlohmann::json::array();
+  const std::vector<std::size_t> counts = v.labelCounts();
+  for (std::size_t l = 0; l < v.labels.size(); ++l)
+    labels.push_back({{"value", v.labels[l].value},
+                      {"name", v.labels[l].name},
+                      {"voxels", counts[l]}});
+  j["labels"] = labels;
+  return j;
+}
+
 nlohmann::json toJson(const std::string& name, const ModelBuild& b, int threads) {
   const auto& g = b.grid;
   const auto& s = b.stats;
@@ -32,6 +58,11 @@ nlohmann::json toJson(const std::string& name, const ModelBuild& b, int threads)
   nlohmann::json perMat = nlohmann::json::object();
   for (const auto& [m, n] : s.voxelsPerMaterial) perMat[m] = n;
   j["voxels_per_material"] = perMat;
+  const double voxelVolume = g.voxelSize() * g.voxelSize() * g.voxelSize();
+  nlohmann::json volumes = nlohmann::json::object();
+  for (const auto& [m, n] : s.voxelsPerMaterial) volumes[m] = static_cast<double>(n) * voxelVolume;
+  j["volume_per_material_m3"] = volumes;
+  if (b.volume) j["label_volume"] = volumeJson(*b.volume);
   j["links"] = s.connectedLinks;
   j["disconnected_links"] = s.surfaceLinks + s.cutLinks;
   j["disconnected_links_by_kind"] = {{"surface", s.surfaceLinks}, {"cut", s.cutLinks}};
@@ -65,6 +96,14 @@ void printText(const std::string& name, const ModelBuild& b) {
   std::printf("grid                %d x %d x %d (%zu voxels, padding included)\n", g.dims().x,
               g.dims().y, g.dims().z, g.voxelCount());
   std::printf("voxel size          %.6g m\n", g.voxelSize());
+  if (b.volume) {
+    const LabelVolume& v = *b.volume;
+    const Vec3d sp = v.spacing();
+    std::printf("label volume        %d x %d x %d, spacing %.6g x %.6g x %.6g m, %zu labels, "
+                "placed by %s\n",
+                v.dims.x, v.dims.y, v.dims.z, sp.x(), sp.y(), sp.z(), v.labels.size(),
+                v.placement.c_str());
+  }
   std::printf("voxels              %zu\n", s.voxels);
   for (const auto& [m, n] : s.voxelsPerMaterial) std::printf("  %-17s %zu\n", m.c_str(), n);
   std::printf("links (connected)   %zu, of which %zu between materials\n", s.connectedLinks,
@@ -92,6 +131,16 @@ void printText(const std::string& name, const ModelBuild& b) {
   std::printf("\n");
 }
 
+// OUTPUT's stem + "_" + the material's name (letters, digits, '-' and '.' kept, others '_')
+// + OUTPUT's extension.
+std::string materialFileName(const std::string& output, const std::string& material) {
+  const std::filesystem::path p(output);
+  std::string safe;
+  for (const unsigned char c : material)
+    safe += std::isalnum(c) || c == '-' || c == '.' ? static_cast<char>(c) : '_';
+  return (p.parent_path() / (p.stem().string() + "_" + safe + p.extension().string())).string();
+}
+
 int run(int argc, char** argv) {
   CLI::App app{"voxcut: interactive cutting of deformable objects modeled as linked voxels"};
   app.require_subcommand(1);
@@ -107,7 +156,13 @@ int run(int argc, char** argv) {
   auto* surface =
       app.add_subcommand("surface", "Voxelize a model and write its dual-contoured surface");
   addModelOptions(*surface, surfOpt);
-  surface->add_option("-o,--output", output, "Output surface, .obj or .ply")->required();
+  surface->add_option("-o,--output", output,
+                      "Output surface, .obj or .ply; a model of several materials keeps them "
+                      "(OBJ groups, a PLY face property 'material')")
+      ->required();
+  bool perMaterial = false;
+  surface->add_flag("--per-material", perMaterial,
+                    "Write one file per material instead, named OUTPUT's stem + _NAME");
 
   CutOptions cutOpt;
   CLI::App* cut = nullptr;
@@ -143,7 +198,19 @@ int run(int argc, char** argv) {
   std::string name;
   // `surface` prints the octrees only in its JSON; it does not build them otherwise.
   const ModelBuild b = buildFromOptions(opt, name, info->parsed() || opt.json);
-  if (surface->parsed()) writeSurface(b.surface, output);
+  if (surface->parsed()) {
+    const std::vector<std::string>& names = b.grid.materialNames();
+    if (perMaterial) {
+      std::vector<std::pair<std::string, std::uint8_t>> parts;
+      for (std::size_t m = 0; m < names.size(); ++m)
+        parts.emplace_back(materialFileName(output, names[m]), static_cast<std::uint8_t>(m + 1));
+      for (const auto& [path, m] : parts) checkSurfacePath(path);
+      for (const auto& [path, m] : parts) writeSurface(materialPart(b.surface, m), path, names);
+    } else {
+      writeSurface(b.surface, output,
+                   names.size() > 1 ? names : std::vector<std::string>{});
+    }
+  }
   if (opt.json)
     std::cout << toJson(name, b, ThreadLimit::current()).dump(2) << "\n";
   else if (info->parsed())

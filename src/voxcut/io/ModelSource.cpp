@@ -5,12 +5,17 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
 #include <string_view>
 
 #include "voxcut/core/CoordinateRange.h"
 #include "voxcut/core/Error.h"
 #include "voxcut/io/BunnyData.h"
 #include "voxcut/io/MeshReader.h"
+#include "voxcut/io/StrictJson.h"
+#include "voxcut/io/VolumeReader.h"
 #include "voxcut/voxel/BuiltinModels.h"
 
 namespace voxcut {
@@ -62,25 +67,101 @@ std::vector<double> parseSizes(const std::string& spec, std::string_view list, s
   return sizes;
 }
 
+/// A model of the given meshes (none yet: filled by the caller).
+Model meshModel(std::string name, std::vector<MaterialMesh> materials, int resolution) {
+  Model model;
+  model.name = std::move(name);
+  model.materials = std::move(materials);
+  model.defaultResolution = resolution;
+  return model;
+}
+
 /// A model of one material named "default".
 Model singleMaterial(std::string name, TriangleMesh mesh, int resolution) {
-  Model model{std::move(name), {}, resolution};
+  Model model = meshModel(std::move(name), {}, resolution);
   model.materials.push_back({"default", std::move(mesh)});
   return model;
 }
 
+/// The file name without its volume extensions (.nii.gz, .seg.nrrd, ...).
+std::string volumeStem(const std::string& path) {
+  std::string name = std::filesystem::path(path).filename().string();
+  for (const char* ext : {".gz", ".nii", ".nrrd", ".nhdr", ".seg", ".mha", ".mhd"}) {
+    const std::string e = ext;
+    if (name.size() > e.size()) {
+      std::string tail = name.substr(name.size() - e.size());
+      std::transform(tail.begin(), tail.end(), tail.begin(),
+                     [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+      if (tail == e) name.resize(name.size() - e.size());
+    }
+  }
+  return name.empty() ? "volume" : name;
+}
+
 }  // namespace
+
+std::vector<LabelChoice> parseLabelList(const std::string& text, const std::string& what) {
+  if (trimmed(text) == "all") return {};
+  std::vector<LabelChoice> out;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = text.find(',', start);
+    const std::string_view item = trimmed(std::string_view(text).substr(
+        start, comma == std::string::npos ? std::string::npos : comma - start));
+    const std::size_t eq = item.find('=');
+    if (eq == std::string_view::npos)
+      throw InputError(what + ": '" + detail::oneLine(item) +
+                       "' is not VALUE=NAME (e.g. 255=liver,85=tumor, or all)");
+    const std::string_view number = trimmed(item.substr(0, eq));
+    const std::string_view name = trimmed(item.substr(eq + 1));
+    std::int64_t value = 0;
+    const auto [end, ec] = std::from_chars(number.data(), number.data() + number.size(), value);
+    if (number.empty() || ec != std::errc() || end != number.data() + number.size())
+      throw InputError(what + ": label value '" + detail::oneLine(number) +
+                       "' is not an integer");
+    if (name.empty())
+      throw InputError(what + ": label " + std::to_string(value) + " has an empty name");
+    out.push_back({value, std::string(name)});
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return out;
+}
+
+void applyLabelNames(LabelVolume& volume, const std::string& path) {
+  const std::string what = detail::oneLine(path);
+  std::ifstream in(path);
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec) || !in)
+    throw InputError(what + ": label names file cannot be read");
+  std::string line;
+  std::size_t number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();  // CRLF files (aal.nii.txt)
+    const std::string_view t = trimmed(line);
+    if (t.empty() || t.front() == '#') continue;
+    std::istringstream fields{std::string(t)};
+    std::int64_t value = 0;
+    std::string name;
+    if (!(fields >> value >> name))
+      throw InputError(what + ", line " + std::to_string(number) +
+                       ": expected 'VALUE NAME', got '" + detail::oneLine(t.substr(0, 60)) + "'");
+    for (LabelInfo& l : volume.labels)
+      if (l.value == value) l.name = name;
+  }
+}
 
 std::vector<std::string> builtinModelNames() {
   return {"bunny", "liver", "starfish"};
 }
 
-Model loadModel(const std::string& spec) {
+Model loadModel(const std::string& spec, const ModelLoadParams& params) {
   if (spec == "bunny")
     return singleMaterial("bunny", readMeshFromMemory(detail::kBunnyObj, "obj"),
                           kDefaultResolution);
-  if (spec == "liver") return {"liver", makeLiver(), kLiverResolution};
-  if (spec == "starfish") return {"starfish", makeStarfish(), kStarfishResolution};
+  if (spec == "liver") return meshModel("liver", makeLiver(), kLiverResolution);
+  if (spec == "starfish") return meshModel("starfish", makeStarfish(), kStarfishResolution);
 
   const std::string_view view = spec;
   if (view.starts_with(kBoxPrefix)) {
@@ -93,11 +174,20 @@ Model loadModel(const std::string& spec) {
   }
 
   std::error_code ec;
+  if (!spec.empty() && isVolumePath(spec) && std::filesystem::exists(spec, ec)) {
+    VolumeReadParams rp;
+    rp.maxMemory = params.maxMemory;
+    LabelVolume volume = readLabelVolume(spec, rp);
+    if (!params.labelNames.empty()) applyLabelNames(volume, params.labelNames);
+    Model model = meshModel(volumeStem(spec), {}, kDefaultResolution);
+    model.volume = std::make_shared<const LabelVolume>(std::move(volume));
+    return model;
+  }
   if (!spec.empty() && std::filesystem::exists(spec, ec)) {
     std::string stem = std::filesystem::path(spec).stem().string();
     if (stem.empty()) stem = "default";
     TriangleMesh mesh = readMesh(spec);
-    Model model{stem, {}, kDefaultResolution};
+    Model model = meshModel(stem, {}, kDefaultResolution);
     model.materials.push_back({std::move(stem), std::move(mesh)});
     return model;
   }
@@ -111,7 +201,7 @@ Model loadModel(const std::string& spec) {
 
 Model loadMaterials(const std::vector<std::pair<std::string, std::string>>& nameAndMesh) {
   if (nameAndMesh.empty()) throw InputError("no materials given");
-  Model model{"", {}, 0};
+  Model model = meshModel("", {}, 0);
   for (const auto& [name, spec] : nameAndMesh) {
     if (name.empty()) throw InputError("material for model '" + spec + "' has an empty name");
     // An init-capture, since clang before 16 cannot capture a structured binding.

@@ -7,16 +7,18 @@
 #include <vector>
 
 #include "voxcut/core/TriangleMesh.h"
+#include "voxcut/voxel/Model.h"
 #include "voxcut/voxel/VoxelGrid.h"
 
 namespace voxcut {
 
-/// A model ready for the voxelizer: its materials' surfaces in order (metres) and the grid
-/// resolution (voxels along the longest side) it is meant to be voxelized at by default.
-struct Model {
-  std::string name;
-  std::vector<MaterialMesh> materials;
-  int defaultResolution = 101;
+/// Settings of loadModel for label volumes.
+struct ModelLoadParams {
+  /// Refuse a label volume whose header asks for more memory than this (bytes; 0: no limit).
+  std::size_t maxMemory = 0;
+  /// A names file for a volume's labels (`--label-names`): lines `value name [more]`, as the
+  /// AAL atlas's aal.nii.txt; empty: none.
+  std::string labelNames;
 };
 
 /// Loads the model named by `spec`:
@@ -25,13 +27,28 @@ struct Model {
 ///   - `starfish`: makeStarfish(), material "default", 180;
 ///   - `box:LX,LY,LZ`: makeBox of side lengths LX, LY, LZ metres, material "default", 101;
 ///   - `sphere:R`: makeSphere(R, 5) of radius R metres, material "default", 101;
+///   - a label volume file (VolumeReader.h: .nii, .nii.gz, .nrrd, .nhdr, .seg.nrrd, .mha,
+///     .mhd), read with readLabelVolume (under params.maxMemory; names from
+///     params.labelNames when given), named after the file without its extensions, all its
+///     labels as materials, 101;
 ///   - otherwise an existing mesh file, read with readMesh; model and material are named
 ///     after the file stem, 101.
 /// Built-in names and primitives take precedence over files of the same name.
 /// Throws InputError naming `spec` for bad primitive sizes (not numbers, not lengths in
 /// [1e-6, 1e6] m as core/CoordinateRange.h has them, wrong count), for a spec that is neither a
 /// built-in nor an existing file, and for any failure of readMesh. Thread-safe.
-[[nodiscard]] Model loadModel(const std::string& spec);
+[[nodiscard]] Model loadModel(const std::string& spec, const ModelLoadParams& params = {});
+
+/// Parses a label choice `VALUE=NAME[,VALUE=NAME...]` (the command line's `--labels`), or
+/// `all` (an empty list: every label). Throws InputError naming `what` for an item without
+/// '=', a value that is not an integer, or an empty name.
+[[nodiscard]] std::vector<LabelChoice> parseLabelList(const std::string& text,
+                                                      const std::string& what);
+
+/// Names the labels of `volume` from the names file at `path` (lines `value name [more]`;
+/// blank lines and lines starting with '#' skipped). Values the volume lacks are ignored;
+/// throws InputError naming the file and line for a line that does not parse.
+void applyLabelNames(LabelVolume& volume, const std::string& path);
 
 /// Builds a model from named materials, one per (name, spec) pair in order, as given by the
 /// command line's repeatable `--material NAME=MESH`. Each spec is loaded with loadModel and

@@ -7,6 +7,7 @@
 #include "voxcut/io/SceneReader.h"
 #include "voxcut/io/StrictJson.h"
 #include "voxcut/sim/MemoryEstimate.h"
+#include "voxcut/sim/ModelBuild.h"
 #include "voxcut/voxel/Voxelizer.h"
 
 namespace voxcut {
@@ -39,7 +40,7 @@ void checkSceneMemory(const Scene& scene, const std::vector<Model>& models,
     mp.surfaceLevel = scene.bodies[i].surfaceLevel;
     MemoryEstimate e;
     try {
-      e = estimateModelMemory(models[i].materials, mp);
+      e = estimateModelMemory(models[i], mp);
     } catch (const InputError& err) {
       throw InputError(bodyKey(scene, i) + ": " + err.what());
     }
@@ -72,7 +73,7 @@ std::vector<VoxelGrid> voxelizeSceneBodies(const Scene& scene, const SceneBodies
   std::vector<VoxelGrid> grids;
   for (std::size_t i = 0; i < models.size(); ++i) {
     try {
-      grids.push_back(voxelize(models[i].materials, settings[i]));
+      grids.push_back(voxelizeModel(models[i], settings[i]));
     } catch (const InputError& e) {
       throw InputError(bodyKey(scene, i) + ": " + e.what());
     }

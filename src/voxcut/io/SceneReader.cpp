@@ -2,10 +2,12 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstring>
 #include <fstream>
 #include <initializer_list>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <vector>
 
@@ -13,6 +15,7 @@
 #include "voxcut/core/Error.h"
 #include "voxcut/io/MeshReader.h"
 #include "voxcut/io/StrictJson.h"
+#include "voxcut/io/VolumeReader.h"
 #include "voxcut/sim/WorldChecks.h"
 
 namespace voxcut {
@@ -281,7 +284,8 @@ SceneBody readBody(const Reader& r, const Json& v, const std::string& path) {
   expectObject(r, v, path);
   checkKeys(r, v, path,
             {"model", "resolution", "element_level", "finest_level", "front_level",
-             "surface_level", "materials", "fixed", "offset"});
+             "surface_level", "materials", "fixed", "offset", "labels", "min_island",
+             "label_names"});
   SceneBody b;
   b.model = readModel(r, required(r, v, path, "model"), child(path, "model"));
   if (v.contains("resolution"))
@@ -325,6 +329,47 @@ SceneBody readBody(const Reader& r, const Json& v, const std::string& path) {
       b.fixed.push_back(readFixed(r, fixed[i], element(p, i)));
   }
   if (v.contains("offset")) b.offset = point(r, v["offset"], child(path, "offset"));
+  const bool volume = isVolumePath(b.model);
+  for (const char* key : {"labels", "min_island", "label_names"})
+    if (v.contains(key) && !volume)
+      r.fail(child(path, key), "applies to a label volume (.nii, .nii.gz, .nrrd, .nhdr, "
+                               ".seg.nrrd, .mha, .mhd), not to this model");
+  if (v.contains("labels")) {
+    const std::string p = child(path, "labels");
+    const Json& labels = v["labels"];
+    if (labels.is_string()) {
+      if (labels.get<std::string>() != "all")
+        r.fail(p, "must be \"all\" or an object of label values to names, got " + shown(labels));
+    } else {
+      expectObject(r, labels, p);
+      if (labels.empty()) r.fail(p, "must name at least one label");
+      for (const auto& item : labels.items()) {
+        const std::string ip = child(p, item.key());
+        std::int64_t value = 0;
+        const std::string& k = item.key();
+        const auto [end, ec] = std::from_chars(k.data(), k.data() + k.size(), value);
+        if (k.empty() || ec != std::errc() || end != k.data() + k.size())
+          r.fail(ip, "a label value must be an integer");
+        if (!item.value().is_string() || item.value().get<std::string>().empty())
+          r.fail(ip, "must be a non-empty material name, got " + shown(item.value()));
+        b.labels.push_back({value, item.value().get<std::string>()});
+      }
+    }
+  }
+  if (v.contains("min_island"))
+    b.minIsland = integer(r, v["min_island"], child(path, "min_island"), 0, 1 << 30);
+  if (v.contains("label_names")) {
+    const std::string p = child(path, "label_names");
+    const Json& names = v["label_names"];
+    if (!names.is_string() || names.get<std::string>().empty())
+      r.fail(p, "must be the path of a names file, got " + shown(names));
+    const fs::path resolved =
+        fs::absolute(r.baseDir / fs::path(names.get<std::string>())).lexically_normal();
+    std::error_code ec;
+    if (!fs::is_regular_file(resolved, ec))
+      r.fail(p, "no such file '" + resolved.string() + "'");
+    b.labelNames = resolved.string();
+  }
   return b;
 }
 
@@ -637,12 +682,32 @@ Model loadBodyModel(const Scene& scene, std::size_t bodyIndex) {
   const SceneBody& body = scene.bodies[bodyIndex];
   Model model;
   try {
-    model = loadModel(body.model);
+    ModelLoadParams lp;
+    lp.labelNames = body.labelNames;
+    model = loadModel(body.model, lp);
   } catch (const InputError& e) {
     throw InputError(detail::oneLine(scene.source + ": bodies[" + std::to_string(bodyIndex) +
                                      "].model: " + e.what()));
   }
-  if (!isBuiltinModelSpec(body.model) && model.materials.size() == 1)
+  if (model.isVolume()) {
+    model.labels = body.labels;
+    model.minIsland = body.minIsland;
+    const std::string where =
+        scene.source + ": bodies[" + std::to_string(bodyIndex) + "].labels";
+    try {
+      checkLabelChoices(*model.volume,
+                        model.labels.empty() ? defaultLabelChoices(*model.volume) : model.labels,
+                        where);
+    } catch (const InputError& e) {
+      throw InputError(detail::oneLine(e.what()));
+    }
+    if (body.offset != Vec3d::Zero()) {
+      LabelVolume moved = *model.volume;
+      moved.origin += body.offset;
+      model.volume = std::make_shared<const LabelVolume>(std::move(moved));
+    }
+  }
+  if (!isBuiltinModelSpec(body.model) && !model.isVolume() && model.materials.size() == 1)
     model.materials.front().name = "default";
   for (MaterialMesh& m : model.materials)
     for (Vec3d& p : m.mesh.vertices) {
@@ -654,8 +719,7 @@ Model loadBodyModel(const Scene& scene, std::size_t bodyIndex) {
                             kCoordinateRangeText + " (a vertex at " + shown(p.x()) + ", " +
                             shown(p.y()) + ", " + shown(p.z()) + ")"));
     }
-  std::vector<std::string> names;
-  for (const MaterialMesh& m : model.materials) names.push_back(m.name);
+  const std::vector<std::string> names = model.materialNames();
   try {
     checkMaterialNames(scene, bodyIndex, names);
   } catch (const InputError& e) {

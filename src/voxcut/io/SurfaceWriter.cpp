@@ -64,7 +64,19 @@ void appendVector(std::string& buffer, const char* tag, const Vec3d& v) {
   buffer += '\n';
 }
 
-void writeObj(const SurfaceMesh& mesh, std::ostream& out) {
+// Whether triangles are written grouped by material: names given and one tag per triangle.
+bool grouped(const SurfaceMesh& mesh, const std::vector<std::string>& names) {
+  return !names.empty() && mesh.triangleTags.size() == mesh.triangles.size();
+}
+
+// The material name of tag value m (names[m - 1]), or "material_m" beyond the names.
+std::string materialName(const std::vector<std::string>& names, int m) {
+  return m >= 1 && static_cast<std::size_t>(m) <= names.size()
+             ? names[static_cast<std::size_t>(m - 1)]
+             : "material_" + std::to_string(m);
+}
+
+void writeObj(const SurfaceMesh& mesh, const std::vector<std::string>& names, std::ostream& out) {
   const bool normals = !mesh.normals.empty();
   std::string buffer;
   buffer.reserve(kChunk + 256);
@@ -78,7 +90,7 @@ void writeObj(const SurfaceMesh& mesh, std::ostream& out) {
     appendVector(buffer, "vn", n);
     flushIfFull(buffer, out);
   }
-  for (const auto& t : mesh.triangles) {
+  const auto face = [&](const std::array<int, 3>& t) {
     buffer += 'f';
     for (const int v : t) {
       buffer += ' ';
@@ -90,6 +102,20 @@ void writeObj(const SurfaceMesh& mesh, std::ostream& out) {
     }
     buffer += '\n';
     flushIfFull(buffer, out);
+  };
+  if (!grouped(mesh, names)) {
+    for (const auto& t : mesh.triangles) face(t);
+  } else {
+    // One group per material, each with its triangles in the mesh's order.
+    for (int m = 0; m < 256; ++m) {
+      bool any = false;
+      for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+        if (mesh.triangleTags[t].material != m) continue;
+        if (!any) buffer += "g " + materialName(names, m) + "\n";
+        any = true;
+        face(mesh.triangles[t]);
+      }
+    }
   }
   flushAll(buffer, out);
 }
@@ -103,16 +129,22 @@ void appendLittleEndian(std::string& buffer, T value) {
   buffer.append(bytes, sizeof(T));
 }
 
-void writePly(const SurfaceMesh& mesh, std::ostream& out) {
+void writePly(const SurfaceMesh& mesh, const std::vector<std::string>& names, std::ostream& out) {
   const bool normals = !mesh.normals.empty();
+  const bool materials = grouped(mesh, names);
   std::string buffer;
   buffer.reserve(kChunk + 256);
   buffer += "ply\nformat binary_little_endian 1.0\ncomment voxcut surface\n";
+  if (materials)
+    for (std::size_t m = 0; m < names.size(); ++m)
+      buffer += "comment material " + std::to_string(m + 1) + " " + names[m] + "\n";
   buffer += "element vertex " + std::to_string(mesh.positions.size()) + "\n";
   buffer += "property float x\nproperty float y\nproperty float z\n";
   if (normals) buffer += "property float nx\nproperty float ny\nproperty float nz\n";
   buffer += "element face " + std::to_string(mesh.triangles.size()) + "\n";
-  buffer += "property list uchar int vertex_indices\nend_header\n";
+  buffer += "property list uchar int vertex_indices\n";
+  if (materials) buffer += "property uchar material\n";
+  buffer += "end_header\n";
   for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
     for (int k = 0; k < 3; ++k)
       appendLittleEndian(buffer, static_cast<float>(mesh.positions[i][k]));
@@ -121,15 +153,17 @@ void writePly(const SurfaceMesh& mesh, std::ostream& out) {
         appendLittleEndian(buffer, static_cast<float>(mesh.normals[i][k]));
     flushIfFull(buffer, out);
   }
-  for (const auto& t : mesh.triangles) {
+  for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
     appendLittleEndian(buffer, std::uint8_t{3});
-    for (const int v : t) appendLittleEndian(buffer, static_cast<std::int32_t>(v));
+    for (const int v : mesh.triangles[i]) appendLittleEndian(buffer, static_cast<std::int32_t>(v));
+    if (materials) appendLittleEndian(buffer, mesh.triangleTags[i].material);
     flushIfFull(buffer, out);
   }
   flushAll(buffer, out);
 }
 
-using FormatWriter = void (*)(const SurfaceMesh&, std::ostream&);
+using FormatWriter = void (*)(const SurfaceMesh&, const std::vector<std::string>&,
+                              std::ostream&);
 
 /// The writer for `path`'s extension, or nullptr.
 FormatWriter writerFor(const std::string& path) {
@@ -161,7 +195,32 @@ void checkSurfacePath(const std::string& path) {
                      std::generic_category().message(errno) + ")");
 }
 
-void writeSurface(const SurfaceMesh& mesh, const std::string& path) {
+SurfaceMesh materialPart(const SurfaceMesh& mesh, std::uint8_t material) {
+  VOXCUT_ASSERT(mesh.triangleTags.size() == mesh.triangles.size(),
+                "materialPart needs one tag per triangle");
+  SurfaceMesh part;
+  std::vector<int> index(mesh.positions.size(), -1);
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    if (mesh.triangleTags[t].material != material) continue;
+    std::array<int, 3> tri{};
+    for (int k = 0; k < 3; ++k) {
+      const auto v = static_cast<std::size_t>(mesh.triangles[t][static_cast<std::size_t>(k)]);
+      if (index[v] < 0) {
+        index[v] = static_cast<int>(part.positions.size());
+        part.positions.push_back(mesh.positions[v]);
+        if (!mesh.normals.empty()) part.normals.push_back(mesh.normals[v]);
+        if (!mesh.vertexVoxel.empty()) part.vertexVoxel.push_back(mesh.vertexVoxel[v]);
+      }
+      tri[static_cast<std::size_t>(k)] = index[v];
+    }
+    part.triangles.push_back(tri);
+    part.triangleTags.push_back(mesh.triangleTags[t]);
+  }
+  return part;
+}
+
+void writeSurface(const SurfaceMesh& mesh, const std::string& path,
+                  const std::vector<std::string>& materialNames) {
   namespace fs = std::filesystem;
   VOXCUT_ASSERT(mesh.normals.empty() || mesh.normals.size() == mesh.positions.size(),
                 "a surface needs one normal per position, or none");
@@ -183,7 +242,7 @@ void writeSurface(const SurfaceMesh& mesh, const std::string& path) {
     throw InputError(what + "cannot create '" + temporary + "' (" +
                      std::generic_category().message(errno) + ")");
   try {
-    write(mesh, out);
+    write(mesh, materialNames, out);
     out.close();
     if (!out) throw InputError(what + "writing '" + temporary + "' failed (disk full?)");
     fs::rename(temporary, path, ec);

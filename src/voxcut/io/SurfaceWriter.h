@@ -2,7 +2,9 @@
 /// @file SurfaceWriter.h
 /// Writes a contoured surface to a mesh file (OBJ or binary PLY), never half-written.
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include "voxcut/surface/SurfaceMesh.h"
 
@@ -23,7 +25,17 @@ namespace voxcut {
 /// Throws InputError (one line naming `path`) for an unknown extension, a missing directory,
 /// a `path` that is a directory, and any failure to create, write or rename the file.
 /// Thread-safe for distinct paths.
-void writeSurface(const SurfaceMesh& mesh, const std::string& path);
+///
+/// With `materialNames` (the names of materials 1..N) and one tag per triangle
+/// (mesh.triangleTags), the materials are kept: OBJ triangles come grouped by material
+/// (`g NAME` before each group, each group's triangles in the mesh's order); PLY faces get a
+/// `uchar material` property and the header a `comment material K NAME` line per material.
+void writeSurface(const SurfaceMesh& mesh, const std::string& path,
+                  const std::vector<std::string>& materialNames = {});
+
+/// The triangles of `mesh` that show `material` (by mesh.triangleTags, which must hold one tag
+/// per triangle), with the vertices they use, in order. O(V + T).
+[[nodiscard]] SurfaceMesh materialPart(const SurfaceMesh& mesh, std::uint8_t material);
 
 /// Checks, before any work, what writeSurface checks about `path` without writing anything:
 /// a known extension, an existing directory this process may create files in, and `path`

@@ -121,6 +121,7 @@ BodyInfo World::bodyInfo(BodyId body) const {
   info.surfaceTriangles = b.surface.triangleCount();
   info.voxelSize = b.cut.grid.voxelSize();
   info.materialNames = b.cut.grid.materialNames();
+  info.materialColours = b.cut.grid.materialColours();
   info.solver = b.solverChoice;
   info.selfCandidateQueries = b.selfCandidates.queries;
   return info;

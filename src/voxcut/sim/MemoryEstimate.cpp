@@ -77,12 +77,16 @@ double readNumber(const char* path) {
   return x;
 }
 
+// The estimate from what a model's grid depends on: the bounds of the model, its volume and
+// the sum over its boundary of |n_x| + |n_y| + |n_z| dA (the area that crosses grid links).
+MemoryEstimate estimateFromExtent(const std::array<Vec3d, 2>& bounds, double volume,
+                                  double crossingArea, const MemoryEstimateParams& params);
+
 }  // namespace
 
 MemoryEstimate estimateModelMemory(const std::vector<MaterialMesh>& materials,
                                    const MemoryEstimateParams& params) {
-  MemoryEstimate e;
-  if (!usable(materials)) return e;
+  if (!usable(materials)) return {};
   // The bounds of the faces the voxelizer would take (TriangleMesh::bounds trusts every index;
   // a face with an index out of range is left to the voxelizer's own check).
   std::array<Vec3d, 2> bounds{Vec3d::Constant(std::numeric_limits<double>::infinity()),
@@ -97,14 +101,60 @@ MemoryEstimate estimateModelMemory(const std::vector<MaterialMesh>& materials,
       }
     }
   }
-  if (!(bounds[0].array() <= bounds[1].array()).all()) return e;
+  if (!(bounds[0].array() <= bounds[1].array()).all()) return {};
+  double crossingArea = 0.0, volume = 0.0;
+  for (const MaterialMesh& m : materials) volume += surfaceAndVolume(m.mesh, crossingArea);
+  return estimateFromExtent(bounds, volume, crossingArea, params);
+}
+
+MemoryEstimate estimateModelMemory(const LabelVolume& volume,
+                                   const std::vector<LabelChoice>& labels,
+                                   const MemoryEstimateParams& params) {
+  const std::vector<LabelChoice> chosen = labels.empty() ? defaultLabelChoices(volume) : labels;
+  std::vector<std::uint8_t> isChosen(volume.labels.size() + 1, 0);
+  for (const LabelChoice& c : chosen)
+    for (std::size_t l = 0; l < volume.labels.size(); ++l)
+      if (volume.labels[l].value == c.value) isChosen[l + 1] = 1;
+  // Chosen voxels, and the faces between chosen and other voxels along each axis.
+  std::size_t voxels = 0;
+  std::array<std::size_t, 3> faces{};
+  const Index3 d = volume.dims;
+  for (int k = 0; k < d.z; ++k)
+    for (int j = 0; j < d.y; ++j)
+      for (int i = 0; i < d.x; ++i) {
+        const std::size_t v = volume.linear(i, j, k);
+        const bool in = isChosen[volume.index[v]] != 0;
+        voxels += in;
+        const Index3 c{i, j, k};
+        for (int a = 0; a < 3; ++a) {
+          const bool last = c[a] + 1 >= d[a];
+          const std::size_t next =
+              a == 0 ? v + 1 : (a == 1 ? v + static_cast<std::size_t>(d.x)
+                                       : v + static_cast<std::size_t>(d.x) * d.y);
+          if (last ? in : in != (isChosen[volume.index[next]] != 0)) ++faces[a];
+          if (c[a] == 0 && in) ++faces[a];
+        }
+      }
+  if (voxels == 0) return {};
+  const Vec3d spacing = volume.spacing();
+  double crossingArea = 0.0;
+  for (int a = 0; a < 3; ++a)
+    crossingArea += static_cast<double>(faces[a]) * spacing[(a + 1) % 3] * spacing[(a + 2) % 3];
+  return estimateFromExtent(labelBounds(volume, chosen),
+                            static_cast<double>(voxels) * std::abs(volume.axes.determinant()),
+                            crossingArea, params);
+}
+
+namespace {
+
+MemoryEstimate estimateFromExtent(const std::array<Vec3d, 2>& bounds, double volume,
+                                  double crossingArea, const MemoryEstimateParams& params) {
+  MemoryEstimate e;
   e.frame = gridFrameFor(bounds, params.resolution, params.maxVoxels);
   const Index3 d = e.frame.dims;
   const double h = e.frame.voxelSize;
   e.resolution = std::max({d.x, d.y, d.z});
 
-  double crossingArea = 0.0, volume = 0.0;
-  for (const MaterialMesh& m : materials) volume += surfaceAndVolume(m.mesh, crossingArea);
   const double n = static_cast<double>(d.x) * d.y * d.z;
   const double s = crossingArea / (h * h);
   const double interior =
@@ -151,6 +201,8 @@ MemoryEstimate estimateModelMemory(const std::vector<MaterialMesh>& materials,
   e.bytes = clampToSize(std::max(params.copies, 1) * one);
   return e;
 }
+
+}  // namespace
 
 std::size_t availableMemory() {
   double available = -1;

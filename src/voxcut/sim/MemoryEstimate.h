@@ -55,6 +55,8 @@
 
 #include "voxcut/core/TriangleMesh.h"
 #include "voxcut/voxel/GridFrame.h"
+#include "voxcut/voxel/LabelResample.h"
+#include "voxcut/voxel/LabelVolume.h"
 #include "voxcut/voxel/VoxelGrid.h"
 
 namespace voxcut {
@@ -93,6 +95,13 @@ struct MemoryEstimate {
 /// skipped. Throws InputError when the grid frame cannot be made (gridFrameFor: a resolution
 /// below 3, a grid over maxVoxels).
 [[nodiscard]] MemoryEstimate estimateModelMemory(const std::vector<MaterialMesh>& materials,
+                                                 const MemoryEstimateParams& params);
+
+/// The same for a label volume resampled with `labels` chosen (empty: all): bounds, volume and
+/// boundary from the chosen voxels. 0 bytes when no voxel holds a chosen label. Linear in the
+/// volume's voxels.
+[[nodiscard]] MemoryEstimate estimateModelMemory(const LabelVolume& volume,
+                                                 const std::vector<LabelChoice>& labels,
                                                  const MemoryEstimateParams& params);
 
 /// Memory the program may still take (bytes): /proc/meminfo's MemAvailable, lowered to what

@@ -60,20 +60,26 @@ ModelStats countModel(const VoxelGrid& grid, bool threaded) {
   return s;
 }
 
-ModelBuild buildModel(const std::vector<MaterialMesh>& materials, const ModelBuildParams& params) {
+MemoryEstimate estimateModelMemory(const Model& model, const MemoryEstimateParams& params) {
+  return model.volume ? estimateModelMemory(*model.volume, model.labels, params)
+                      : estimateModelMemory(model.materials, params);
+}
+
+ModelBuild buildModel(const Model& model, const ModelBuildParams& params) {
   ModelBuild out;
+  out.volume = model.volume;
   MemoryEstimateParams mp;
   mp.resolution = params.voxelize.resolution;
   mp.maxVoxels = params.voxelize.maxVoxels;
   mp.octrees = params.octrees;
   mp.elementLevel = params.deformation.startLevel;
   mp.surfaceLevel = params.deformation.surfaceLevel;
-  out.memory = estimateModelMemory(materials, mp);
+  out.memory = estimateModelMemory(model, mp);
   checkMemory(out.memory, params.maxMemory, "model");
   Timer timer;
   VoxelizeParams vp = params.voxelize;
   vp.threaded = params.threaded;
-  out.grid = voxelize(materials, vp, &out.voxelizeReport);
+  out.grid = voxelizeModel(model, vp, &out.voxelizeReport, &out.resampleReport);
   out.timings.emplace_back("voxelize", timer.ms());
 
   timer.restart();
@@ -96,7 +102,8 @@ ModelBuild buildModel(const std::vector<MaterialMesh>& materials, const ModelBui
 
   timer.restart();
   OctreeParams op = params.octree;
-  if (op.maxInternalLevel.empty()) op = OctreeParams::uniform(materials.size(), 4, 0);
+  if (op.maxInternalLevel.empty())
+    op = OctreeParams::uniform(out.grid.materialNames().size(), 4, 0);
   const VoxelOctree octree = buildVoxelOctree(out.grid, op, params.threaded);
   out.stats.octreeCubes = octree.cubesPerLevel();
   out.stats.activeVoxels = octree.activeVoxels.size();

@@ -1,10 +1,11 @@
 #pragma once
 /// @file ModelBuild.h
-/// The path from material meshes to a linked voxel model and its surface: voxelize, apply
+/// The path from material meshes or a label volume to a linked voxel model and its surface: voxelize, apply
 /// planar cuts, dual-contour, count pieces, with the time of each stage. What `voxcut info`
 /// and `voxcut surface` run; a library function so that every front end gets the same thing.
 
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -13,6 +14,7 @@
 #include "voxcut/sim/MemoryEstimate.h"
 #include "voxcut/surface/SurfaceMesh.h"
 #include "voxcut/topology/DeformationOctree.h"
+#include "voxcut/voxel/Model.h"
 #include "voxcut/voxel/PlaneCut.h"
 #include "voxcut/voxel/Voxelizer.h"
 
@@ -54,8 +56,10 @@ struct ModelBuild {
   VoxelGrid grid;
   SurfaceMesh surface;
   ModelStats stats;
-  VoxelizeReport voxelizeReport;
-  StageTimings timings;   ///< voxelize, cut, contour, pieces, topology, octrees (ms)
+  VoxelizeReport voxelizeReport;        ///< for meshes
+  LabelResampleReport resampleReport;   ///< for a label volume
+  std::shared_ptr<const LabelVolume> volume;  ///< the label volume built from, if any
+  StageTimings timings;   ///< voxelize (or resample), cut, contour, pieces, topology, octrees (ms)
   MemoryEstimate memory;  ///< the estimate made before building
 };
 
@@ -65,7 +69,10 @@ struct ModelBuild {
 /// Runs the whole path. First estimates the memory it will take (estimateModelMemory) and
 /// refuses with InputError when that exceeds params.maxMemory. Throws InputError on bad input
 /// (see voxelize, cutWithPlane) and Interrupted when the progress callback asks to stop.
-[[nodiscard]] ModelBuild buildModel(const std::vector<MaterialMesh>& materials,
-                                    const ModelBuildParams& params);
+[[nodiscard]] ModelBuild buildModel(const Model& model, const ModelBuildParams& params);
+
+/// estimateModelMemory of the model's meshes or of its label volume with its chosen labels.
+[[nodiscard]] MemoryEstimate estimateModelMemory(const Model& model,
+                                                 const MemoryEstimateParams& params);
 
 }  // namespace voxcut

@@ -15,13 +15,15 @@
 #include "voxcut/collision/Obstacle.h"
 #include "voxcut/core/Types.h"
 #include "voxcut/sim/WorldTypes.h"
+#include "voxcut/voxel/LabelResample.h"
 
 namespace voxcut {
 
 /// One deformable body.
 struct SceneBody {
   /// A built-in model spec as io/ModelSource.h understands it (bunny, liver, starfish,
-  /// box:LX,LY,LZ, sphere:R), or the absolute, lexically normalised path of a mesh file.
+  /// box:LX,LY,LZ, sphere:R), or the absolute, lexically normalised path of a mesh file or a
+  /// label volume.
   std::string model;
   std::optional<int> resolution;  ///< voxels along the longest side; empty: the model's own
   int elementLevel = 3;           ///< starting level of the deformation octree, 0..6
@@ -39,6 +41,13 @@ struct SceneBody {
   std::vector<SceneMaterial> materials;
   std::vector<FixedBox> fixed;   ///< world frame, metres
   Vec3d offset = Vec3d::Zero();  ///< translation of the model into the world, metres
+  /// A label volume's labels made materials ("labels": {"255": "liver"}), in the order
+  /// written; empty: every label ("labels": "all", the default).
+  std::vector<LabelChoice> labels;
+  int minIsland = 8;  ///< a label volume's island threshold ("min_island"), voxels
+  /// A label volume's names file ("label_names"; lines `value name`): the absolute, lexically
+  /// normalised path; empty: none.
+  std::string labelNames;
 };
 
 /// A key-framed tool. Keys' times increase strictly, except that a jump key may share the

@@ -11,6 +11,7 @@
 #include <compare>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -203,6 +204,9 @@ struct BodyInfo {
   std::size_t surfaceTriangles = 0;
   double voxelSize = 0.0;                  ///< m
   std::vector<std::string> materialNames;  ///< of materials 1..N (element 0 is material 1)
+  /// Display colours (RGB in [0, 1]) of materials 1..N that the model gave (a label volume's
+  /// segment colours); shorter than materialNames, or without a value, where it gave none.
+  std::vector<std::optional<std::array<float, 3>>> materialColours;
   SolverChoice solver = SolverChoice::Cholesky;  ///< what its step uses (never Automatic)
   /// Times self collision's broad phase was queried afresh for the body
   /// (ContactSettings::keepSelfCandidates).

@@ -607,8 +607,13 @@ SurfaceMesh ContouredSurface::mesh() const {
     m.vertexVoxel.push_back(voxel_[v]);
   }
   m.triangles.reserve(triangleCount_);
-  for (const auto& t : triangles_)
-    if (t[0] >= 0) m.triangles.push_back({index[t[0]], index[t[1]], index[t[2]]});
+  m.triangleTags.reserve(triangleCount_);
+  for (std::size_t i = 0; i < triangles_.size(); ++i) {
+    const auto& t = triangles_[i];
+    if (t[0] < 0) continue;
+    m.triangles.push_back({index[t[0]], index[t[1]], index[t[2]]});
+    m.triangleTags.push_back(tags_[i]);
+  }
   m.normals = vertexNormals(m.positions, m.triangles);
   return m;
 }

@@ -193,7 +193,9 @@ SurfaceMesh dualContour(const VoxelGrid& grid, const DualContourParams& params) 
 
   // Pass 2: quads of disconnected links, one z slice of voxels per task.
   std::vector<std::vector<std::array<int, 3>>> tris(static_cast<std::size_t>(d.z));
+  std::vector<std::vector<TriangleTag>> tags(static_cast<std::size_t>(d.z));
   std::vector<std::vector<LinkSheet>> polygons(static_cast<std::size_t>(d.z));
+  std::vector<std::vector<TriangleTag>> polygonTags(static_cast<std::size_t>(d.z));
   parallelFor(
       0, static_cast<std::size_t>(d.z), 1,
       [&](std::size_t z0, std::size_t z1) {
@@ -243,8 +245,18 @@ SurfaceMesh dualContour(const VoxelGrid& grid, const DualContourParams& params) 
                 triangulateLink(ring, mesh.positions, sheets);
                 for (int side = 0; side < 2; ++side) {
                   const LinkSheet& sh = sheets[side];
-                  if (sh.polygonSize > 0) polygons[z].push_back(sh);
-                  for (int t = 0; t < sh.triangleCount; ++t) tris[z].push_back(sh.triangles[t]);
+                  // A sheet shows the material on its side; a link with material on both
+                  // sides is a cut.
+                  const TriangleTag tag{grid.material(side ? nb : v),
+                                        static_cast<std::uint8_t>(occ[0] && occ[1])};
+                  if (sh.polygonSize > 0) {
+                    polygons[z].push_back(sh);
+                    polygonTags[z].push_back(tag);
+                  }
+                  for (int t = 0; t < sh.triangleCount; ++t) {
+                    tris[z].push_back(sh.triangles[t]);
+                    tags[z].push_back(tag);
+                  }
                 }
               }
             }
@@ -252,15 +264,19 @@ SurfaceMesh dualContour(const VoxelGrid& grid, const DualContourParams& params) 
       },
       params.threaded);
   for (const auto& t : tris) mesh.triangles.insert(mesh.triangles.end(), t.begin(), t.end());
-  for (const auto& slice : polygons)
-    for (const LinkSheet& poly : slice) {
+  for (const auto& t : tags) mesh.triangleTags.insert(mesh.triangleTags.end(), t.begin(), t.end());
+  for (std::size_t z = 0; z < polygons.size(); ++z)
+    for (std::size_t p = 0; p < polygons[z].size(); ++p) {
+      const LinkSheet& poly = polygons[z][p];
       // Rare: a polygon with split edges, fanned around its own centre.
       const auto centre = static_cast<int>(mesh.positions.size());
       mesh.positions.push_back(polygonCentre(poly, mesh.positions));
       mesh.vertexVoxel.push_back(mesh.vertexVoxel[poly.polygon[0]]);
-      for (int i = 0; i < poly.polygonSize; ++i)
+      for (int i = 0; i < poly.polygonSize; ++i) {
         mesh.triangles.push_back(
             {poly.polygon[i], poly.polygon[(i + 1) % poly.polygonSize], centre});
+        mesh.triangleTags.push_back(polygonTags[z][p]);
+      }
     }
 
   mesh.normals = vertexNormals(mesh.positions, mesh.triangles);

@@ -9,8 +9,10 @@
 /// voxel v's centre is at origin + voxelSize * (x, y, z) in the rest frame (metres).
 /// Memory: 2 bytes per voxel plus 24 bytes per Hermite entry (about 0.7 of the load factor).
 
+#include <array>
 #include <atomic>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -112,6 +114,14 @@ class VoxelGrid {
   /// Names of materials 1..N (index 0 is material 1).
   [[nodiscard]] const std::vector<std::string>& materialNames() const { return materialNames_; }
   void setMaterialNames(std::vector<std::string> names) { materialNames_ = std::move(names); }
+  /// Display colours of materials 1..N (RGB in [0, 1]) where the model gave some (a label
+  /// volume's segment colours); empty, or an entry without a value, where it did not.
+  [[nodiscard]] const std::vector<std::optional<std::array<float, 3>>>& materialColours() const {
+    return materialColours_;
+  }
+  void setMaterialColours(std::vector<std::optional<std::array<float, 3>>> colours) {
+    materialColours_ = std::move(colours);
+  }
 
   /// Bytes held by the grid (voxels, links, Hermite data).
   [[nodiscard]] std::size_t bytes() const {
@@ -130,6 +140,7 @@ class VoxelGrid {
   std::vector<std::uint8_t> links_;
   HermiteMap hermite_;
   std::vector<std::string> materialNames_;
+  std::vector<std::optional<std::array<float, 3>>> materialColours_;
 };
 
 }  // namespace voxcut
