@@ -12,18 +12,19 @@ if ! [[ $seconds =~ ^[0-9]+$ ]] || ((seconds < 1)); then
   echo "usage: scripts/fuzz.sh [SECONDS >= 1]" >&2
   exit 2
 fi
-read -r -a fuzzers <<<"${FUZZERS:-fuzz_mesh_obj fuzz_mesh_stl fuzz_mesh_ply fuzz_mesh_off fuzz_scene fuzz_run fuzz_volume_nifti}"
+read -r -a fuzzers <<<"${FUZZERS:-fuzz_mesh_obj fuzz_mesh_stl fuzz_mesh_ply fuzz_mesh_off fuzz_scene fuzz_run fuzz_volume_nifti fuzz_volume_nrrd fuzz_volume_mha}"
 
 # Longest input per harness (bytes): room for a few hundred triangles or a scene with several
 # bodies and tools, while each run stays far below the 10 s timeout.
 declare -A max_len=([fuzz_mesh_obj]=16384 [fuzz_mesh_stl]=16384 [fuzz_mesh_ply]=16384
                     [fuzz_mesh_off]=16384 [fuzz_scene]=16384 [fuzz_run]=4096
-                    [fuzz_volume_nifti]=4096)
+                    [fuzz_volume_nifti]=4096 [fuzz_volume_nrrd]=4096 [fuzz_volume_mha]=4096)
 # The dictionary of each harness; the run harness reads scenes too.
 declare -A dict=([fuzz_mesh_obj]=fuzz_mesh_obj [fuzz_mesh_stl]=fuzz_mesh_stl
                  [fuzz_mesh_ply]=fuzz_mesh_ply [fuzz_mesh_off]=fuzz_mesh_off
                  [fuzz_scene]=fuzz_scene [fuzz_run]=fuzz_scene
-                 [fuzz_volume_nifti]=fuzz_volume_nifti)
+                 [fuzz_volume_nifti]=fuzz_volume_nifti [fuzz_volume_nrrd]=fuzz_volume_nrrd
+                 [fuzz_volume_mha]=fuzz_volume_mha)
 
 cmake --preset fuzz >/dev/null
 cmake --build --preset fuzz
