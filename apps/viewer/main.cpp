@@ -103,6 +103,10 @@ int runHeadless(const Options& o) {
   const int frames = o.frames >= 0 ? o.frames : 0;
   if (!o.screenshots.empty()) std::filesystem::create_directories(o.screenshots);
   Camera camera = startCamera(o);
+  if (o.view.size() != 2 && session.scene().view) {  // the scene's own view, unless --view
+    camera.yaw = (*session.scene().view)[0] * std::numbers::pi / 180.0;
+    camera.pitch = (*session.scene().view)[1] * std::numbers::pi / 180.0;
+  }
   camera.upAgainst(session.scene().gravity);
   camera.fit(session.startBounds());
   const DrawOptions options = drawOptions(o);
@@ -476,7 +480,8 @@ int main(int argc, char** argv) {
                  "headless: write the run as a scene that voxcut run replays");
   app.add_option("--fit", o.fit, "headless camera: 'now' fits every picture, 'start' the start")
       ->check(CLI::IsMember({"now", "start"}));
-  app.add_option("--view", o.view, "camera angles YAW PITCH in degrees (default 34 20)")
+  app.add_option("--view", o.view,
+                 "camera angles YAW PITCH in degrees (default: the scene's \"view\", else 34 20)")
       ->expected(2)
       ->check(CLI::Range(-360.0, 360.0));
   app.add_flag("--no-octree", o.noOctree, "start with the voxel octree off (the baseline)");

@@ -6,6 +6,7 @@
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -146,10 +147,16 @@ class Pictures {
     renderer_.emplace();
   }
 
-  void write(World& sim, const std::vector<Obstacle>& obstacles) {
+  void write(World& sim, const Scene& scene) {
     if (!folder_.used()) return;
-    const view::DrawData data = view::buildDrawData(sim, obstacles, {});
+    const view::DrawData data = view::buildDrawData(sim, scene.obstacles, {});
     if (!fitted_) {
+      // As the viewer starts: up against gravity, from the scene's view when it has one.
+      camera_.upAgainst(scene.gravity);
+      if (scene.view) {
+        camera_.yaw = (*scene.view)[0] * std::numbers::pi / 180.0;
+        camera_.pitch = (*scene.view)[1] * std::numbers::pi / 180.0;
+      }
       camera_.fit(data.bodyBounds);
       fitted_ = true;
     }
@@ -367,7 +374,7 @@ int runRun(const RunOptions& opt) {
   }
   if (!interruptRequested()) {
     exporter.write(sim);
-    pictures.write(sim, scene.obstacles);
+    pictures.write(sim, scene);
   }
 
   Summary sum;
@@ -377,7 +384,7 @@ int runRun(const RunOptions& opt) {
     if (csv) csv->writeLine(csvRow(r));
     if ((f + 1) % opt.every == 0) {
       exporter.write(sim);
-      pictures.write(sim, scene.obstacles);
+      pictures.write(sim, scene);
     }
     if (terminal) {
       std::fprintf(stderr, "\rframe %d/%d  %.1f ms  %zu links cut", f + 1, frames, r.totalMs,

@@ -748,3 +748,24 @@ TEST(SceneReader, BuiltinNamesAreNotPaths) {
 
 }  // namespace
 }  // namespace voxcut
+
+namespace voxcut {
+namespace {
+
+using test::expectError;
+using test::withBody;
+using test::withTop;
+
+TEST(SceneReader, ViewAndLabelKeys) {
+  const Scene s = parseScene(withTop(R"("view": [90, -35])"), "scene.json", ".");
+  ASSERT_TRUE(s.view.has_value());
+  EXPECT_EQ((*s.view)[1], -35.0);
+  expectError(withTop(R"("view": [90])"), "view: must be [yaw, pitch]");
+  expectError(withTop(R"("view": [0, 90])"), "view[1]: must be in (-90, 90)");
+  // Label keys belong to label volumes.
+  expectError(withBody(R"("labels": "all")"), "bodies[0].labels: applies to a label volume");
+  expectError(withBody(R"("min_island": 3)"), "bodies[0].min_island: applies to a label volume");
+}
+
+}  // namespace
+}  // namespace voxcut

@@ -578,7 +578,7 @@ Scene readTop(const Reader& r, const Json& v) {
   expectObject(r, v, "");
   checkKeys(r, v, "",
             {"description", "time_step", "gravity", "solver", "frames", "bodies", "tools",
-             "obstacles", "contact"});
+             "obstacles", "contact", "view"});
   Scene scene;
   scene.source = r.source;
   if (v.contains("description") && !v["description"].is_string())
@@ -594,6 +594,18 @@ Scene readTop(const Reader& r, const Json& v) {
   }
   if (v.contains("solver")) scene.solver = readSolver(r, v["solver"], "solver");
   if (v.contains("frames")) scene.frames = integer(r, v["frames"], "frames", 1, 100000000);
+  if (v.contains("view")) {
+    const Json& view = v["view"];
+    if (!view.is_array() || view.size() != 2)
+      r.fail("view", "must be [yaw, pitch] in degrees, got " + shown(view));
+    const double yaw = number(r, view[0], element("view", 0));
+    const double pitch = number(r, view[1], element("view", 1));
+    if (!(std::abs(yaw) <= 360.0))
+      r.fail(element("view", 0), "must be in [-360, 360] degrees, got " + shown(view[0]));
+    if (!(std::abs(pitch) < 90.0))
+      r.fail(element("view", 1), "must be in (-90, 90) degrees, got " + shown(view[1]));
+    scene.view = std::array<double, 2>{yaw, pitch};
+  }
   const Json& bodies = required(r, v, "", "bodies");
   if (!bodies.is_array() || bodies.empty())
     r.fail("bodies", std::string("must be a non-empty list of bodies, got ") + shown(bodies));

@@ -7,6 +7,7 @@
 ///
 /// Thread-safety: plain values; the free functions are pure and may be called concurrently.
 
+#include <array>
 #include <cstddef>
 #include <optional>
 #include <string>
@@ -67,6 +68,9 @@ struct Scene {
   Vec3d gravity{0.0, -9.81, 0.0};  ///< m/s^2
   SolverSettings solver;
   std::optional<int> frames;      ///< default frame count of `voxcut run`; empty: not given
+  /// The direction pictures of the scene look from, yaw and pitch in degrees as the viewer's
+  /// --view takes them ("view"); empty: the viewer's default.
+  std::optional<std::array<double, 2>> view;
   std::vector<SceneBody> bodies;  ///< at least one
   std::vector<SceneTool> tools;
   std::vector<Obstacle> obstacles;  ///< static, world frame
