@@ -74,7 +74,9 @@ class LabelField {
     // Weights per material, in a small list (few materials meet at one point).
     std::array<std::pair<std::uint8_t, double>, 16> acc;
     std::size_t used = 0;
-    std::array<double, 256> overflow{};
+    // More materials than the list holds: all of them by material (filled only then; zeroing
+    // it for every call would cost more than the sums).
+    std::array<double, 256> overflow;
     bool spilled = false;
     forKernel(u, false, [&](std::uint8_t m, double w, const Vec3d&) {
       for (std::size_t i = 0; i < used; ++i)
@@ -86,6 +88,7 @@ class LabelField {
         acc[used++] = {m, w};
         return;
       }
+      if (!spilled) overflow.fill(0.0);
       spilled = true;
       overflow[m] += w;
     });
