@@ -1,11 +1,12 @@
 /// @file fuzz_volume_nrrd.cpp
-/// libFuzzer harness of the NRRD (.nrrd, .nhdr, .seg.nrrd) label-volume reader: the input is a header with or without
-/// attached data, read with volumeio::readNrrd; detached data files resolve against a folder
-/// holding data.raw, data.raw.gz and data.zraw (VolumeFuzz.h), and the memory limit is
-/// 256 MiB, so a header that claims a huge volume must be refused before anything is
-/// allocated. A volume that reads must keep LabelVolume's invariants. InputError is the
-/// expected answer to bad input; any other exception, a crash, a sanitizer report, a leak, a
-/// timeout or running out of memory is a finding.
+/// libFuzzer harness of the NRRD (.nrrd, .nhdr, .seg.nrrd) label-volume reader: the input is
+/// a header with or without attached data, read with volumeio::readNrrd. Detached data
+/// files resolve against a folder holding data.raw, data.raw.gz and data.zraw
+/// (VolumeFuzz.h); the memory limit is 256 MiB, so a header that claims a huge volume
+/// must be refused before anything is allocated. A volume that reads must keep
+/// LabelVolume's invariants. InputError is the expected answer to bad input; any other
+/// exception, a crash, a sanitizer report, a leak, a timeout or running out of memory
+/// is a finding.
 
 #include <cstddef>
 #include <cstdint>

@@ -26,9 +26,8 @@ constexpr double kTol = 1e-9;  // metres
 constexpr std::size_t kMaxMemory = std::size_t{256} << 20;
 
 // Placement most tests write (LPS mm): spacing 0.5 0.75 1.25, Offset (-10, 20, 30).
-const std::vector<std::string> kPlacement = {"TransformMatrix = 1 0 0 0 1 0 0 0 1",
-                                             "Offset = -10 20 30",
-                                             "ElementSpacing = 0.5 0.75 1.25"};
+const std::vector<std::string> kPlacement = {
+    "TransformMatrix = 1 0 0 0 1 0 0 0 1", "Offset = -10 20 30", "ElementSpacing = 0.5 0.75 1.25"};
 // The sphere's centre with kPlacement: LPS (-6, 26, 38.75) mm as RAS metres.
 const Vec3d kCentre(0.006, -0.026, 0.03875);
 
@@ -50,7 +49,8 @@ void expectRefused(const std::string& path, const std::vector<std::string>& part
   } catch (const InputError& e) {
     const std::string message = e.what();
     EXPECT_EQ(message.rfind(path, 0), 0u) << message;
-    for (const std::string& part : parts) EXPECT_NE(message.find(part), std::string::npos) << message;
+    for (const std::string& part : parts)
+      EXPECT_NE(message.find(part), std::string::npos) << message;
     EXPECT_TRUE(test::isPrintable(message)) << message;
   }
 }
@@ -315,7 +315,8 @@ TEST(MetaImageReaderInputErrors, EachIsOneClearLine) {
          MetaHeader h = zipped;
          h.extra = {"CompressedDataSize = 999999"};
          return h.text();
-       }() + compressed,
+       }() +
+           compressed,
        {"key 'CompressedDataSize'", "999999"}},
       {"short", with({}) + data.substr(1), {"23 bytes", "fewer than the 24"}},
       {"long", with({}) + data + "xy", {"26 bytes", "more than the 24"}},
@@ -326,14 +327,14 @@ TEST(MetaImageReaderInputErrors, EachIsOneClearLine) {
       {"huge", with({}, "100000 100000 100000"), {"exceed 2^31 voxels"}},
       {"over_memory", with({}, "1000 1000 1000"), {"over the limit of 256 MiB"}},
       {"zero_spacing", with({"ElementSpacing = 1 0 1"}) + data, {"key 'ElementSpacing'"}},
-      {"negative_spacing", with({"ElementSpacing = 1 1 -1"}) + data,
+      {"negative_spacing",
+       with({"ElementSpacing = 1 1 -1"}) + data,
        {"key 'ElementSpacing'", "positive"}},
-      {"nan_spacing", with({"ElementSpacing = nan 1 1"}) + data,
-       {"key 'ElementSpacing'", "'nan'"}},
-      {"inf_spacing", with({"ElementSpacing = 1 inf 1"}) + data,
-       {"key 'ElementSpacing'", "'inf'"}},
+      {"nan_spacing", with({"ElementSpacing = nan 1 1"}) + data, {"key 'ElementSpacing'", "'nan'"}},
+      {"inf_spacing", with({"ElementSpacing = 1 inf 1"}) + data, {"key 'ElementSpacing'", "'inf'"}},
       {"nan_offset", with({"Offset = 0 nan 0"}) + data, {"key 'Offset'"}},
-      {"short_matrix", with({"TransformMatrix = 1 0 0 0 1 0 0 0"}) + data,
+      {"short_matrix",
+       with({"TransformMatrix = 1 0 0 0 1 0 0 0"}) + data,
        {"key 'TransformMatrix'", "8 values"}},
       {"singular_matrix", with({"TransformMatrix = 1 0 0 1 0 0 0 0 1"}) + data, {"degenerate"}},
       {"five_d", fiveD.text() + data, {"key 'NDims'", "5-D"}},
@@ -345,24 +346,31 @@ TEST(MetaImageReaderInputErrors, EachIsOneClearLine) {
        withType("MET_DOUBLE") +
            test::samplesOf(std::vector<double>(24, 0.25), SampleType::Float64, false),
        {"not an integer label"}},
-      {"channels", with({"ElementNumberOfChannels = 3"}) + data + data + data,
+      {"channels",
+       with({"ElementNumberOfChannels = 3"}) + data + data + data,
        {"key 'ElementNumberOfChannels'"}},
-      {"ascii", with({"BinaryData = False"}).replace(with({}).find("BinaryData = True"), 18, "") +
-                    "1 1 1",
+      {"ascii",
+       with({"BinaryData = False"}).replace(with({}).find("BinaryData = True"), 18, "") + "1 1 1",
        {"BinaryData"}},
-      {"not_bool", with({}).replace(with({}).find("CompressedData = False"), 22,
-                                    "CompressedData = maybe") +
-                       data,
+      {"not_bool",
+       with({}).replace(with({}).find("CompressedData = False"), 22, "CompressedData = maybe") +
+           data,
        {"key 'CompressedData'", "'maybe'"}},
-      {"no_data_file_line", "ObjectType = Image\nNDims = 3\nDimSize = 4 3 2\n", {"ElementDataFile"}},
-      {"no_ndims", "DimSize = 4 3 2\nElementType = MET_UCHAR\nElementDataFile = LOCAL\n" + data,
+      {"no_data_file_line",
+       "ObjectType = Image\nNDims = 3\nDimSize = 4 3 2\n",
+       {"ElementDataFile"}},
+      {"no_ndims",
+       "DimSize = 4 3 2\nElementType = MET_UCHAR\nElementDataFile = LOCAL\n" + data,
        {"key 'NDims' is missing"}},
-      {"binary_garbage", std::string("\x89PNG\r\n\x1a\n\0\0", 10) + data,
+      {"binary_garbage",
+       std::string("\x89PNG\r\n\x1a\n\0\0", 10) + data,
        {"not 'Key = Value'", "\\x89PNG"}},
       {"twice", with({"Offset = 0 0 0", "Offset = 1 1 1"}) + data, {"'Offset'", "twice"}},
-      {"control_bytes", withType(std::string("MET_\x01\x1b[0m\xff", 10)) + data,
+      {"control_bytes",
+       withType(std::string("MET_\x01\x1b[0m\xff", 10)) + data,
        {"key 'ElementType'", "\\x01", "\\x1B", "\\xFF"}},
-      {"object_mesh", with({}).replace(0, 18, "ObjectType = Mesh") + data,
+      {"object_mesh",
+       with({}).replace(0, 18, "ObjectType = Mesh") + data,
        {"key 'ObjectType'", "'Mesh'"}},
       {"units", with({"DistanceUnits = furlong"}) + data, {"key 'DistanceUnits'", "'furlong'"}},
   };

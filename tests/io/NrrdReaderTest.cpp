@@ -8,8 +8,8 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <utility>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "TempDir.h"
@@ -28,9 +28,9 @@ constexpr double kTol = 1e-9;  // metres
 constexpr std::size_t kMaxMemory = std::size_t{256} << 20;
 
 // The placement most tests write: LPS, anisotropic, off the origin (millimetres).
-const std::vector<std::string> kLpsPlacement = {
-    "space: left-posterior-superior", "space directions: (0.5,0,0) (0,0.75,0) (0,0,1.25)",
-    "space origin: (-10,20,30)"};
+const std::vector<std::string> kLpsPlacement = {"space: left-posterior-superior",
+                                                "space directions: (0.5,0,0) (0,0.75,0) (0,0,1.25)",
+                                                "space origin: (-10,20,30)"};
 // Where the sphere's centre lands with kLpsPlacement: LPS (-10 + 0.5*8, 20 + 0.75*8,
 // 30 + 1.25*7) mm, RAS metres.
 const Vec3d kLpsCentre(0.006, -0.026, 0.03875);
@@ -56,7 +56,8 @@ void expectRefused(const std::string& path, const std::vector<std::string>& part
   } catch (const InputError& e) {
     const std::string message = e.what();
     EXPECT_EQ(message.rfind(path, 0), 0u) << message;
-    for (const std::string& part : parts) EXPECT_NE(message.find(part), std::string::npos) << message;
+    for (const std::string& part : parts)
+      EXPECT_NE(message.find(part), std::string::npos) << message;
     EXPECT_TRUE(test::isPrintable(message)) << message;
     EXPECT_EQ(message.find('\n'), std::string::npos) << message;
   }
@@ -139,8 +140,8 @@ TEST(NrrdReader, RefusesFloatLabelsThatAreNotWholeNumbers) {
     NrrdHeader h;
     h.type = name;
     h.sizes = "4 3 2";
-    const std::string path = dir.write(std::string(name) + ".nrrd",
-                                       h.text() + test::samplesOf(values, type, false));
+    const std::string path =
+        dir.write(std::string(name) + ".nrrd", h.text() + test::samplesOf(values, type, false));
     expectRefused(path, {"voxel (1, 1, 0)", "not an integer label"});
   }
 }
@@ -169,10 +170,10 @@ TEST(NrrdReader, SpacesAreConvertedToRas) {
              std::to_string(v.z()) + ")";
     };
     NrrdHeader h;
-    h.extra = {std::string("space: ") + s.name,
-               "space directions: " + vec(file.col(0)) + " " + vec(file.col(1)) + " " +
-                   vec(file.col(2)),
-               "space origin: " + vec(fileOrigin), "centers: cell cell cell"};
+    h.extra = {
+        std::string("space: ") + s.name,
+        "space directions: " + vec(file.col(0)) + " " + vec(file.col(1)) + " " + vec(file.col(2)),
+        "space origin: " + vec(fileOrigin), "centers: cell cell cell"};
     const LabelVolume v = readOk(dir.write(std::string("s.nrrd"), h.text() + data));
     const Vec3d expected = (rasOrigin + ras * test::kSphereCentre) * 1e-3;
     EXPECT_LT((test::worldCentroid(v, 1) - expected).norm(), kTol);
@@ -207,9 +208,9 @@ TEST(NrrdReader, SpacingsWithoutDirectionsGiveAnAnisotropicGrid) {
 
 TEST(NrrdReader, NoSpacingAtAllIsOneMillimetreWithAWarning) {
   TempDir dir;
-  const LabelVolume v = readOk(dir.write(
-      "n.nrrd",
-      NrrdHeader{}.text() + test::samplesOf(test::sphereAndBox(), SampleType::UInt8, false)));
+  const LabelVolume v =
+      readOk(dir.write("n.nrrd", NrrdHeader{}.text() + test::samplesOf(test::sphereAndBox(),
+                                                                       SampleType::UInt8, false)));
   EXPECT_LT((v.axes - Eigen::Matrix3d::Identity() * 1e-3).norm(), kTol);
   ASSERT_FALSE(v.warnings.empty());
   EXPECT_NE(v.warnings[0].find("1 mm"), std::string::npos);
@@ -217,15 +218,17 @@ TEST(NrrdReader, NoSpacingAtAllIsOneMillimetreWithAWarning) {
 
 // Rotated, anisotropic axes: the sphere's centre lands at origin + R * diag(s) * centre.
 TEST(NrrdReader, RotatedSpaceDirectionsPlaceTheSphere) {
-  const Eigen::Matrix3d rotation =
-      (Eigen::AngleAxisd(0.4, Vec3d::UnitZ()) * Eigen::AngleAxisd(-0.7, Vec3d(1, 1, 0).normalized()))
-          .toRotationMatrix();
+  const Eigen::Matrix3d rotation = (Eigen::AngleAxisd(0.4, Vec3d::UnitZ()) *
+                                    Eigen::AngleAxisd(-0.7, Vec3d(1, 1, 0).normalized()))
+                                       .toRotationMatrix();
   const Eigen::Matrix3d axes = rotation * Vec3d(0.6, 0.9, 1.3).asDiagonal();  // RAS mm
   const Vec3d origin(-40.5, 12.25, 88);
   char line[512];
-  std::snprintf(line, sizeof line, "space directions: (%.17g,%.17g,%.17g) (%.17g,%.17g,%.17g) "
-                "(%.17g,%.17g,%.17g)", axes(0, 0), axes(1, 0), axes(2, 0), axes(0, 1),
-                axes(1, 1), axes(2, 1), axes(0, 2), axes(1, 2), axes(2, 2));
+  std::snprintf(line, sizeof line,
+                "space directions: (%.17g,%.17g,%.17g) (%.17g,%.17g,%.17g) "
+                "(%.17g,%.17g,%.17g)",
+                axes(0, 0), axes(1, 0), axes(2, 0), axes(0, 1), axes(1, 1), axes(2, 1), axes(0, 2),
+                axes(1, 2), axes(2, 2));
   NrrdHeader h;
   h.extra = {"space: RAS", line, "space origin: (-40.5, 12.25, 88)"};  // blanks are allowed
   TempDir dir;
@@ -248,8 +251,8 @@ TEST(NrrdReader, SpaceUnitsAreScaledToMetres) {
     SCOPED_TRACE(u.name);
     NrrdHeader h;
     const std::string q = std::string("\"") + u.name + "\"";
-    h.extra = {"space: RAS", "space directions: (2,0,0) (0,3,0) (0,0,4)",
-               "space origin: (5,6,7)", "space units: " + q + " " + q + " " + q};
+    h.extra = {"space: RAS", "space directions: (2,0,0) (0,3,0) (0,0,4)", "space origin: (5,6,7)",
+               "space units: " + q + " " + q + " " + q};
     const LabelVolume v = readOk(dir.write("u.nrrd", h.text() + data));
     EXPECT_LT((v.axes - Eigen::Matrix3d(Vec3d(2, 3, 4).asDiagonal()) * u.metres).norm(),
               kTol * u.metres);
@@ -345,12 +348,12 @@ TEST(NrrdReader, SegmentationNamesAndColoursLabels) {
   h.extra.insert(h.extra.end(),
                  {"kinds: domain domain domain", "Segment0_ID:=Segment_1", "Segment0_Name:=Liver",
                   "Segment0_Color:=0.2 0.4 0.6", "Segment0_LabelValue:=1", "Segment0_Layer:=0",
-                  "Segment1_ID:=Segment_2", "Segment1_Name:=Tu\x01mor",
-                  "Segment1_Color:=1 0 0.5", "Segment1_LabelValue:=2", "Segment1_Layer:=0",
-                  "Segment2_Name:=Empty", "Segment2_LabelValue:=9",
-                  "Segmentation_MasterRepresentation:=Binary labelmap"});
-  const LabelVolume v = readOk(dir.write(
-      "liver.seg.nrrd", h.text() + test::samplesOf(test::sphereAndBox(), SampleType::UInt8, false)));
+                  "Segment1_ID:=Segment_2", "Segment1_Name:=Tu\x01mor", "Segment1_Color:=1 0 0.5",
+                  "Segment1_LabelValue:=2", "Segment1_Layer:=0", "Segment2_Name:=Empty",
+                  "Segment2_LabelValue:=9", "Segmentation_MasterRepresentation:=Binary labelmap"});
+  const LabelVolume v =
+      readOk(dir.write("liver.seg.nrrd",
+                       h.text() + test::samplesOf(test::sphereAndBox(), SampleType::UInt8, false)));
   ASSERT_EQ(v.labels.size(), 2u);
   EXPECT_EQ(v.labels[0].name, "Liver");
   ASSERT_TRUE(v.labels[0].colour.has_value());
@@ -500,8 +503,7 @@ TEST(NrrdReader, ReadsFromMemoryWithTheFolderGiven) {
                              VolumeReadParams{});
     ADD_FAILURE() << "read a data file outside the folder";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("header in memory: data file 'd.raw'"),
-              std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("header in memory: data file 'd.raw'"), std::string::npos)
         << e.what();
   }
 }
@@ -541,10 +543,8 @@ TEST(NrrdReaderInputErrors, EachIsOneClearLine) {
     std::vector<std::string> parts;
   };
   const std::vector<Case> cases = {
-      {"truncated_gzip", gzip.text() + compressed.substr(0, compressed.size() / 2),
-       {"truncated"}},
-      {"corrupt_gzip", gzip.text() + compressed.substr(0, 20) + std::string(40, '\xff'),
-       {"gzip"}},
+      {"truncated_gzip", gzip.text() + compressed.substr(0, compressed.size() / 2), {"truncated"}},
+      {"corrupt_gzip", gzip.text() + compressed.substr(0, 20) + std::string(40, '\xff'), {"gzip"}},
       {"short", with({}) + data.substr(1), {"23 bytes", "fewer than the 24"}},
       {"long", with({}) + data + "x", {"25 bytes", "more than the 24"}},
       {"zero_size", with({}, "4 0 2") + data, {"field 'sizes'", "must be positive"}},
@@ -564,24 +564,29 @@ TEST(NrrdReaderInputErrors, EachIsOneClearLine) {
       {"degenerate_directions",
        with({"space: RAS", "space directions: (1,0,0) (1,0,0) (0,0,1)"}) + data,
        {"degenerate"}},
-      {"zero_direction", with({"space: RAS", "space directions: (0,0,0) (0,1,0) (0,0,1)"}) + data,
+      {"zero_direction",
+       with({"space: RAS", "space directions: (0,0,0) (0,1,0) (0,0,1)"}) + data,
        {"spacing along axis 0"}},
-      {"none_direction", with({"space: RAS", "space directions: none (0,1,0) (0,0,1)"}) + data,
+      {"none_direction",
+       with({"space: RAS", "space directions: none (0,1,0) (0,0,1)"}) + data,
        {"field 'space directions'", "'none'"}},
-      {"inf_origin", with({"space: RAS", "space origin: (0,inf,0)"}) + data,
+      {"inf_origin",
+       with({"space: RAS", "space origin: (0,inf,0)"}) + data,
        {"field 'space origin'"}},
       {"five_d", fiveD.text() + data, {"field 'dimension'", "5-D"}},
-      {"block", with({}) .replace(with({}).find("uint8"), 5, "block") + data, {"'block'"}},
-      {"unknown_type", with({}).replace(with({}).find("uint8"), 5, "complex") + data,
+      {"block", with({}).replace(with({}).find("uint8"), 5, "block") + data, {"'block'"}},
+      {"unknown_type",
+       with({}).replace(with({}).find("uint8"), 5, "complex") + data,
        {"field 'type'", "'complex'"}},
-      {"bzip2", with({}).replace(with({}).find("raw"), 3, "bzip2") + data,
+      {"bzip2",
+       with({}).replace(with({}).find("raw"), 3, "bzip2") + data,
        {"field 'encoding'", "'bzip2'", "not supported"}},
-      {"ascii", with({}).replace(with({}).find("raw"), 3, "ascii") + "1 1 1\n",
+      {"ascii",
+       with({}).replace(with({}).find("raw"), 3, "ascii") + "1 1 1\n",
        {"field 'encoding'", "'ascii'"}},
       {"hex", with({}).replace(with({}).find("raw"), 3, "hex") + "01\n", {"'hex'"}},
       {"no_endian", noEndian.text() + data + data, {"field 'endian' is missing"}},
-      {"bad_endian", with({}).replace(with({}).find("little"), 6, "middle") + data,
-       {"'middle'"}},
+      {"bad_endian", with({}).replace(with({}).find("little"), 6, "middle") + data, {"'middle'"}},
       {"no_empty_line", noEnd, {"no empty line"}},
       {"not_nrrd", "hello\n" + data, {"not a NRRD file"}},
       {"bad_magic", "NRRD0009\n" + with({}).substr(9) + data, {"'NRRD0009'"}},
@@ -597,14 +602,16 @@ TEST(NrrdReaderInputErrors, EachIsOneClearLine) {
       {"negative_skip", with({"byte skip: -2"}) + data, {"field 'byte skip'", "at least -1"}},
       {"skip_past_end", with({"byte skip: 100"}) + data, {"byte skip 100"}},
       {"line_skip_past_end", with({"line skip: 3"}) + data, {"line skip 3"}},
-      {"time_space", with({"space: right-anterior-superior-time"}) + data,
+      {"time_space",
+       with({"space: right-anterior-superior-time"}) + data,
        {"field 'space'", "not supported"}},
       {"space_dimension_2", with({"space dimension: 2"}) + data, {"field 'space dimension'"}},
       {"float_fraction",
        with({}).replace(with({}).find("uint8"), 5, "double") +
            test::samplesOf(std::vector<double>(24, 1.5), SampleType::Float64, false),
        {"voxel (0, 0, 0)", "not an integer label"}},
-      {"bad_label_value", with({"Segment0_LabelValue:=one"}) + data,
+      {"bad_label_value",
+       with({"Segment0_LabelValue:=one"}) + data,
        {"Segment0_LabelValue", "'one'"}},
       {"four_d_no_layer_axis",
        [] {
@@ -612,7 +619,8 @@ TEST(NrrdReaderInputErrors, EachIsOneClearLine) {
          h.dimension = 4;
          h.sizes = "2 4 3 2";
          return h.text();
-       }() + data + data,
+       }() +
+           data + data,
        {"4-D data with no axis marked"}},
   };
   TempDir dir;

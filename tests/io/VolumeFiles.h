@@ -69,16 +69,36 @@ inline std::string samplesOf(const std::vector<double>& values, SampleType type,
   std::string out;
   for (const double v : values) {
     switch (type) {
-      case SampleType::Int8: appendSample(out, static_cast<std::int8_t>(v), bigEndian); break;
-      case SampleType::UInt8: appendSample(out, static_cast<std::uint8_t>(v), bigEndian); break;
-      case SampleType::Int16: appendSample(out, static_cast<std::int16_t>(v), bigEndian); break;
-      case SampleType::UInt16: appendSample(out, static_cast<std::uint16_t>(v), bigEndian); break;
-      case SampleType::Int32: appendSample(out, static_cast<std::int32_t>(v), bigEndian); break;
-      case SampleType::UInt32: appendSample(out, static_cast<std::uint32_t>(v), bigEndian); break;
-      case SampleType::Int64: appendSample(out, static_cast<std::int64_t>(v), bigEndian); break;
-      case SampleType::UInt64: appendSample(out, static_cast<std::uint64_t>(v), bigEndian); break;
-      case SampleType::Float32: appendSample(out, static_cast<float>(v), bigEndian); break;
-      case SampleType::Float64: appendSample(out, v, bigEndian); break;
+      case SampleType::Int8:
+        appendSample(out, static_cast<std::int8_t>(v), bigEndian);
+        break;
+      case SampleType::UInt8:
+        appendSample(out, static_cast<std::uint8_t>(v), bigEndian);
+        break;
+      case SampleType::Int16:
+        appendSample(out, static_cast<std::int16_t>(v), bigEndian);
+        break;
+      case SampleType::UInt16:
+        appendSample(out, static_cast<std::uint16_t>(v), bigEndian);
+        break;
+      case SampleType::Int32:
+        appendSample(out, static_cast<std::int32_t>(v), bigEndian);
+        break;
+      case SampleType::UInt32:
+        appendSample(out, static_cast<std::uint32_t>(v), bigEndian);
+        break;
+      case SampleType::Int64:
+        appendSample(out, static_cast<std::int64_t>(v), bigEndian);
+        break;
+      case SampleType::UInt64:
+        appendSample(out, static_cast<std::uint64_t>(v), bigEndian);
+        break;
+      case SampleType::Float32:
+        appendSample(out, static_cast<float>(v), bigEndian);
+        break;
+      case SampleType::Float64:
+        appendSample(out, v, bigEndian);
+        break;
     }
   }
   return out;

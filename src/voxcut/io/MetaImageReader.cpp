@@ -188,8 +188,8 @@ LabelVolume readMetaImage(std::string_view bytes, const std::string& folder,
   std::vector<std::string_view> dimTokens;
   meshio::splitTokens(dimEntry.value, dimTokens);
   if (dimTokens.size() != n)
-    keys.fail(dimEntry, std::to_string(dimTokens.size()) + " sizes for NDims " +
-                            std::to_string(ndims));
+    keys.fail(dimEntry,
+              std::to_string(dimTokens.size()) + " sizes for NDims " + std::to_string(ndims));
   std::array<std::int64_t, 4> dims{1, 1, 1, 1};
   for (std::size_t a = 0; a < n; ++a) {
     const std::optional<std::int64_t> d = meshio::parseInteger(dimTokens[a]);
@@ -210,8 +210,9 @@ LabelVolume readMetaImage(std::string_view bytes, const std::string& folder,
   if (const Entry* e = keys.find({"elementnumberofchannels"}); e && keys.integer(*e) != 1)
     keys.fail(*e, "images with several channels are not label volumes");
   if (!keys.boolean({"binarydata"}, true))
-    keys.fail(*keys.find({"binarydata"}), "ASCII voxel data (BinaryData = False) are not "
-                                          "supported");
+    keys.fail(*keys.find({"binarydata"}),
+              "ASCII voxel data (BinaryData = False) are not "
+              "supported");
   const bool bigEndian = keys.boolean({"binarydatabyteordermsb", "elementbyteordermsb"}, false);
   const bool compressed = keys.boolean({"compresseddata"}, false);
   const Entry* compressedSize = keys.find({"compresseddatasize"});
@@ -223,8 +224,8 @@ LabelVolume readMetaImage(std::string_view bytes, const std::string& folder,
     const std::vector<double> s = keys.numbers(*e, n);
     for (int a = 0; a < 3; ++a) {
       if (!(s[static_cast<std::size_t>(a)] > 0))
-        keys.fail(*e, "spacing " + std::to_string(s[static_cast<std::size_t>(a)]) +
-                          " must be positive");
+        keys.fail(
+            *e, "spacing " + std::to_string(s[static_cast<std::size_t>(a)]) + " must be positive");
       spacing[a] = s[static_cast<std::size_t>(a)];
     }
   } else {
@@ -262,8 +263,8 @@ LabelVolume readMetaImage(std::string_view bytes, const std::string& folder,
 
   LabelVolume volume;
   volume.dims = {static_cast<int>(dims[0]), static_cast<int>(dims[1]), static_cast<int>(dims[2])};
-  const std::size_t count = checkVolumeSize(what, dims[0], dims[1], dims[2], 1,
-                                            sampleBytes(*type), params.maxMemory);
+  const std::size_t count =
+      checkVolumeSize(what, dims[0], dims[1], dims[2], 1, sampleBytes(*type), params.maxMemory);
   const std::size_t needed = count * sampleBytes(*type);
 
   std::string storage;
@@ -276,8 +277,7 @@ LabelVolume readMetaImage(std::string_view bytes, const std::string& folder,
       samples = storage;
     } else if (blob.size() < needed) {
       throw InputError(what + ": the data hold " + std::to_string(blob.size()) +
-                       " bytes, fewer than the " + std::to_string(needed) +
-                       " the header declares");
+                       " bytes, fewer than the " + std::to_string(needed) + " the header declares");
     } else if (blob.size() > needed) {
       throw InputError(what + ": the data hold " + std::to_string(blob.size()) +
                        " bytes, more than the " + std::to_string(needed) +
@@ -299,8 +299,8 @@ LabelVolume readMetaImage(std::string_view bytes, const std::string& folder,
       const std::string fileBytes =
           readWholeFile(path, fileWhat, params.maxMemory ? params.maxMemory + kDataFileSlack : 0);
       if (static_cast<std::uint64_t>(skip) > fileBytes.size())
-        keys.fail(*headerSize, "skips past the end of the " +
-                                   std::to_string(fileBytes.size()) + "-byte data file");
+        keys.fail(*headerSize, "skips past the end of the " + std::to_string(fileBytes.size()) +
+                                   "-byte data file");
       storage = inflated(std::string_view(fileBytes).substr(static_cast<std::size_t>(skip)),
                          compressedSize, keys, needed, fileWhat);
     } else {

@@ -159,8 +159,8 @@ class Fields {
   [[noreturn]] void fail(std::string_view name, const std::string& message) const {
     const Field* f = find(name);
     throw InputError(what_ + ": field '" + std::string(name) + "'" +
-                     (f ? " (header line " + std::to_string(f->line) + ")" : std::string()) +
-                     ": " + message);
+                     (f ? " (header line " + std::to_string(f->line) + ")" : std::string()) + ": " +
+                     message);
   }
   // The field's value quoted for a message.
   [[nodiscard]] std::string quoted(std::string_view name) const {
@@ -192,7 +192,8 @@ class Fields {
 
 std::optional<SampleType> sampleTypeOf(std::string_view value) {
   std::string words;  // lower case, single spaces
-  for (const std::string_view t : tokensOf(value)) words += (words.empty() ? "" : " ") + lowerCase(t);
+  for (const std::string_view t : tokensOf(value))
+    words += (words.empty() ? "" : " ") + lowerCase(t);
   static const std::map<std::string, SampleType, std::less<>> kTypes = {
       {"signed char", SampleType::Int8},
       {"int8", SampleType::Int8},
@@ -257,8 +258,8 @@ std::vector<std::optional<Vec3d>> parseVectors(const Fields& fields, std::string
     }
     const std::size_t close = rest.find(')');
     if (rest.empty() || rest.front() != '(' || close == std::string_view::npos)
-      fields.fail(name, "expected " + std::to_string(count) +
-                            " vectors '(x,y,z)' or 'none' in " + fields.quoted(name));
+      fields.fail(name, "expected " + std::to_string(count) + " vectors '(x,y,z)' or 'none' in " +
+                            fields.quoted(name));
     const std::string_view inner = rest.substr(1, close - 1);
     rest.remove_prefix(close + 1);
     Vec3d v;
@@ -269,8 +270,9 @@ std::vector<std::optional<Vec3d>> parseVectors(const Fields& fields, std::string
         fields.fail(name, "vector '(" + escaped(inner) + ")' does not have 3 components");
       const std::optional<double> x = parseNumber(trimmed(inner.substr(start, comma - start)));
       if (!x || !std::isfinite(*x))
-        fields.fail(name, "vector '(" + escaped(inner) + ")' holds a component that is not a "
-                          "finite number");
+        fields.fail(name, "vector '(" + escaped(inner) +
+                              ")' holds a component that is not a "
+                              "finite number");
       v[c] = *x;
       start = comma + 1;
     }
@@ -301,8 +303,8 @@ std::vector<std::string> parseQuoted(const Fields& fields, std::string_view name
     out.push_back(std::move(s));
   }
   if (out.size() != count)
-    fields.fail(name, std::to_string(out.size()) + " strings for " + std::to_string(count) +
-                          " space axes");
+    fields.fail(
+        name, std::to_string(out.size()) + " strings for " + std::to_string(count) + " space axes");
   return out;
 }
 
@@ -380,8 +382,9 @@ Layout readLayout(const Fields& fields, const std::string& what) {
   if (dimension == 4) {
     const std::optional<int> marked = nonSpatialAxis(fields, layout.sizes);
     if (!marked)
-      throw InputError(what + ": 4-D data with no axis marked as layers (a 'none' space "
-                              "direction, a 'list' kind or a size of 1)");
+      throw InputError(what +
+                       ": 4-D data with no axis marked as layers (a 'none' space "
+                       "direction, a 'list' kind or a size of 1)");
     const int axis = *marked;
     if (axis == 0) {
       layout.layers = static_cast<int>(layout.sizes[0]);
@@ -407,8 +410,8 @@ Layout readLayout(const Fields& fields, const std::string& what) {
   if (encoding == "gzip" || encoding == "gz")
     layout.gzip = true;
   else if (encoding != "raw")
-    fields.fail("encoding", "encoding " + fields.quoted("encoding") +
-                                " is not supported (raw and gzip are)");
+    fields.fail("encoding",
+                "encoding " + fields.quoted("encoding") + " is not supported (raw and gzip are)");
 
   // A stated byte order must be valid even where one-byte samples do not need it.
   const Field* endian = fields.find("endian");
@@ -427,7 +430,7 @@ Layout readLayout(const Fields& fields, const std::string& what) {
 struct Placement {
   Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();  // columns: file space, file units
   Vec3d origin = Vec3d::Zero();
-  Vec3d sign = Vec3d::Ones();     // per world axis: -1 where the file's space is flipped
+  Vec3d sign = Vec3d::Ones();            // per world axis: -1 where the file's space is flipped
   Vec3d metres = Vec3d::Constant(1e-3);  // per world axis: metres per file unit
   std::string text;
 };
@@ -474,10 +477,12 @@ Placement readPlacement(const Fields& fields, const Layout& layout,
   if (fields.find("space directions") != nullptr) {
     const auto vectors = parseVectors(fields, "space directions", n);
     for (int a = 0; a < 3; ++a) {
-      const auto& v = vectors[static_cast<std::size_t>(layout.spatial[static_cast<std::size_t>(a)])];
+      const auto& v =
+          vectors[static_cast<std::size_t>(layout.spatial[static_cast<std::size_t>(a)])];
       if (!v)
-        fields.fail("space directions", "axis " + std::to_string(layout.spatial[static_cast<std::size_t>(a)]) +
-                                            " of the volume has no direction ('none')");
+        fields.fail("space directions",
+                    "axis " + std::to_string(layout.spatial[static_cast<std::size_t>(a)]) +
+                        " of the volume has no direction ('none')");
       p.axes.col(a) = *v;
     }
     p.text = space.empty() ? "space directions with no space field, taken as RAS" : space;
@@ -485,11 +490,11 @@ Placement readPlacement(const Fields& fields, const Layout& layout,
     if (fields.find("spacings") != nullptr) {
       const auto spacings = fields.perAxis("spacings", n);
       for (int a = 0; a < 3; ++a) {
-        const std::string_view t = spacings[static_cast<std::size_t>(layout.spatial[static_cast<std::size_t>(a)])];
+        const std::string_view t =
+            spacings[static_cast<std::size_t>(layout.spatial[static_cast<std::size_t>(a)])];
         const std::optional<double> s = parseNumber(t);
         if (!s || !std::isfinite(*s) || *s <= 0)
-          fields.fail("spacings", "spacing '" + escaped(t) +
-                                      "' must be a positive finite number");
+          fields.fail("spacings", "spacing '" + escaped(t) + "' must be a positive finite number");
         p.axes(a, a) = *s;
       }
       p.text = "spacings only (no space directions)";
@@ -511,9 +516,9 @@ Placement readPlacement(const Fields& fields, const Layout& layout,
 
 // The samples of `blob` (attached data, or a data file read whole) after the line and byte
 // skips: raw, exactly `needed` bytes; gzip, inflated into `storage`.
-std::string_view samplesIn(std::string_view blob, const std::string& blobWhat,
-                           const Layout& layout, std::int64_t lineSkip, std::int64_t byteSkip,
-                           std::size_t needed, std::string& storage) {
+std::string_view samplesIn(std::string_view blob, const std::string& blobWhat, const Layout& layout,
+                           std::int64_t lineSkip, std::int64_t byteSkip, std::size_t needed,
+                           std::string& storage) {
   std::size_t pos = 0;
   const auto shortMessage = [&](std::size_t held) {
     return blobWhat + ": the data hold " + std::to_string(held) + " bytes, fewer than the " +
@@ -574,8 +579,8 @@ LabelVolume readNrrd(std::string_view bytes, const std::string& folder, const st
     if (!t.empty() && t[0] == "LIST")
       fields.fail("data file", "lists of data files (LIST) are not supported");
     if (t.size() >= 4 && t[0].find('%') != std::string_view::npos)
-      fields.fail("data file", "numbered data files ('" + escaped(t[0]) +
-                                   " min max step') are not supported");
+      fields.fail("data file",
+                  "numbered data files ('" + escaped(t[0]) + " min max step') are not supported");
     dataFile = f->value;
   }
 
@@ -583,9 +588,9 @@ LabelVolume readNrrd(std::string_view bytes, const std::string& folder, const st
   volume.dims = {static_cast<int>(layout.sizes[static_cast<std::size_t>(layout.spatial[0])]),
                  static_cast<int>(layout.sizes[static_cast<std::size_t>(layout.spatial[1])]),
                  static_cast<int>(layout.sizes[static_cast<std::size_t>(layout.spatial[2])])};
-  const std::size_t count = checkVolumeSize(what, volume.dims.x, volume.dims.y, volume.dims.z,
-                                            layout.layers, sampleBytes(layout.type),
-                                            params.maxMemory);
+  const std::size_t count =
+      checkVolumeSize(what, volume.dims.x, volume.dims.y, volume.dims.z, layout.layers,
+                      sampleBytes(layout.type), params.maxMemory);
   const std::size_t needed = count * sampleBytes(layout.type);
 
   // The samples: a view into the file's bytes, or into `storage` (a data file, inflated data).
@@ -602,9 +607,9 @@ LabelVolume readNrrd(std::string_view bytes, const std::string& folder, const st
       if (byteSkip >= 0) {
         offset = static_cast<std::size_t>(byteSkip);
         if (offset > size || size - offset < needed)
-          throw InputError(fileWhat + ": holds " + std::to_string(size) + " bytes, fewer than the " +
-                           std::to_string(offset) + " + " + std::to_string(needed) +
-                           " the header declares");
+          throw InputError(fileWhat + ": holds " + std::to_string(size) +
+                           " bytes, fewer than the " + std::to_string(offset) + " + " +
+                           std::to_string(needed) + " the header declares");
         if (size - offset > needed)
           throw InputError(fileWhat + ": holds " + std::to_string(size) + " bytes, more than the " +
                            std::to_string(offset) + " + " + std::to_string(needed) +
@@ -616,16 +621,17 @@ LabelVolume readNrrd(std::string_view bytes, const std::string& folder, const st
       storage = readFileRange(path, fileWhat, offset, needed);
       samples = storage;
     } else {
-      fileBytes = readWholeFile(path, fileWhat,
-                                params.maxMemory ? params.maxMemory + kDataFileSlack : 0);
+      fileBytes =
+          readWholeFile(path, fileWhat, params.maxMemory ? params.maxMemory + kDataFileSlack : 0);
       samples = samplesIn(fileBytes, fileWhat, layout, lineSkip, byteSkip, needed, storage);
     }
   } else {
     if (header.dataStart == std::string_view::npos)
-      throw InputError(what + ": the header has no empty line before the data, and names no "
-                              "data file");
-    samples = samplesIn(bytes.substr(header.dataStart), what, layout, lineSkip, byteSkip,
-                        needed, storage);
+      throw InputError(what +
+                       ": the header has no empty line before the data, and names no "
+                       "data file");
+    samples = samplesIn(bytes.substr(header.dataStart), what, layout, lineSkip, byteSkip, needed,
+                        storage);
   }
 
   const std::vector<Segment> segments =

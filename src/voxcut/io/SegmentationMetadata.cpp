@@ -1,6 +1,7 @@
 #include "voxcut/io/SegmentationMetadata.h"
 
 #include <algorithm>
+#include <array>
 #include <climits>
 #include <cmath>
 #include <map>
@@ -76,8 +77,8 @@ std::optional<std::array<float, 3>> parseColour(std::string_view value) {
 
 }  // namespace
 
-std::vector<Segment> parseSegments(const KeyValues& keyValues, int layers,
-                                   const std::string& what, std::vector<std::string>& warnings) {
+std::vector<Segment> parseSegments(const KeyValues& keyValues, int layers, const std::string& what,
+                                   std::vector<std::string>& warnings) {
   std::map<int, Segment> byNumber;
   std::map<int, int> explicitLayer;
   for (const auto& [key, rawValue] : keyValues) {
@@ -174,21 +175,26 @@ void setLabelsFromLayers(LabelVolume& volume, const void* data, int layers, Samp
   setLabelsFromSamples(samples, data, voxels * nLayers, type, bigEndian,
                        what + " (4-D samples numbered as (layer, i + nx*j, k))");
 
-  // The (layer, value) pairs that occur, keyed layer * 2^16 + compact value; runs of one value
-  // in a layer are looked up once.
+  // The (layer, value) pairs that occur, keyed layer * 2^16 + compact value. Runs of one value
+  // in a layer are looked up once, through a small cache indexed by layer (fixed size, so that
+  // a file with millions of layers costs no more memory than its samples).
   const auto keyOf = [](std::size_t layer, std::uint16_t slot) {
     return (static_cast<std::uint64_t>(layer) << 16) | slot;
   };
+  constexpr std::size_t kCache = 64;
   std::unordered_map<std::uint64_t, std::uint32_t> rankOf;
   std::vector<std::uint64_t> pairs;
   {
-    std::vector<std::uint16_t> last(nLayers, 0);
+    std::array<std::uint64_t, kCache> seen;
+    seen.fill(UINT64_MAX);
     for (std::size_t s = 0; s < samples.index.size(); ++s) {
       const std::uint16_t slot = samples.index[s];
-      const std::size_t layer = s % nLayers;
-      if (slot == 0 || slot == last[layer]) continue;
-      last[layer] = slot;
-      if (rankOf.emplace(keyOf(layer, slot), 0).second) pairs.push_back(keyOf(layer, slot));
+      if (slot == 0) continue;
+      const std::uint64_t key = keyOf(s % nLayers, slot);
+      std::uint64_t& cached = seen[(s % nLayers) % kCache];
+      if (cached == key) continue;
+      cached = key;
+      if (rankOf.emplace(key, 0).second) pairs.push_back(key);
     }
   }
   if (pairs.size() > 65535)
@@ -200,10 +206,9 @@ void setLabelsFromLayers(LabelVolume& volume, const void* data, int layers, Samp
   for (const Segment& s : segments) {
     if (segmentOf.emplace(std::pair{s.layer, s.labelValue}, &s).second) continue;
     ignored.insert(&s);
-    volume.warnings.push_back("segment " + describe(s) +
-                              " has the layer and label value of segment " +
-                              describe(*segmentOf.at({s.layer, s.labelValue})) +
-                              "; segment ignored");
+    volume.warnings.push_back(
+        "segment " + describe(s) + " has the layer and label value of segment " +
+        describe(*segmentOf.at({s.layer, s.labelValue})) + "; segment ignored");
   }
   struct Pair {
     int layer;
@@ -236,8 +241,9 @@ void setLabelsFromLayers(LabelVolume& volume, const void* data, int layers, Samp
   volume.index.assign(voxels, 0);
   std::vector<std::size_t> counts(byRank.size(), 0);
   std::size_t overlapping = 0;
-  std::vector<std::uint16_t> lastSlot(nLayers, 0);
-  std::vector<std::uint32_t> lastRank(nLayers, 0);
+  std::array<std::uint64_t, kCache> cachedKey;
+  std::array<std::uint32_t, kCache> cachedRank{};
+  cachedKey.fill(UINT64_MAX);
   for (std::size_t v = 0; v < voxels; ++v) {
     std::uint32_t best = 0;
     int nonZero = 0;
@@ -245,11 +251,13 @@ void setLabelsFromLayers(LabelVolume& volume, const void* data, int layers, Samp
       const std::uint16_t slot = samples.index[v * nLayers + layer];
       if (slot == 0) continue;
       ++nonZero;
-      if (slot != lastSlot[layer]) {
-        lastSlot[layer] = slot;
-        lastRank[layer] = rankOf.at(keyOf(layer, slot));
+      const std::uint64_t key = keyOf(layer, slot);
+      const std::size_t c = layer % kCache;
+      if (cachedKey[c] != key) {
+        cachedKey[c] = key;
+        cachedRank[c] = rankOf.at(key);
       }
-      best = std::max(best, lastRank[layer] + 1);
+      best = std::max(best, cachedRank[c] + 1);
     }
     if (nonZero > 1) ++overlapping;
     if (best == 0) continue;
