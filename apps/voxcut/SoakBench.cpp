@@ -144,10 +144,10 @@ std::string fileSafe(std::string name) {
 /// 1000 kg/m^3, damping 20/s and 0.005 s, voxel octree levels 4 and 0.
 std::vector<SceneMaterial> soakMaterials(const Model& model) {
   std::vector<SceneMaterial> out;
-  for (const MaterialMesh& m : model.materials) {
+  for (const std::string& name : model.materialNames()) {
     SceneMaterial s;
-    s.name = m.name;
-    s.youngModulus = m.name == "tumor" ? 3.0e6 : 1.0e6;
+    s.name = name;
+    s.youngModulus = name == "tumor" ? 3.0e6 : 1.0e6;
     s.massDamping = 20.0;
     s.stiffnessDamping = 0.005;
     out.push_back(s);
