@@ -1,6 +1,8 @@
-/// @file fuzz_volume_mha.cpp
-/// libFuzzer harness of the MetaImage (.mha, .mhd) label-volume reader: the input is
-/// a header with or without attached data, read with volumeio::readMetaImage. Detached data
+/// @file fuzz_volume_text.cpp
+/// libFuzzer harness of the label-volume readers with text headers, one per format picked at
+/// compile time (VOXCUT_FUZZ_VOLUME_NRRD: NRRD .nrrd, .nhdr, .seg.nrrd with volumeio::readNrrd;
+/// otherwise MetaImage .mha, .mhd with volumeio::readMetaImage): the input is a header with or
+/// without attached data. Detached data
 /// files resolve against a folder holding data.raw, data.raw.gz and data.zraw
 /// (VolumeFuzz.h); the memory limit is 256 MiB, so a header that claims a huge volume
 /// must be refused before anything is allocated. A volume that reads must keep
@@ -26,8 +28,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   voxcut::VolumeReadParams params;
   params.maxMemory = voxcut::fuzz::kVolumeMaxMemory;
   try {
+#ifdef VOXCUT_FUZZ_VOLUME_NRRD
+    const voxcut::LabelVolume volume = voxcut::volumeio::readNrrd(
+        bytes, voxcut::fuzz::volumeFolder().string(), "fuzz.nrrd", params);
+#else
     const voxcut::LabelVolume volume = voxcut::volumeio::readMetaImage(
         bytes, voxcut::fuzz::volumeFolder().string(), "fuzz.mha", params);
+#endif
     voxcut::fuzz::checkVolume(volume);
   } catch (const voxcut::InputError&) {
     // Bad input, reported as the library promises.
