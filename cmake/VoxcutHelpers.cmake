@@ -16,6 +16,8 @@ function(voxcut_add_module name)
   add_library(voxcut_${name} ${ARG_SOURCES})
   add_library(voxcut::${name} ALIAS voxcut_${name})
   set_target_properties(voxcut_${name} PROPERTIES EXPORT_NAME ${name})
+  # The headers use C++20 (std::span, <=>): users of the installed targets get it too.
+  target_compile_features(voxcut_${name} PUBLIC cxx_std_20)
   target_include_directories(voxcut_${name} PUBLIC $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/src>
                                                    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
   target_link_libraries(voxcut_${name} PUBLIC ${ARG_DEPS}

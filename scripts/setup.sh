@@ -10,6 +10,11 @@ packages=(
   # label volumes: zlib (NRRD, MetaImage, gzip) and nifticlib (NIfTI); the AAL atlas and
   # nibabel for the orientation tests
   zlib1g-dev libnifti2-dev mricron-data python3-nibabel
+  # the Python module (python/): pybind11, numpy, pytest; Dask for sweeps, matplotlib for
+  # their figure; venv, pip, setuptools and build for the offline install and the wheel
+  pybind11-dev python3-pybind11 python3-dev python3-numpy python3-pytest python3-dask
+  python3-distributed python3-matplotlib python3-venv python3-pip python3-setuptools
+  python3-wheel python3-build
   # bench_fem: CHOLMOD, the direct solver our block Cholesky is compared with
   libsuitesparse-dev
   # voxcut-view: window, OpenGL 3.3, Dear ImGui (with its GLFW and OpenGL 3 backends), PNG;

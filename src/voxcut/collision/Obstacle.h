@@ -9,6 +9,7 @@
 
 #include <limits>
 #include <memory>
+#include <string>
 
 #include "voxcut/collision/MeshDistance.h"
 #include "voxcut/core/Types.h"
@@ -31,6 +32,10 @@ struct Obstacle {
   std::shared_ptr<const MeshDistance> mesh;
   /// Coulomb friction coefficient of contacts with it, >= 0; negative: the world's default.
   double friction = -1.0;
+  /// Mesh: the file it was read from (absolute), where it came from one (as read: a scene's
+  /// mesh obstacle with a scale or translate leaves it empty); empty otherwise: for writing
+  /// scenes (io/SceneWriter.h).
+  std::string path;
 };
 
 /// A mesh obstacle of the triangle mesh `mesh` (#V vertices, #F faces; metres, world frame),

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <fstream>
 #include <initializer_list>
+#include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <vector>
@@ -31,6 +32,8 @@ constexpr std::size_t kMaxShownChars = 60;
 // The ranges of the physical parameters are the world API's (sim/WorldChecks.h).
 // Chunk in which a scene file is read, so that only what the file holds is allocated.
 constexpr std::size_t kReadChunk = 1 << 16;
+// How far from 1 the length of a normalised vector can come out (about 1.5 ulps; 4 allowed).
+constexpr double kUnitTolerance = 4.0 * std::numeric_limits<double>::epsilon();
 
 /// The context of one parse: the scene's name for messages and the folder of mesh paths.
 struct Reader {
@@ -535,6 +538,9 @@ Obstacle readMeshObstacle(const Reader& r, const Json& v, const std::string& pat
   Obstacle o = meshObstacle(mesh);
   if (o.mesh->triangleCount() == 0)
     r.fail(p, "mesh file '" + resolved.string() + "' has no non-degenerate triangles");
+  // The file names the obstacle only where it is the file's mesh as read: the scene writer
+  // (io/SceneWriter.h) writes the path alone.
+  if (scale == 1.0 && translate == Vec3d::Zero()) o.path = resolved.string();
   return o;
 }
 
@@ -551,7 +557,9 @@ Obstacle readObstacle(const Reader& r, const Json& v, const std::string& path) {
     const double length = n.norm();
     if (!(length > 1e-12) || !std::isfinite(length))
       r.fail(p, "must be a non-zero direction, got " + shown(v["normal"]));
-    o.normal = n / length;
+    // A normal that is unit to rounding (one normalised before, as a written scene holds) is
+    // kept as it is: dividing again could move it by an ulp.
+    o.normal = std::abs(length - 1.0) <= kUnitTolerance ? n : Vec3d(n / length);
   } else if (type.is_string() && type.get<std::string>() == "box") {
     checkKeys(r, v, path, {"type", "lo", "hi", "friction"});
     o.type = ObstacleType::Box;
@@ -641,6 +649,33 @@ Scene readTop(const Reader& r, const Json& v) {
   return scene;
 }
 
+/// The model of a body whose label volume is given in memory: what loadModel makes of a
+/// volume file (ModelSource.cpp), the volume checked as a reader checks what it read, named
+/// by the names file when the body has one. Throws InputError without the key path.
+Model memoryVolumeModel(const SceneBody& body) {
+  const LabelVolume& volume = *body.volume;
+  const std::string what = "label volume '" + body.model + "' (in memory)";
+  checkLabelVolumePlacement(volume, what);
+  if (volume.index.size() != volume.voxelCount())
+    throw InputError(what + ": its index holds " + std::to_string(volume.index.size()) +
+                     " voxels, its dims " + std::to_string(volume.voxelCount()));
+  const std::size_t labels = volume.labels.size();
+  if (std::any_of(volume.index.begin(), volume.index.end(),
+                  [&](std::uint16_t i) { return i > labels; }))
+    throw InputError(what + ": a voxel's index names no label (it has " +
+                     std::to_string(labels) + ")");
+  Model model;  // Model's defaults: the default resolution loadModel gives a volume
+  model.name = body.model.empty() ? std::string("volume") : body.model;
+  if (body.labelNames.empty()) {
+    model.volume = body.volume;
+  } else {
+    LabelVolume named = volume;
+    applyLabelNames(named, body.labelNames);
+    model.volume = std::make_shared<const LabelVolume>(std::move(named));
+  }
+  return model;
+}
+
 }  // namespace
 
 bool isBuiltinModelSpec(std::string_view model) {
@@ -694,9 +729,13 @@ Model loadBodyModel(const Scene& scene, std::size_t bodyIndex) {
   const SceneBody& body = scene.bodies[bodyIndex];
   Model model;
   try {
-    ModelLoadParams lp;
-    lp.labelNames = body.labelNames;
-    model = loadModel(body.model, lp);
+    if (body.volume) {
+      model = memoryVolumeModel(body);
+    } else {
+      ModelLoadParams lp;
+      lp.labelNames = body.labelNames;
+      model = loadModel(body.model, lp);
+    }
   } catch (const InputError& e) {
     throw InputError(detail::oneLine(scene.source + ": bodies[" + std::to_string(bodyIndex) +
                                      "].model: " + e.what()));

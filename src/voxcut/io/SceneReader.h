@@ -56,7 +56,8 @@ inline constexpr std::size_t kMaxSceneDepth = 64;
 /// box..., sphere...) rather than a mesh file.
 [[nodiscard]] bool isBuiltinModelSpec(std::string_view model);
 
-/// Loads the model of scene.bodies[bodyIndex] for simulation: loadModel(body.model); a mesh
+/// Loads the model of scene.bodies[bodyIndex] for simulation: loadModel(body.model), or the
+/// label volume body.volume holds in memory when it is set (checked as a file's would be); a mesh
 /// file's single material is renamed "default" (the name scenes use for it); every material
 /// mesh is translated by body.offset (metres) and must then lie within the coordinate range
 /// (core/CoordinateRange.h); then checkMaterialNames. Errors of loadModel come back prefixed

@@ -83,4 +83,15 @@ void checkMaterialNames(const Scene& scene, std::size_t bodyIndex,
   }
 }
 
+BodySettings bodySettings(const SceneBody& body) {
+  BodySettings bs;
+  bs.elementLevel = body.elementLevel;
+  bs.finestLevel = body.finestLevel;
+  bs.frontLevel = body.frontLevel;
+  bs.surfaceLevel = body.surfaceLevel;
+  bs.materials = body.materials;
+  bs.fixed = body.fixed;
+  return bs;
+}
+
 }  // namespace voxcut

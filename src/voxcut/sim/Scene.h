@@ -9,6 +9,7 @@
 
 #include <array>
 #include <cstddef>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -17,6 +18,7 @@
 #include "voxcut/core/Types.h"
 #include "voxcut/sim/WorldTypes.h"
 #include "voxcut/voxel/LabelResample.h"
+#include "voxcut/voxel/LabelVolume.h"
 
 namespace voxcut {
 
@@ -49,6 +51,11 @@ struct SceneBody {
   /// A label volume's names file ("label_names"; lines `value name`): the absolute, lexically
   /// normalised path; empty: none.
   std::string labelNames;
+  /// A label volume given in memory (an application's own segmentation) instead of a file:
+  /// when set, loadBodyModel uses it (with labels, min_island and offset as for a file) and
+  /// `model` only names it in messages. Shared and immutable, so copies of a scene do not copy
+  /// its voxels. A scene holding one cannot be written as a file (io/SceneWriter.h).
+  std::shared_ptr<const LabelVolume> volume;
 };
 
 /// A key-framed tool. Keys' times increase strictly, except that a jump key may share the
@@ -96,6 +103,10 @@ struct Scene {
 [[nodiscard]] inline BladePose bladePoseAt(const SceneTool& tool, double t) {
   return bladePoseAt(tool.keys, t);
 }
+
+/// The body settings of a scene body (levels, materials, fixed boxes): what World::fromScene
+/// gives each body, and any client that adds a scene body to a world.
+[[nodiscard]] BodySettings bodySettings(const SceneBody& body);
 
 /// The material `name` of `materials` (a body's list), or SceneMaterial's defaults named
 /// `name` when the list does not hold it.

@@ -49,15 +49,7 @@ World World::fromScene(const Scene& scene, std::vector<VoxelGrid> grids,
   }
   for (const Obstacle& o : scene.obstacles) w.addObstacle(o);
   for (std::size_t i = 0; i < grids.size(); ++i) {
-    const SceneBody& sb = scene.bodies[i];
-    BodySettings bs;
-    bs.elementLevel = sb.elementLevel;
-    bs.finestLevel = sb.finestLevel;
-    bs.frontLevel = sb.frontLevel;
-    bs.surfaceLevel = sb.surfaceLevel;
-    bs.materials = sb.materials;
-    bs.fixed = sb.fixed;
-    w.addBody(std::move(grids[i]), bs);
+    w.addBody(std::move(grids[i]), bodySettings(scene.bodies[i]));
   }
   return w;
 }

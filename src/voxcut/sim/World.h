@@ -116,7 +116,7 @@ class World {
   [[nodiscard]] SurfaceView surface(BodyId body);
   /// The slots that changed between revision `since` and now (SurfaceView::revision).
   [[nodiscard]] SurfaceChanges surfaceChanges(BodyId body, std::uint64_t since) const;
-  /// A compact copy of the body's deformed surface, with normals. O(surface).
+  /// A compact copy of the body's deformed surface, with normals and triangle tags. O(surface).
   [[nodiscard]] SurfaceMesh surfaceMesh(BodyId body) const;
   /// The largest distance of any material point (occupied voxel centre) from its rest
   /// position, over all bodies (m; docs/algorithms.md, "What max_displacement measures").

@@ -127,12 +127,17 @@ SurfaceMesh World::surfaceMesh(BodyId body) const {
     m.positions.push_back(b.vertexPositions[v]);
     m.vertexVoxel.push_back(b.surface.vertexVoxels()[v]);
   }
-  for (const auto& t : b.surface.triangles()) {
+  const std::vector<std::array<int, 3>>& triangles = b.surface.triangles();
+  const std::vector<TriangleTag>& tags = b.surface.triangleTags();
+  for (std::size_t i = 0; i < triangles.size(); ++i) {
+    const auto& t = triangles[i];
     if (t[0] < 0) continue;
     m.triangles.push_back({index[static_cast<std::size_t>(t[0])],
                            index[static_cast<std::size_t>(t[1])],
                            index[static_cast<std::size_t>(t[2])]});
+    if (i < tags.size()) m.triangleTags.push_back(tags[i]);
   }
+  if (m.triangleTags.size() != m.triangles.size()) m.triangleTags.clear();
   // Normals follow the deformation: area-weighted from the deformed triangles, as surface()'s
   // (+z for a vertex on no triangle of non-zero area).
   m.normals = vertexNormals(m.positions, m.triangles, Vec3d::UnitZ());
