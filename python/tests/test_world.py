@@ -193,6 +193,7 @@ def test_removed_body_is_refused():
 
 
 def test_wrong_arrays_raise_the_right_exceptions():
+    plain, _, plain_tool = small_world()
     world, body, tool = small_world()
     sphere = sphere_labels(8)
     with pytest.raises(TypeError):
@@ -218,7 +219,9 @@ def test_wrong_arrays_raise_the_right_exceptions():
     with pytest.raises(voxcut.InputError):
         voxcut.World(unknown_setting=1)
     assert len(world.bodies()) == 1
-    world.step()
+    press(plain, plain_tool, 4)
+    press(world, tool, 4)
+    same_state(plain, world)
 
 
 def sphere_labels(n, label=1, inner=0):
