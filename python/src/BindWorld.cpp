@@ -243,6 +243,16 @@ void bindWorld(py::module_& m) {
       .def(py::init([](const py::object& scene, const py::kwargs& kw) {
              const WorldSettings s = worldSettingsFrom(kw);
              if (scene.is_none()) return std::make_shared<PyWorld>(s);
+             // A scene holds these: a keyword would be silently overridden by the file.
+             for (const char* key :
+                  {"time_step", "gravity", "tolerance", "max_iterations", "preconditioner",
+                   "projection_history", "contact_stiffness", "friction", "self_collision",
+                   "keep_self_candidates"})
+               if (kw.contains(key))
+                 throw InputError(std::string("from_scene: ") + key +
+                                  " comes from the scene file; set it there (only use_octree, "
+                                  "threaded, blade_segments and min_fragment_voxels are "
+                                  "keywords of a scene's world)");
              const std::string path = py::cast<std::string>(py::str(scene));
              return PyWorld::fromScene(path, s);
            }),

@@ -218,6 +218,8 @@ def test_wrong_arrays_raise_the_right_exceptions():
         voxcut.World(time_step=-1.0)
     with pytest.raises(voxcut.InputError):
         voxcut.World(unknown_setting=1)
+    with pytest.raises(voxcut.InputError, match="comes from the scene file"):
+        voxcut.World.from_scene(voxcut_scene("bunny-ear.json"), time_step=0.001)
     assert len(world.bodies()) == 1
     press(plain, plain_tool, 4)
     press(world, tool, 4)
