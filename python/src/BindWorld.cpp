@@ -19,30 +19,20 @@ namespace voxcut::python {
 
 namespace {
 
-int intArg(const py::handle& v, const std::string& what) {
-  if (!py::isinstance<py::int_>(v) || py::isinstance<py::bool_>(v))
-    throw InputError(what + ": expected an integer, got " +
-                     std::string(py::str(py::type::handle_of(v).attr("__name__"))));
-  const long long x = py::cast<long long>(v);
-  if (x < -(1LL << 30) || x > (1LL << 30))
-    throw InputError(what + ": out of range, got " + std::to_string(x));
-  return static_cast<int>(x);
-}
-
 // The scene body of add_body's keywords; `model` is already set.
 void bodyOptions(SceneBody& b, const py::kwargs& kw) {
   for (const auto& [k, v] : kw) {
     const std::string key = py::cast<std::string>(k);
     if (key == "resolution") {
-      if (!v.is_none()) b.resolution = intArg(v, key);
+      if (!v.is_none()) b.resolution = toInt(v, key);
     } else if (key == "element_level") {
-      b.elementLevel = intArg(v, key);
+      b.elementLevel = toInt(v, key);
     } else if (key == "finest_level") {
-      b.finestLevel = v.is_none() ? -1 : intArg(v, key);
+      b.finestLevel = v.is_none() ? -1 : toInt(v, key);
     } else if (key == "front_level") {
-      b.frontLevel = v.is_none() ? -1 : intArg(v, key);
+      b.frontLevel = v.is_none() ? -1 : toInt(v, key);
     } else if (key == "surface_level") {
-      b.surfaceLevel = v.is_none() ? -1 : intArg(v, key);
+      b.surfaceLevel = v.is_none() ? -1 : toInt(v, key);
     } else if (key == "materials") {
       if (v.is_none()) continue;
       if (!py::isinstance<py::dict>(v))
@@ -73,7 +63,7 @@ void bodyOptions(SceneBody& b, const py::kwargs& kw) {
       if (!v.is_none())
         b.labelNames = std::filesystem::absolute(py::cast<std::string>(v)).lexically_normal();
     } else if (key == "min_island") {
-      b.minIsland = intArg(v, key);
+      b.minIsland = toInt(v, key);
       if (b.minIsland < 0) throw InputError("min_island: must be >= 0");
     } else {
       throw InputError("add_body: unknown keyword '" + key +
@@ -410,7 +400,7 @@ void bindWorld(py::module_& m) {
       .def("save_scene",
            [](PyWorld& w, const std::string& path, const py::object& frames) {
              PyWorld::Guard guard(w);
-             w.saveScene(path, frames.is_none() ? 0 : intArg(frames, "frames"));
+             w.saveScene(path, frames.is_none() ? 0 : toInt(frames, "frames"));
            },
            py::arg("path"), py::arg("frames") = py::none())
       .def("cut_set_hash",

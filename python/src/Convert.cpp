@@ -59,6 +59,16 @@ double toReal(const py::handle& value, const std::string& what) {
   return v;
 }
 
+int toInt(const py::handle& value, const std::string& what) {
+  if (!py::isinstance<py::int_>(value) || py::isinstance<py::bool_>(value))
+    throw InputError(what + ": expected an integer, got " +
+                     std::string(py::str(py::type::handle_of(value).attr("__name__"))));
+  const long long v = py::cast<long long>(value);
+  if (v < -(1LL << 30) || v > (1LL << 30))
+    throw InputError(what + ": out of range, got " + std::to_string(v));
+  return static_cast<int>(v);
+}
+
 py::array_t<double> vec3Array(const std::vector<Vec3d>& v) {
   py::array_t<double> a({static_cast<py::ssize_t>(v.size()), py::ssize_t{3}});
   if (!v.empty()) std::memcpy(a.mutable_data(), v.data(), v.size() * sizeof(Vec3d));
@@ -91,15 +101,6 @@ SolverChoice solverFrom(const std::string& name) {
   throw InputError("preconditioner: unknown choice '" + name + "' (known: " + known + ")");
 }
 
-int toInt(const py::handle& value, const std::string& what) {
-  if (!py::isinstance<py::int_>(value) || py::isinstance<py::bool_>(value))
-    throw InputError(what + ": expected an integer, got " +
-                     std::string(py::str(py::type::handle_of(value).attr("__name__"))));
-  const long long v = py::cast<long long>(value);
-  if (v < -(1LL << 30) || v > (1LL << 30))
-    throw InputError(what + ": out of range, got " + std::to_string(v));
-  return static_cast<int>(v);
-}
 
 bool toBool(const py::handle& value, const std::string& what) {
   if (!py::isinstance<py::bool_>(value))

@@ -42,6 +42,8 @@ Vec3d toVec3(const py::handle& value, const std::string& what);
 BladePose toPose(const py::handle& value, const std::string& what);
 /// A finite real number (InputError otherwise, naming `what`).
 double toReal(const py::handle& value, const std::string& what);
+/// An integer (not a bool) within +-2^30 (InputError otherwise, naming `what`).
+int toInt(const py::handle& value, const std::string& what);
 
 /// (n, 3) float64 array copied from `v`.
 py::array_t<double> vec3Array(const std::vector<Vec3d>& v);
