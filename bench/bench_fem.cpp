@@ -12,6 +12,10 @@
 //    TwoLevel, Cholesky and Multigrid, each with the start projected onto the last 8
 //    solutions (the default) and from the previous step's dv alone (arguments: resolution,
 //    preconditioner, solutions kept): how the step grows with the size of the body;
+//  - BunnyThreads: the scaling case at resolutions 301 and 173 (about 10.3k and 3.1k nodes)
+//    with Multigrid and the start projected onto the last 8 solutions, at 1, 2, 4, 8 and 16
+//    threads (arguments: resolution, threads): how the step scales with the threads
+//    (scripts/thread_scaling.sh);
 //  - DirectSolvers: our block Cholesky against CHOLMOD (SuiteSparse) on the scaling case's
 //    reduced matrix, one factorisation and solve per iteration (arguments: resolution,
 //    solver);
@@ -203,6 +207,17 @@ void BunnyScaling(benchmark::State& state) {
   runSteps(state, cases.at(resolution), 1, state.range(1), state.range(2));
 }
 
+/// Arguments: resolution, threads; the scaling case with the multigrid preconditioner and the
+/// start projected onto the last 8 solutions (the solver's default start).
+void BunnyThreads(benchmark::State& state) {
+  static std::map<int, FemCase> cases;
+  const int resolution = static_cast<int>(state.range(0));
+  if (!cases.contains(resolution)) cases.emplace(resolution, scalingCase(resolution));
+  state.counters["nodes"] = static_cast<double>(cases.at(resolution).octree.nodeCount());
+  runSteps(state, cases.at(resolution), state.range(1),
+           static_cast<long>(PreconditionerKind::Multigrid), 8);
+}
+
 /// The direct solvers on the scaling case's reduced matrix after 20 steps: our block
 /// Cholesky (BlockCholesky.h) against CHOLMOD's supernodal Cholesky (SuiteSparse, through
 /// Eigen's CholmodSupport), each analysed once and then timed for one factorisation and one
@@ -292,6 +307,11 @@ void Constraints(benchmark::State& state) {
 
 BENCHMARK(BunnyScaling)
     ->ArgsProduct({{173, 241, 301}, {0, 4, 5, 6}, {8, 0}})
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(0.3);
+BENCHMARK(BunnyThreads)
+    ->ArgsProduct({{301, 173}, {1, 2, 4, 8, 16}})
     ->UseManualTime()
     ->Unit(benchmark::kMillisecond)
     ->MinTime(0.3);

@@ -372,7 +372,7 @@ std::vector<Vec3d> runSteps(int threads, int steps, std::vector<StepStatus>& sta
 
 TEST(ImplicitEulerDynamics, BitIdenticalAtOneAndTwoThreads) {
   for (PreconditionerKind kind : {PreconditionerKind::TwoLevel, PreconditionerKind::Cholesky,
-                                  PreconditionerKind::Multigrid}) {
+                                  PreconditionerKind::Multigrid, PreconditionerKind::Automatic}) {
     std::vector<StepStatus> one, two;
     const auto a = runSteps(1, 25, one, kind);
     const auto b = runSteps(2, 25, two, kind);
@@ -383,6 +383,7 @@ TEST(ImplicitEulerDynamics, BitIdenticalAtOneAndTwoThreads) {
       EXPECT_EQ(one[s].iterations, two[s].iterations);
       EXPECT_EQ(one[s].residual, two[s].residual);
       EXPECT_EQ(one[s].factorised, two[s].factorised);
+      EXPECT_EQ(one[s].preconditioner, two[s].preconditioner);
       EXPECT_TRUE(one[s].converged);
     }
   }

@@ -93,6 +93,18 @@ class ImplicitEuler {
     return contacts_.pairFrictionForces();
   }
 
+  /// The preconditioner the last step chose (Cholesky, Multigrid or TwoLevel under Automatic; the
+  /// setting before the first step). A step's StepStatus says what its solve ran on, which
+  /// may be a stand-in (the two-level V-cycle).
+  [[nodiscard]] PreconditionerKind chosenPreconditioner() const {
+    return preconditioners_.stepped() ? preconditioners_.stepKind() : params_.preconditioner;
+  }
+  /// Automatic: the work a step on `kind` (Cholesky, Multigrid or TwoLevel) is expected to cost, in fine
+  /// matrix products, as the last step weighed it (fem/AutomaticChoice.h).
+  [[nodiscard]] double expectedWork(PreconditionerKind kind) const {
+    return preconditioners_.expectedWork(kind);
+  }
+
   /// Node velocities (m/s), one per node of the model last stepped (or set); empty before.
   [[nodiscard]] const std::vector<Vec3d>& velocities() const { return velocity_; }
   /// Sets the node velocities (one per node; the next step projects them through P, so

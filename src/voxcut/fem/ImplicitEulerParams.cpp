@@ -18,6 +18,8 @@ const char* preconditionerName(PreconditionerKind p) {
       return "cholesky";
     case PreconditionerKind::Multigrid:
       return "multigrid";
+    case PreconditionerKind::Automatic:
+      return "auto";
   }
   return "unknown";
 }

@@ -55,6 +55,9 @@ enum class PreconditionerKind {
   TwoLevel,   ///< Gauss-Seidel and aggregates' rigid motions (linalg/TwoLevelPreconditioner.h)
   Cholesky,   ///< sparse Cholesky factor of an earlier step's matrix (linalg/BlockCholesky.h)
   Multigrid,  ///< geometric multigrid V-cycle on the node grid (linalg/Multigrid.h)
+  /// Cholesky, Multigrid or TwoLevel, chosen per body and step from its structure and its
+  /// last steps (fem/AutomaticChoice.h); a step's status names the one it used.
+  Automatic,
 };
 
 /// Every kind of preconditioner, in declaration order.
@@ -65,7 +68,8 @@ inline constexpr PreconditionerKind kPreconditionerKinds[] = {
     PreconditionerKind::IncompleteCholesky,
     PreconditionerKind::TwoLevel,
     PreconditionerKind::Cholesky,
-    PreconditionerKind::Multigrid};
+    PreconditionerKind::Multigrid,
+    PreconditionerKind::Automatic};
 
 /// Name of a preconditioner ("jacobi", "block_jacobi", "symmetric_gauss_seidel",
 /// "incomplete_cholesky", "two_level", "cholesky", "multigrid"), for reports and scene files.

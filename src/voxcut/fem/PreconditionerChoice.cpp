@@ -1,5 +1,6 @@
 #include "voxcut/fem/PreconditionerChoice.h"
 
+#include <cmath>
 #include <limits>
 
 namespace voxcut {
@@ -20,7 +21,7 @@ class PreconditionerChoice::StepPreconditioner final : public LinearPrecondition
       : choice_(choice),
         in_(in),
         status_(status),
-        kind_(in.params.preconditioner),
+        kind_(choice.stepKind_),
         refresh_(refresh) {}
 
   [[nodiscard]] bool setOperator(const BlockMatrixView& a, bool threaded) override;
@@ -65,6 +66,7 @@ bool PreconditionerChoice::StepPreconditioner::setOperator(const BlockMatrixView
     (void)s.twoLevel_.setup(sp, model.aggregation(), in_.blocks, &in_.freePositions, threaded);
   status_.preconditioner = kind_;
   status_.bridged = bridged_;
+  s.work_.bridged = s.work_.bridged || bridged_;
   return true;  // every kind above applies, the two-level V-cycle as smoothing alone at worst
 }
 
@@ -83,13 +85,14 @@ void PreconditionerChoice::StepPreconditioner::chooseCholesky(std::size_t rows, 
     if (s.costlyRows_ != 0 && 10 * rows >= 9 * s.costlyRows_) {
       s.costlyRevision_ = revision;
     } else {
-      s.cholesky_.analyse(sp);
-      s.bridge_.invalidate();
+      s.analyse(sp);
       s.choleskyRevision_ = revision;
       const double updates = s.cholesky_.updateCount();
       s.costlyRows_ = 0;
-      if (updates > params.maxFactorUpdates ||
-          updates > params.maxFactorUpdatesPerBlock * static_cast<double>(sp.blockCount())) {
+      // The automatic choice weighs a factor's cost itself (AutomaticChoice.h).
+      if (!s.automaticStep_ &&
+          (updates > params.maxFactorUpdates ||
+           updates > params.maxFactorUpdatesPerBlock * static_cast<double>(sp.blockCount()))) {
         s.costlyRows_ = rows;
         s.costlyRevision_ = revision;
         s.cholesky_ = BlockCholesky{};  // its pattern's memory back
@@ -103,6 +106,7 @@ void PreconditionerChoice::StepPreconditioner::chooseCholesky(std::size_t rows, 
   } else if (!s.cholesky_.factorised() || s.lastIterations_ > params.refactorIterations ||
              refresh_) {
     status_.factorised = s.cholesky_.factorise(sp, in_.blocks, threaded);
+    s.work_.factorised = true;
     if (status_.factorised)
       s.bridge_.reset(model);
     else {
@@ -125,6 +129,7 @@ void PreconditionerChoice::StepPreconditioner::chooseMultigrid(const BlockMatrix
   if (s.multigridRevision_ != model.sparsityRevision() || !s.multigrid_.built()) {
     s.multigrid_.build(view, s.freeCoords_, params.multigrid, threaded);
     s.multigridRevision_ = model.sparsityRevision();
+    s.work_.built = true;
     ok = s.multigridRefreshed_ = s.multigrid_.setOperator(view, threaded);
   } else if (!s.multigrid_.valid() || refresh_ ||
              s.lastIterations_ > s.multigridBaseIterations_ + params.multigridRefreshIterations) {
@@ -133,6 +138,7 @@ void PreconditionerChoice::StepPreconditioner::chooseMultigrid(const BlockMatrix
     ok = s.multigrid_.updateFine(view, threaded);
     if (!ok) ok = s.multigridRefreshed_ = s.multigrid_.setOperator(view, threaded);
   }
+  s.work_.refreshed = s.work_.refreshed || s.multigridRefreshed_;
   if (!ok) kind_ = PreconditionerKind::TwoLevel;
 }
 
@@ -169,7 +175,13 @@ void PreconditionerChoice::beginStep(const ElasticModel& model, const Deformatio
     ++stepsOnStructure_;
   }
   const std::vector<std::uint32_t>& freeNodes = model.freeNodes();
-  if (params.preconditioner == PreconditionerKind::Multigrid && multigridRevision_ != revision) {
+  work_ = StepWork{};
+  size_.newSparsity = stepped_ && stepsOnStructure_ == 0;
+  stepped_ = true;
+  automaticStep_ = params.preconditioner == PreconditionerKind::Automatic;
+  stepKind_ = automaticStep_ ? chooseAutomatic(model, params.tolerance) : params.preconditioner;
+  work_.family = stepKind_;
+  if (stepKind_ == PreconditionerKind::Multigrid && multigridRevision_ != revision) {
     freeCoords_.resize(freeNodes.size());
     for (std::size_t i = 0; i < freeNodes.size(); ++i)
       freeCoords_[i] = octree.nodeCoord(freeNodes[i]);
@@ -177,7 +189,7 @@ void PreconditionerChoice::beginStep(const ElasticModel& model, const Deformatio
   // A cut since the factor: map the factor onto the new rows (FactorBridge.h), once per
   // sparsity, unless the last step on the bridge showed it has worn out.
   if (lastBridged_ && lastIterations_ > params.bridgeIterations) bridge_.invalidate();
-  if (params.preconditioner == PreconditionerKind::Cholesky && bridge_.valid() &&
+  if (stepKind_ == PreconditionerKind::Cholesky && bridge_.valid() &&
       cholesky_.factorised() && revision != choleskyRevision_ && bridgeRevision_ != revision) {
     if (bridge_.prepare(model, octree, cholesky_.rows())) bridgeRevision_ = revision;
   }
@@ -192,11 +204,11 @@ ConjugateGradientStatus PreconditionerChoice::iterate(ConjugateGradients& cg, co
   // Not converged on a preconditioner made for earlier steps (the earlier factor through the
   // bridge after a cut, a factor or coarse levels of a matrix the contacts have changed since):
   // once more from where it stopped, on one made for this step's matrix.
-  const bool betterFactor = in.params.preconditioner == PreconditionerKind::Cholesky &&
+  const bool betterFactor = stepKind_ == PreconditionerKind::Cholesky &&
                             !status.factorised &&
                             costlyRevision_ != in.model.sparsityRevision();
   const bool betterLevels =
-      in.params.preconditioner == PreconditionerKind::Multigrid && !multigridRefreshed_;
+      stepKind_ == PreconditionerKind::Multigrid && !multigridRefreshed_;
   if (!result.converged && result.finite && result.preconditioned &&
       (betterFactor || betterLevels)) {
     StepStatus again;
@@ -211,6 +223,50 @@ ConjugateGradientStatus PreconditionerChoice::iterate(ConjugateGradients& cg, co
                                      more.converged, more.finite, more.preconditioned};
   }
   return result;
+}
+
+void PreconditionerChoice::analyse(const BlockSparsity& sparsity) {
+  cholesky_.analyse(sparsity);
+  bridge_.invalidate();
+  work_.analysed = true;
+  analysedRows_ = cholesky_.rows();
+  analysedUpdates_ = cholesky_.updateCount();
+  analysedBlocks_ = static_cast<double>(cholesky_.offDiagonalBlocks());
+}
+
+PreconditionerKind PreconditionerChoice::chooseAutomatic(const ElasticModel& model,
+                                                        double tolerance) {
+  const BlockSparsity& sp = model.sparsity();
+  const std::size_t rows = model.freeNodeCount();
+  // The first step weighs the factor of its own sparsity (an analysis, a fraction of a
+  // factorisation) unless the body is too large for a factor to have a chance; later
+  // sparsities scale the last analysis by their rows (fill grows as rows^(4/3), the work of
+  // a factorisation as rows^2 for three-dimensional meshes under a nested ordering).
+  if (analysedRows_ == 0 && rows > 0 && rows <= kAutomaticAnalysisRows) {
+    analyse(sp);
+    choleskyRevision_ = model.sparsityRevision();
+  }
+  const double scale = analysedRows_ == 0 ? 0.0
+                                          : static_cast<double>(rows) /
+                                                static_cast<double>(analysedRows_);
+  size_.rows = rows;
+  size_.blocks = sp.blockCount();
+  size_.factorUpdates = analysedRows_ == 0 ? 1e30 : analysedUpdates_ * scale * scale;
+  size_.factorBlocks = analysedRows_ == 0 ? 1e30 : analysedBlocks_ * std::pow(scale, 4.0 / 3.0);
+  return automatic_.choose(size_, tolerance);
+}
+
+void PreconditionerChoice::endStep(const StepStatus& status) {
+  lastIterations_ = status.iterations;
+  lastBridged_ = status.bridged;
+  if (!automaticStep_) return;
+  work_.iterations = status.iterations;
+  work_.used = status.preconditioner;
+  if (work_.analysed || work_.factorised) {  // weigh the factor actually made
+    size_.factorUpdates = analysedUpdates_;
+    size_.factorBlocks = analysedBlocks_;
+  }
+  automatic_.record(work_, size_);
 }
 
 void PreconditionerChoice::updateTopology(const TopologyChange& change) {

@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "voxcut/core/Types.h"
+#include "voxcut/fem/AutomaticChoice.h"
 #include "voxcut/fem/ElasticModel.h"
 #include "voxcut/fem/FactorBridge.h"
 #include "voxcut/fem/ImplicitEulerParams.h"
@@ -77,9 +78,17 @@ class PreconditionerChoice {
 
   /// After a step: its iterations and whether it ran on the bridge, which the next step's
   /// choice depends on.
-  void endStep(const StepStatus& status) {
-    lastIterations_ = status.iterations;
-    lastBridged_ = status.bridged;
+  void endStep(const StepStatus& status);
+
+  /// Whether a step has begun, and the kind the last one chose (the setting's, or the
+  /// automatic choice's Cholesky, Multigrid or TwoLevel).
+  [[nodiscard]] bool stepped() const { return stepped_; }
+  [[nodiscard]] PreconditionerKind stepKind() const { return stepKind_; }
+
+  /// Automatic: the expected work of a step on `kind` (Cholesky, Multigrid, TwoLevel), in fine
+  /// products, as the last step's choice weighed it (AutomaticChoice.h).
+  [[nodiscard]] double expectedWork(PreconditionerKind kind) const {
+    return automatic_.expected(kind);
   }
 
   /// Remaps the bridge through a topology change (as ImplicitEuler::updateTopology).
@@ -87,6 +96,26 @@ class PreconditionerChoice {
 
  private:
   class StepPreconditioner;  ///< the preconditioner of one solve (PreconditionerChoice.cpp)
+
+  /// Automatic: the kind this step of `model` runs on (AutomaticChoice.h).
+  PreconditionerKind chooseAutomatic(const ElasticModel& model, double tolerance);
+  /// Orders and analyses `sparsity` for cholesky_, and keeps the factor's size.
+  void analyse(const BlockSparsity& sparsity);
+
+  /// Automatic: bodies with more free rows than this are not analysed for a first estimate
+  /// of their factor (its analysis alone would cost several steps); they start on the
+  /// multigrid.
+  static constexpr std::size_t kAutomaticAnalysisRows = 40000;
+
+  PreconditionerKind stepKind_ = PreconditionerKind::Cholesky;  ///< of the current step
+  AutomaticChoice automatic_;
+  bool stepped_ = false;
+  bool automaticStep_ = false;  ///< the current step's kind is the automatic choice's
+  StepWork work_;               ///< what the current step's preconditioners did
+  SystemSize size_;             ///< what the automatic choice weighs the work on
+  std::size_t analysedRows_ = 0;  ///< rows of the sparsity cholesky_ analysed last
+  double analysedUpdates_ = 0.0;  ///< its factor's updates and blocks below the diagonal
+  double analysedBlocks_ = 0.0;
 
   IncompleteCholeskyPattern icPattern_;  ///< of the sparsity with revision icRevision_
   std::uint64_t icRevision_ = 0;

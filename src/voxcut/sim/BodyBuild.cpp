@@ -39,8 +39,7 @@ BodyId World::addBody(VoxelGrid grid, const BodySettings& settings) {
     solver.tolerance = ws.solver.tolerance;
     solver.maxIterations = ws.solver.maxIterations;
     solver.projectionHistory = ws.solver.projectionHistory;
-    b.solverChoice = resolveSolver(ws.solver.preconditioner);
-    solver.preconditioner = preconditionerOf(b.solverChoice);
+    solver.preconditioner = preconditionerOf(ws.solver.preconditioner);
     b.solver = ImplicitEuler(solver);
     w.rebuildModel(b);
     double stiffest = 0.0;
@@ -122,7 +121,7 @@ BodyInfo World::bodyInfo(BodyId body) const {
   info.voxelSize = b.cut.grid.voxelSize();
   info.materialNames = b.cut.grid.materialNames();
   info.materialColours = b.cut.grid.materialColours();
-  info.solver = b.solverChoice;
+  info.solver = solverChoiceOf(b.solver.chosenPreconditioner());
   info.selfCandidateQueries = b.selfCandidates.queries;
   return info;
 }

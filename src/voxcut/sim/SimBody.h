@@ -104,7 +104,6 @@ struct SimBody {
   std::vector<BladeFront> fronts;
   std::vector<int> frontSegments;
   double contactStiffness = 0.0;  ///< per surface vertex (N/m). Writes: build.
-  SolverChoice solverChoice = SolverChoice::Cholesky;  ///< never Automatic. Writes: build.
   /// Links cut so far, and every cut (for the cut set hash). Writes: the cutting stage.
   std::size_t cutLinks = 0;
   std::vector<LinkCut> cuts;

@@ -108,15 +108,10 @@ inline void setFriction(PointContact& pc, double mu, double overlap, const Vec3d
   pc.friction = mu * normalForce / std::max(slip, kStickSpeed);
 }
 
-/// The solver a body uses for `choice` (WorldTypes.h, SolverChoice).
-inline SolverChoice resolveSolver(SolverChoice choice) {
-  return choice == SolverChoice::Automatic ? SolverChoice::Cholesky : choice;
-}
-
-/// fem's preconditioner for a resolved choice.
+/// fem's preconditioner for a choice.
 inline PreconditionerKind preconditionerOf(SolverChoice c) {
   switch (c) {
-    case SolverChoice::Automatic:
+    case SolverChoice::Automatic: return PreconditionerKind::Automatic;
     case SolverChoice::Cholesky: return PreconditionerKind::Cholesky;
     case SolverChoice::Multigrid: return PreconditionerKind::Multigrid;
     case SolverChoice::Jacobi: return PreconditionerKind::Jacobi;
@@ -125,7 +120,14 @@ inline PreconditionerKind preconditionerOf(SolverChoice c) {
     case SolverChoice::IncompleteCholesky: return PreconditionerKind::IncompleteCholesky;
     case SolverChoice::TwoLevel: return PreconditionerKind::TwoLevel;
   }
-  return PreconditionerKind::Cholesky;
+  return PreconditionerKind::Automatic;
+}
+
+/// The choice that names fem's preconditioner `k`.
+inline SolverChoice solverChoiceOf(PreconditionerKind k) {
+  for (SolverChoice c : kSolverChoices)
+    if (preconditionerOf(c) == k) return c;
+  return SolverChoice::Automatic;
 }
 
 inline bool samePose(const BladePose& p, const BladePose& q) {

@@ -60,10 +60,11 @@ using ObstacleId = Handle<ObstacleTag>;  ///< a static obstacle
 
 /// How each body's implicit step solves its linear system: the preconditioner of its conjugate
 /// gradients (docs/algorithms.md, "Preconditioners"). Automatic (the default) leaves the choice
-/// to the world, per body, when the body is built (BodyInfo::solver says what it chose): it
-/// chooses the sparse Cholesky factor of an earlier step, the fastest at the sizes the shipped
-/// scenes have (docs/performance.md, "Deformation solver"). The others force one kind
-/// everywhere (for comparisons and benchmarks).
+/// to each body's step: the sparse Cholesky factor of an earlier step, the multigrid or the
+/// two-level V-cycle, whichever the body's size and its last steps (cuts, contacts, how long a
+/// factor lasts) say is cheapest (fem/AutomaticChoice.h; docs/algorithms.md, "The automatic solver choice");
+/// BodyInfo::solver says which its last step chose. The others force one kind everywhere (for
+/// comparisons and benchmarks).
 enum class SolverChoice {
   Automatic,
   Cholesky,              ///< sparse Cholesky factor of an earlier step's matrix
@@ -207,7 +208,9 @@ struct BodyInfo {
   /// Display colours (RGB in [0, 1]) of materials 1..N that the model gave (a label volume's
   /// segment colours); shorter than materialNames, or without a value, where it gave none.
   std::vector<std::optional<std::array<float, 3>>> materialColours;
-  SolverChoice solver = SolverChoice::Cholesky;  ///< what its step uses (never Automatic)
+  /// The solver its last step chose: under Automatic, Cholesky, Multigrid or TwoLevel as the
+  /// choice goes (fem/AutomaticChoice.h); before the first step, the setting.
+  SolverChoice solver = SolverChoice::Cholesky;
   /// Times self collision's broad phase was queried afresh for the body
   /// (ContactSettings::keepSelfCandidates).
   std::size_t selfCandidateQueries = 0;
