@@ -146,15 +146,15 @@ void bindBody(py::module_& m) {
       .def("_material",
            [](const PyBody& b, const std::string& name) {
              PyWorld::Guard g(*b.world);
-             const SceneMaterial m = b.live().material(b.id, name);
+             const SceneMaterial mat = b.live().material(b.id, name);
              py::dict d;
-             d["young_modulus"] = m.youngModulus;
-             d["poisson_ratio"] = m.poissonRatio;
-             d["density"] = m.density;
-             d["mass_damping"] = m.massDamping;
-             d["stiffness_damping"] = m.stiffnessDamping;
-             d["max_internal_level"] = m.maxInternalLevel;
-             d["max_boundary_level"] = m.maxBoundaryLevel;
+             d["young_modulus"] = mat.youngModulus;
+             d["poisson_ratio"] = mat.poissonRatio;
+             d["density"] = mat.density;
+             d["mass_damping"] = mat.massDamping;
+             d["stiffness_damping"] = mat.stiffnessDamping;
+             d["max_internal_level"] = mat.maxInternalLevel;
+             d["max_boundary_level"] = mat.maxBoundaryLevel;
              return d;
            })
       .def("_set_fixed",

@@ -14,7 +14,10 @@
 /// are twice differentiable, and their boundaries average the staircase of the labels over a
 /// few voxels. A grid voxel takes the material with the largest f at its centre; a link whose
 /// ends differ gets the point where f_{m0} = f_{m1} along it and the normal of that level set,
-/// from the exact gradient of the kernel sums.
+/// from the exact gradient of the kernel sums. Where grid voxels are about the file's size,
+/// that crossing and normal are then refined by a quadric height field fitted to the file's
+/// own boundary links around it, which places boundaries that run nearly parallel to the
+/// file's lattice planes (where the average cannot) to a fraction of a voxel.
 
 #include <cstdint>
 #include <string>
@@ -80,7 +83,8 @@ void checkLabelChoices(const LabelVolume& volume, const std::vector<LabelChoice>
 /// Throws InputError for bad choices (checkLabelChoices), a kernel radius outside [1, 4], a
 /// grid the resolution refuses (gridFrameFor) and Interrupted when the progress callback asks
 /// to stop. Deterministic for any thread count. Time: linear in the grid's voxels plus the
-/// file voxels of the chosen labels' bounding box, plus a constant per boundary link.
+/// file voxels of the chosen labels' bounding box, plus a constant per boundary link (larger
+/// where the link fit runs).
 [[nodiscard]] VoxelGrid resampleLabels(const LabelVolume& volume,
                                        const LabelResampleParams& params,
                                        LabelResampleReport* report = nullptr);
