@@ -16,6 +16,7 @@ struct SliceVertices {
   std::vector<std::array<std::int8_t, 24>> patch;  // per cell
   std::vector<Vec3d> positions;                    // per vertex, in cell order then patch order
   std::vector<std::uint64_t> voxel;                // per vertex
+  std::vector<std::uint8_t> doubledFaces;          // per cell: bit a, +a face has 2+ segments
 };
 
 // Cells that hold vertices, numbered in slice order.
@@ -24,7 +25,8 @@ struct ContourCells {
   std::vector<std::size_t> cell;      // per ordinal
   std::vector<std::int32_t> firstVertex;
   std::vector<std::array<std::int8_t, 24>> patches;
-  std::vector<std::uint8_t> splitFaces;  // bit a: the +a face has split segments
+  std::vector<std::uint8_t> doubledFaces;  // bit a: the +a face has two or more segments
+  std::vector<std::uint8_t> splitFaces;    // bit a: the +a face has split segments
   std::unordered_map<std::uint64_t, std::int32_t> splitVertex;  // faceSlotKey -> vertex
 };
 
@@ -48,6 +50,7 @@ void splitDoubledSegments(const VoxelGrid& grid, ContourCells& cc, SurfaceMesh& 
       [&](std::size_t c0, std::size_t c1) {
         for (std::size_t c = c0; c < c1; ++c)
           for (std::size_t o = c * kChunk; o < std::min(n, (c + 1) * kChunk); ++o) {
+            if (!cc.doubledFaces[o]) continue;  // one segment per face at most: nothing doubles
             const std::size_t cell = cc.cell[o];
             const Index3 m = grid.coord(cell);
             std::array<std::int8_t, 24> raw;
@@ -98,6 +101,7 @@ SurfaceLinks findSurfaceLinks(const VoxelGrid& grid, bool threaded) {
   SurfaceLinks s;
   s.bits.assign(grid.voxelCount(), 0);
   s.rowAny.assign(static_cast<std::size_t>(d.y) * static_cast<std::size_t>(d.z), 0);
+  const std::size_t sy = grid.stride(1), sz = grid.stride(2);
   parallelFor(
       0, static_cast<std::size_t>(d.z), 1,
       [&](std::size_t z0, std::size_t z1) {
@@ -105,18 +109,26 @@ SurfaceLinks findSurfaceLinks(const VoxelGrid& grid, bool threaded) {
           for (int y = 0; y < d.y; ++y) {
             const std::size_t row = static_cast<std::size_t>(y) + static_cast<std::size_t>(d.y) * z;
             const std::size_t v0 = grid.index(0, y, static_cast<int>(z));
+            // A link leaves the row's voxels along +x, +y or +z: with no material in this row
+            // or the rows it reaches, it has no surface link.
+            const bool hasY = y + 1 < d.y, hasZ = static_cast<int>(z) + 1 < d.z;
+            const auto rowEmpty = [&](std::size_t start) {
+              for (std::size_t v = start; v < start + static_cast<std::size_t>(d.x); ++v)
+                if (grid.occupied(v)) return false;
+              return true;
+            };
+            if (rowEmpty(v0) && (!hasY || rowEmpty(v0 + sy)) && (!hasZ || rowEmpty(v0 + sz)))
+              continue;
             std::uint8_t any = 0;
             for (int x = 0; x < d.x; ++x) {
               const std::size_t v = v0 + static_cast<std::size_t>(x);
-              const Index3 c{x, y, static_cast<int>(z)};
-              std::uint8_t b = 0;
-              for (int a = 0; a < 3; ++a) {
-                if (c[a] + 1 >= d[a] || grid.connected(v, a)) continue;
-                if (grid.occupied(v) || grid.occupied(v + grid.stride(a)))
-                  b = static_cast<std::uint8_t>(b | (1u << a));
-              }
-              s.bits[v] = b;
-              any |= b;
+              const bool occ = grid.occupied(v);
+              unsigned b = 0;
+              if (x + 1 < d.x && !grid.connected(v, 0) && (occ || grid.occupied(v + 1))) b |= 1u;
+              if (hasY && !grid.connected(v, 1) && (occ || grid.occupied(v + sy))) b |= 2u;
+              if (hasZ && !grid.connected(v, 2) && (occ || grid.occupied(v + sz))) b |= 4u;
+              s.bits[v] = static_cast<std::uint8_t>(b);
+              any = static_cast<std::uint8_t>(any | b);
             }
             s.rowAny[row] = any != 0;
           }
@@ -142,7 +154,13 @@ void contourCellSlice(const VoxelGrid& grid, const SurfaceLinks& sl, int z, doub
                             (b[sy + 1] & 4u) | (b[sz + 1] & 2u) | (b[sy + sz] & 1u);
       if (!mask) continue;
       const Index3 m{x, y, z};
-      const DualCellVertices cv = dualCellVertices(grid, m, threshold);
+      std::array<FaceSegments, 6> seg;
+      const DualCellVertices cv = dualCellVertices(grid, m, threshold, &seg);
+      std::uint8_t doubled = 0;
+      for (int a = 0; a < 3; ++a)
+        if (seg[static_cast<std::size_t>(2 * a + 1)].count >= 2)
+          doubled = static_cast<std::uint8_t>(doubled | (1u << a));
+      out.doubledFaces.push_back(doubled);
       out.cells.push_back(grid.index(m));
       out.patch.push_back(cv.patch);
       out.positions.insert(out.positions.end(), cv.position.begin(),
@@ -181,6 +199,7 @@ SurfaceMesh dualContour(const VoxelGrid& grid, const DualContourParams& params) 
       cc.cell.push_back(s.cells[i]);
       cc.firstVertex.push_back(static_cast<std::int32_t>(mesh.positions.size() + local));
       cc.patches.push_back(s.patch[i]);
+      cc.doubledFaces.push_back(s.doubledFaces[i]);
       local +=
           static_cast<std::size_t>(*std::max_element(s.patch[i].begin(), s.patch[i].end()) + 1);
     }
