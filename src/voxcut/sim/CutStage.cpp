@@ -4,6 +4,7 @@
 /// coarsening after cuts, and the surface and model brought up to date.
 
 #include <algorithm>
+#include <tuple>
 
 #include "voxcut/cutting/Fragments.h"
 #include "voxcut/sim/WorldImpl.h"
@@ -215,20 +216,35 @@ void World::Impl::refineRestingFronts(SimBody& b, Frame& f) {
   const VoxelGrid& g = b.cut.grid;
   const Index3 gd = g.dims();
   const int r = 2 << finest;
-  std::vector<std::uint64_t> links;
+  // The boxes of neighbouring points overlap almost wholly: per voxel row (y, z), the union of
+  // their x ranges, so that each voxel is looked at once.
+  struct Span {
+    int z, y, x0, x1;
+  };
+  std::vector<Span> spans;
   for (const Index3& c : frontVoxels(b)) {
-    if (!std::binary_search(b.restingRegions.begin(), b.restingRegions.end(),
-                            regionKey(S, c, gd)))
+    if (!std::binary_search(b.restingRegions.begin(), b.restingRegions.end(), regionKey(S, c, gd)))
       continue;
     for (int z = std::max(c.z - r, 0); z < std::min(c.z + r, gd.z); ++z)
       for (int y = std::max(c.y - r, 0); y < std::min(c.y + r, gd.y); ++y)
-        for (int x = std::max(c.x - r, 0); x < std::min(c.x + r, gd.x); ++x) {
-          const std::size_t v = g.index(x, y, z);
-          if (!g.occupied(v)) continue;
-          for (int a = 0; a < 3; ++a)
-            if (g.hasLink(v, a) && !g.connected(v, a) && g.occupied(v + g.stride(a)))
-              links.push_back(VoxelGrid::linkId(v, a));
-        }
+        spans.push_back({z, y, std::max(c.x - r, 0), std::min(c.x + r, gd.x)});
+  }
+  std::sort(spans.begin(), spans.end(), [](const Span& p, const Span& q) {
+    return std::tie(p.z, p.y, p.x0) < std::tie(q.z, q.y, q.x0);
+  });
+  std::vector<std::uint64_t> links;
+  for (std::size_t i = 0; i < spans.size();) {
+    const int z = spans[i].z, y = spans[i].y;
+    int x = spans[i].x0;
+    for (; i < spans.size() && spans[i].z == z && spans[i].y == y; ++i) {
+      for (x = std::max(x, spans[i].x0); x < spans[i].x1; ++x) {
+        const std::size_t v = g.index(x, y, z);
+        if (!g.occupied(v)) continue;
+        for (int a = 0; a < 3; ++a)
+          if (g.hasLink(v, a) && !g.connected(v, a) && g.occupied(v + g.stride(a)))
+            links.push_back(VoxelGrid::linkId(v, a));
+      }
+    }
   }
   if (links.empty()) return;
   const std::vector<std::vector<Vec3d>> front = frontPoints(b);
