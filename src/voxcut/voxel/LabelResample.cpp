@@ -405,6 +405,9 @@ constexpr double kFitLooseSigma = 0.12;    // least precision a fallback fit mus
 constexpr double kModelSigma = 0.03;       // error floor of a midpoint, in voxels
 constexpr double kFitMaxChi2 = 4.0;        // mean weighted squared residual accepted
 constexpr std::size_t kFitMinLinks = 12;
+// A smooth boundary crosses at most pi W^2 sqrt(3) links within a lateral radius W (fewer
+// facing the way its normal does); three times that and the region is noise or folds.
+constexpr double kFitMaxLinksPerArea = 3.0 * 3.14159265358979 * 1.7320508;
 constexpr double kFitGridRatio = 1.5;  // grid voxel / file spacing up to which it is used
 
 using Vec6 = Eigen::Matrix<double, 6, 1>;
@@ -491,10 +494,13 @@ bool solveFit(const std::vector<FitSample>& samples, const HeightFit& frame, int
 }
 
 // The midpoints of m0's links to other materials within `window` (laterally) of u, facing the
-// way n does.
-void gatherFitSamples(const LabelField& field, const HeightFit& frame, std::uint8_t m0, int window,
+// way n does. False, with the samples incomplete, when there are more than one smooth boundary
+// has there (noise, or a boundary folded on itself): the fit would be both slow and wrong.
+bool gatherFitSamples(const LabelField& field, const HeightFit& frame, std::uint8_t m0, int window,
                       std::vector<FitSample>& samples) {
   samples.clear();
+  const auto most = static_cast<std::size_t>(kFitMaxLinksPerArea * window * window);
+  bool tooMany = false;
   const Vec3d& u = frame.centre;
   const double r2 = static_cast<double>(window) * window;
   Index3 lo, hi;
@@ -512,9 +518,11 @@ void gatherFitSamples(const LabelField& field, const HeightFit& frame, std::uint
         d[a] += 0.5;
         const double x = d.dot(frame.s), y = d.dot(frame.t);
         const double lateral = (x * x + y * y) / r2;
-        if (lateral >= 1.0) return;
+        if (lateral >= 1.0 || tooMany) return;
         samples.push_back({x, y, d.dot(frame.n), (1.0 - lateral) * (1.0 - lateral), a});
+        tooMany = samples.size() > most;
       });
+  return !tooMany;
 }
 
 // Fits m0's boundary links around index point u with outward index-space normal n (|n| = 1).
@@ -539,7 +547,7 @@ bool fitHeightField(const LabelField& field, const Vec3d& u, const Vec3d& n, std
   double bestVariance = kFitLooseSigma * kFitLooseSigma;
   FitResult r, best;
   for (const int window : kFitWindows) {
-    gatherFitSamples(field, fit, m0, window, samples);
+    if (!gatherFitSamples(field, fit, m0, window, samples)) break;
     if (samples.size() < kFitMinLinks || !fitTwice(window, r)) continue;
     if (r.chi2 > kFitMaxChi2) break;  // not a smooth height field at this scale
     if (r.variance < bestVariance) {
@@ -551,8 +559,8 @@ bool fitHeightField(const LabelField& field, const Vec3d& u, const Vec3d& n, std
   }
   if (bestWindow == 0) {
     // Curved too tightly for the first window: a smaller one.
-    gatherFitSamples(field, fit, m0, kFitSmallWindow, samples);
-    if (samples.size() < kFitMinLinks || !fitTwice(kFitSmallWindow, r) || r.chi2 > kFitMaxChi2 ||
+    if (!gatherFitSamples(field, fit, m0, kFitSmallWindow, samples) ||
+        samples.size() < kFitMinLinks || !fitTwice(kFitSmallWindow, r) || r.chi2 > kFitMaxChi2 ||
         r.variance >= bestVariance)
       return false;
     bestWindow = kFitSmallWindow;
