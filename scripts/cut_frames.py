@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Frame times of cutting frames against the others, from `voxcut run --csv` files.
 
-A frame cuts when its `cut_links` column grew since the frame before. For each file, and for
+A frame cuts when its `cut_links` column (the links it cut) is above zero. For each file, and for
 all files together, prints how many frames of each kind there were, their mean and p95 frame
 time (ms), and the ratio of the p95s: the figure of docs/performance.md, "Cut frames".
 
@@ -32,16 +32,13 @@ def split_frames(path):
         if missing:
             raise ValueError(f"{path}: not a `voxcut run --csv` file (no column "
                              f"{', '.join(sorted(missing))})")
-        previous = None
         for line, row in enumerate(reader, start=2):
             try:
                 links = int(row["cut_links"])
                 ms = float(row["frame_ms"])
             except (TypeError, ValueError):
                 raise ValueError(f"{path}:{line}: frame_ms and cut_links must be numbers")
-            cuts = previous is not None and links > previous
-            (cutting if cuts else other).append(ms)
-            previous = links
+            (cutting if links > 0 else other).append(ms)
     return cutting, other
 
 

@@ -43,14 +43,10 @@ TEST(CutFramesScript, KnownAnswer) {
   const std::string path = folder.file("run.csv");
   std::ofstream out(path);
   out << "frame,time_s,frame_ms,cut_links,solver_iterations\n";
-  int links = 0;
   for (int f = 0; f < 20; ++f) {
-    double ms = f == 3 ? 20 : 10;
-    if (f == 5 || f == 10 || f == 11) {
-      links += 7;
-      ms = f == 5 ? 30 : (f == 10 ? 40 : 50);
-    }
-    out << f << "," << 0.004 * (f + 1) << "," << ms << "," << links << ",3\n";
+    const bool cuts = f == 5 || f == 10 || f == 11;
+    const double ms = cuts ? (f == 5 ? 30 : (f == 10 ? 40 : 50)) : (f == 3 ? 20 : 10);
+    out << f << "," << 0.004 * (f + 1) << "," << ms << "," << (cuts ? 7 * f : 0) << ",3\n";
   }
   out.close();
   const ScriptResult r = runScript("'" + path + "'");
