@@ -32,5 +32,5 @@ function(voxcut_add_test name)
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main voxcut_warnings)
   target_compile_definitions(${name} PRIVATE VOXCUT_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
                              VOXCUT_BINARY_DIR="${PROJECT_BINARY_DIR}")
-  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60 PROPERTIES TIMEOUT 600)
+  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60 PROPERTIES TIMEOUT ${VOXCUT_TEST_TIMEOUT})
 endfunction()
