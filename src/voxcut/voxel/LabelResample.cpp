@@ -24,8 +24,10 @@ constexpr double kRootTolerance = 1e-4;
 // indicators f_m of LabelResample.h evaluated from them.
 class LabelField {
  public:
+  // `keepLinks`: also keep which links change material, for forChangingLinks (one byte per
+  // file voxel of the box).
   LabelField(const LabelVolume& volume, const std::vector<std::uint8_t>& materialOfIndex,
-             const std::array<Index3, 2>& labelled, double radius, bool threaded)
+             const std::array<Index3, 2>& labelled, double radius, bool keepLinks, bool threaded)
       : radius_(radius), inverse_(volume.axes.inverse()), origin_(volume.origin) {
     reach_ = static_cast<int>(std::ceil(radius + 0.5)) - 1;
     const int margin = reach_ + 2;
@@ -54,7 +56,7 @@ class LabelField {
           }
         },
         threaded);
-    buildUniform(threaded);
+    buildUniform(keepLinks, threaded);
   }
 
   // Continuous file index of world point p.
@@ -117,6 +119,7 @@ class LabelField {
   // (i, j, k) along +a (materials low at (i, j, k), high beyond), over voxels in [lo, hi].
   template <class Fn>
   void forChangingLinks(const Index3& lo, const Index3& hi, Fn&& fn) const {
+    VOXCUT_ASSERT(!changes_.empty(), "the field was built without its links");
     Index3 a0, a1;
     for (int a = 0; a < 3; ++a) {
       a0[a] = std::max(lo[a] - lo_[a], 0);
@@ -170,10 +173,12 @@ class LabelField {
 
   // uniform_[l]: every file voxel within `reach_` (Chebyshev) of l holds l's material, so the
   // kernel around any point nearest to l sees one material. From the voxels whose +x, +y or +z
-  // neighbour differs, dilated by reach_ along each axis in turn.
-  void buildUniform(bool threaded) {
+  // neighbour differs, dilated by reach_ along each axis in turn. Those neighbours are kept in
+  // changes_ when `keepLinks` (for forChangingLinks).
+  void buildUniform(bool keepLinks, bool threaded) {
     std::vector<std::uint8_t> edge(count(), 0);
-    changes_.assign(count(), 0);
+    if (keepLinks) changes_.assign(count(), 0);
+    std::uint8_t* const kept = keepLinks ? changes_.data() : nullptr;
     parallelFor(
         0, static_cast<std::size_t>(dims_.z), 1,
         [&](std::size_t z0, std::size_t z1) {
@@ -182,11 +187,12 @@ class LabelField {
               for (int x = 0; x < dims_.x; ++x) {
                 const std::size_t l = local(x, y, z);
                 const std::uint8_t m = material_[l];
-                changes_[l] = static_cast<std::uint8_t>(
+                const auto bits = static_cast<std::uint8_t>(
                     (x + 1 < dims_.x && material_[l + 1] != m ? 1 : 0) |
                     (y + 1 < dims_.y && material_[local(x, y + 1, z)] != m ? 2 : 0) |
                     (z + 1 < dims_.z && material_[local(x, y, z + 1)] != m ? 4 : 0));
-                edge[l] = changes_[l] != 0;
+                edge[l] = bits != 0;
+                if (kept) kept[l] = bits;
               }
         },
         threaded);
@@ -284,7 +290,7 @@ class LabelField {
   Index3 lo_, dims_;
   std::vector<std::uint8_t> material_;
   std::vector<std::uint8_t> uniform_;
-  std::vector<std::uint8_t> changes_;  // bit a: the +a neighbour holds another material
+  std::vector<std::uint8_t> changes_;  // bit a: the +a neighbour holds another material; or empty
 };
 
 // Per compact label index of the volume, its material (0 for labels not chosen).
@@ -726,7 +732,13 @@ VoxelGrid resampleLabels(const LabelVolume& volume, const LabelResampleParams& p
       if (l.value == c.value) colours.push_back(l.colour);
   grid.setMaterialColours(std::move(colours));
 
-  const LabelField field(volume, materialOf, box, params.kernelRadius, params.threaded);
+  // The link fit matters where grid voxels are about the file's size; on a grid 1.5 times
+  // coarser than the file's coarsest spacing, the kernel's error is under a third of a grid
+  // voxel, and the fit is skipped for its cost.
+  const double coarsest =
+      std::max({volume.axes.col(0).norm(), volume.axes.col(1).norm(), volume.axes.col(2).norm()});
+  const bool refine = grid.voxelSize() <= kFitGridRatio * coarsest;
+  const LabelField field(volume, materialOf, box, params.kernelRadius, refine, params.threaded);
   reportProgress(params.progress, "resample", 0.2);
   fillMaterials(grid, field, params.threaded);
   clearPadding(grid);
@@ -738,12 +750,6 @@ VoxelGrid resampleLabels(const LabelVolume& volume, const LabelResampleParams& p
                            " islands of fewer than " + std::to_string(params.minIsland) +
                            " voxels (" + std::to_string(rep.islandVoxels) + " voxels in all)");
   reportProgress(params.progress, "resample", 0.6);
-  // The link fit matters where grid voxels are about the file's size; on a grid 1.5 times
-  // coarser than the file's coarsest spacing, the kernel's error is under a third of a grid
-  // voxel, and the fit is skipped for its cost.
-  const double coarsest =
-      std::max({volume.axes.col(0).norm(), volume.axes.col(1).norm(), volume.axes.col(2).norm()});
-  const bool refine = grid.voxelSize() <= kFitGridRatio * coarsest;
   buildLinks(
       grid,
       [&](const Index3& c, int a, std::uint8_t m0, std::uint8_t m1) {
