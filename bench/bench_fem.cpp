@@ -27,7 +27,8 @@
 // IncompleteCholesky, 4 TwoLevel, 5 Cholesky, 6 Multigrid). A body is first
 // stepped 20 times from rest (the warm start and rotations then look like a running
 // simulation), then each benchmark iteration is one step, timed alone (manual time).
-// Counters: iterations per step, assembly and solve milliseconds per step, steps that did not
+// Counters: iterations per step, assembly, solve, preconditioner set-up and iteration milliseconds
+// per step (bench_step_parts gives every part of the step), steps that did not
 // converge.
 //
 //   build/release/bench/bench_fem --benchmark_filter=Bunny
@@ -39,6 +40,7 @@
 #include <string>
 #include <vector>
 
+#include "FemCases.h"
 #include "voxcut/core/Parallel.h"
 #include "voxcut/core/Timer.h"
 #include "voxcut/fem/ElasticModel.h"
@@ -52,64 +54,12 @@
 namespace voxcut {
 namespace {
 
-/// A body ready to step: grid, octree, model and the solver settings of its scene.
-struct FemCase {
-  VoxelGrid grid;
-  DeformationOctree octree;
-  ElasticModel model;
-  ImplicitEulerParams params;
-};
-
-VoxelGrid voxelGrid(const std::string& spec, int resolution) {
-  VoxelizeParams vp;
-  vp.resolution.resolution = resolution;
-  return voxelize(loadModel(spec).materials, vp);
-}
-
-/// Fixes the nodes whose rest position lies in [lo, hi].
-void fixBox(FemCase& c, const Vec3d& lo, const Vec3d& hi) {
-  std::vector<std::uint8_t> fixed(c.octree.nodeCount(), 0);
-  for (std::size_t n = 0; n < fixed.size(); ++n) {
-    const Vec3d& x = c.octree.restPositions()[n];
-    fixed[n] = (x.array() >= lo.array()).all() && (x.array() <= hi.array()).all() ? 1 : 0;
-  }
-  c.model.setFixed(std::move(fixed));
-}
-
-/// The connected y-links that the blade of scenes/bunny-ear.json crosses over its sweep: the
-/// segment x in [-0.044, 0.012] m at height 0.129 m, moved along z from 0.025 to -0.025 m.
-std::vector<std::uint64_t> earCutLinks(const VoxelGrid& g) {
-  std::vector<std::uint64_t> links;
-  const double h = g.voxelSize();
-  for (std::size_t v = 0; v < g.voxelCount(); ++v) {
-    if (!g.hasLink(v, 1) || !g.connected(v, 1)) continue;
-    const Vec3d p = g.position(v);
-    if (p.y() < 0.129 && p.y() + h >= 0.129 && p.x() >= -0.044 && p.x() <= 0.012 &&
-        p.z() >= -0.025 && p.z() <= 0.025)
-      links.push_back(VoxelGrid::linkId(v, 1));
-  }
-  return links;
-}
-
-/// The bunny at `resolution` of `material` (the deformation octree's default levels), its
-/// ear cut off first when `cut`, base fixed, under gravity; the caller sets the step.
-FemCase bunnyBody(int resolution, const ElasticMaterial& material, bool cut) {
-  FemCase c;
-  c.grid = voxelGrid("bunny", resolution);
-  c.octree = buildDeformationOctree(c.grid);
-  if (cut) {
-    const std::vector<std::uint64_t> links = earCutLinks(c.grid);
-    for (std::uint64_t id : links)
-      c.grid.setConnected(static_cast<std::size_t>(id / 3), static_cast<int>(id % 3), false);
-    (void)updateCutTopology(c.octree, c.grid, links);
-  }
-  std::vector<ElasticMaterial> mats(2);
-  mats[1] = material;
-  c.model = ElasticModel(c.octree, c.grid, mats);
-  fixBox(c, Vec3d(-0.1, -0.02, -0.1), Vec3d(0.1, 0.004, 0.1));
-  c.params.gravity = Vec3d(0, -9.81, 0);
-  return c;
-}
+using bench::FemCase;
+using bench::bunnyBody;
+using bench::earCutLinks;
+using bench::fixBox;
+using bench::scalingCase;
+using bench::voxelGrid;
 
 FemCase bunnyCase(bool cut) {
   FemCase c = bunnyBody(101, {1e5, 0.4, 1000.0, 1.0, 0.01}, cut);
@@ -148,6 +98,7 @@ void runSteps(benchmark::State& state, const FemCase& base, long threadsArg, lon
   ImplicitEuler solver(params);
   for (int s = 0; s < 20; ++s) (void)solver.step(base.model, octree);
   double iterations = 0, assembly = 0, solve = 0, failed = 0, steps = 0;
+  StepParts parts;
   for (auto _ : state) {
     Timer timer;
     const StepStatus st = solver.step(base.model, octree);
@@ -157,7 +108,11 @@ void runSteps(benchmark::State& state, const FemCase& base, long threadsArg, lon
     solve += st.solveMs;
     failed += st.converged ? 0 : 1;
     steps += 1;
+    parts.setup += st.parts.setup;
+    parts.iterations += st.parts.iterations;
   }
+  state.counters["setup_ms"] = parts.setup / steps;
+  state.counters["iterate_ms"] = parts.iterations / steps;
   state.counters["threads"] = threads;
   state.counters["free_nodes"] = static_cast<double>(base.model.freeNodeCount());
   state.counters["blocks"] = static_cast<double>(base.model.sparsity().blockCount());
@@ -185,16 +140,6 @@ void Cantilever(benchmark::State& state) {
   runSteps(state, c, state.range(0), state.range(1));
 }
 
-/// The scaling case of docs/performance.md, "Deformation solver at scale": the bunny at
-/// `resolution`, base fixed, E 1e5 Pa, nu 0.3, rho 1000, Rayleigh damping [0.1, 0.01], dt
-/// 10 ms, relative tolerance 1e-6; element level 3 (the deformation octree's defaults).
-FemCase scalingCase(int resolution) {
-  FemCase c = bunnyBody(resolution, {1e5, 0.3, 1000.0, 0.1, 0.01}, false);
-  c.params.timeStep = 0.01;
-  c.params.tolerance = 1e-6;
-  c.params.maxIterations = 2000;
-  return c;
-}
 
 /// Arguments: resolution, preconditioner, solutions kept for the start's projection
 /// (ImplicitEulerParams::projectionHistory: 8, the default, or 0 for the previous step's dv

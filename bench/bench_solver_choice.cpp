@@ -288,6 +288,9 @@ struct ChoiceResult {
   PreconditionerKind kind = PreconditionerKind::Automatic;
   std::vector<double> roundMs;  ///< per round run: mean wall ms per measured step
   double steps = 0, iterations = 0, factorisations = 0, notConverged = 0, notFinite = 0;
+  /// Summed over the measured steps: StepStatus::parts' preconditioner set-up and
+  /// iterations (ms), what the automatic choice's weights (fem/AutomaticChoice.h) are fitted to.
+  double setupMs = 0, iterationsMs = 0;
   std::map<PreconditionerKind, int> used;  ///< steps per preconditioner actually used
   bool cutShort = false;
 };
@@ -382,6 +385,8 @@ void record(ChoiceResult& c, const StepStatus& st) {
   c.factorisations += st.factorised ? 1 : 0;
   c.notConverged += st.converged ? 0 : 1;
   c.notFinite += st.finite ? 0 : 1;
+  c.setupMs += st.parts.setup;
+  c.iterationsMs += st.parts.iterations;
   ++c.used[st.preconditioner];
 }
 
@@ -586,6 +591,8 @@ nlohmann::ordered_json choiceJson(const ChoiceResult& c) {
   j["measured_steps"] = c.steps;
   j["iterations_per_step"] = c.iterations / steps;
   j["factorisations"] = c.factorisations;
+  j["setup_ms_per_step"] = c.setupMs / steps;
+  j["ms_per_iteration"] = c.iterationsMs / std::max(c.iterations, 1.0);
   j["not_converged"] = c.notConverged;
   j["not_finite"] = c.notFinite;
   nlohmann::ordered_json used = nlohmann::ordered_json::object();
@@ -641,9 +648,12 @@ void printDetails(const CaseResult& r) {
   std::fprintf(stderr, "\n");
   for (const ChoiceResult& c : r.choices) {
     const double steps = std::max(c.steps, 1.0);
-    std::fprintf(stderr, "    %-22s %7.1f it/step, %3.0f factorisations, %2.0f not converged,"
-                 " used", preconditionerName(c.kind), c.iterations / steps, c.factorisations,
-                 c.notConverged);
+    std::fprintf(stderr,
+                 "    %-22s %7.1f it/step, %6.3f ms/it, set-up %6.2f ms/step, %3.0f "
+                 "factorisations, %2.0f not converged, used",
+                 preconditionerName(c.kind), c.iterations / steps,
+                 c.iterationsMs / std::max(c.iterations, 1.0), c.setupMs / steps,
+                 c.factorisations, c.notConverged);
     for (const auto& [kind, count] : c.used)
       std::fprintf(stderr, " %s %d", preconditionerName(kind), count);
     std::fprintf(stderr, "\n");

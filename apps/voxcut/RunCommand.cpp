@@ -39,6 +39,7 @@ struct Summary {
   std::vector<double> frameMs;
   std::size_t cutLinks = 0;
   long long iterations = 0;
+  long long solves = 0;  ///< implicit steps solved (re-solves of a changed contact set too)
   long long factorisations = 0;
   bool converged = true;
   std::size_t contacts = 0;           ///< point contacts, summed over the frames
@@ -56,6 +57,7 @@ struct Summary {
     frameMs.push_back(r.totalMs);
     cutLinks += r.cutLinks;
     iterations += r.solverIterations;
+    solves += r.solverSolves;
     factorisations += r.solverFactorisations;
     converged = converged && r.converged;
     contacts += r.contacts;
@@ -179,7 +181,9 @@ class Pictures {
 std::string csvHeader() {
   std::string h = "frame,time_s";
   for (const std::string& s : frameStageNames()) h += "," + s + "_ms";
-  return h + ",frame_ms,cut_links,solver_iterations,converged,solver_factorisations,contacts";
+  return h +
+         ",frame_ms,cut_links,solver_iterations,converged,solver_factorisations,contacts,"
+         "solver_solves";
 }
 
 std::string csvRow(const FrameReport& r) {
@@ -187,7 +191,8 @@ std::string csvRow(const FrameReport& r) {
   row << r.frame << "," << r.time;
   for (double ms : r.stageMs) row << "," << ms;
   row << "," << r.totalMs << "," << r.cutLinks << "," << r.solverIterations << ","
-      << (r.converged ? 1 : 0) << "," << r.solverFactorisations << "," << r.contacts;
+      << (r.converged ? 1 : 0) << "," << r.solverFactorisations << "," << r.contacts << ","
+      << r.solverSolves;
   return row.str();
 }
 
@@ -234,6 +239,8 @@ void printJson(const RunFacts& f, const Summary& sum) {
   j["max_displacement"] = f.sim.maxDisplacement();
   j["solver_iterations_mean"] =
       static_cast<double>(sum.iterations) / static_cast<double>(std::max(sum.frames(), 1));
+  j["solver_solves_mean"] =
+      static_cast<double>(sum.solves) / static_cast<double>(std::max(sum.frames(), 1));
   j["converged"] = sum.converged;
   j["solver_factorisations"] = sum.factorisations;
   j["contact"] = {{"max_penetration", sum.maxPenetration},

@@ -193,6 +193,7 @@ py::dict reportDict(const FrameReport& r) {
   d["positioned_voxels"] = r.positionedVoxels;
   d["tested_links"] = r.testedLinks;
   d["solver_iterations"] = r.solverIterations;
+  d["solver_solves"] = r.solverSolves;
   d["solver_factorisations"] = r.solverFactorisations;
   d["converged"] = r.converged;
   d["contacts"] = r.contacts;

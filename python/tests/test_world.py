@@ -42,6 +42,7 @@ def test_world_builds_and_steps():
     assert report.frame == 0 and world.frame == 1
     assert set(report.stage_ms) == set(voxcut.frame_stage_names())
     assert report.status in ("ok", "not_converged")
+    assert report.solver_solves >= 1  # one body: at least one solve a frame
     info = body.info
     assert info.nodes > 0 and info.surface_triangles > 0 and info.material_names == ["default"]
     nodes = body.nodes()

@@ -50,6 +50,9 @@ class FrameReport:
     positioned_voxels: int
     tested_links: int
     solver_iterations: int
+    solver_solves: int
+    """Implicit steps solved, summed over bodies: one a body, more where a step was solved
+    again because its contact set changed."""
     solver_factorisations: int
     converged: bool
     contacts: int

@@ -671,10 +671,11 @@ TEST(Cli, RunCutsASphereInTwoAndReportsEveryKey) {
   const json j = commandJson(
       "run", {scene, "--frames", "30", "--csv", csv, "--export", dir.string(), "--every", "10"});
   for (const char* key :
-       {"frames", "cut_links", "pieces", "max_displacement", "solver_iterations_mean", "converged",
-        "solver_factorisations", "timings_ms", "frame_ms"})
+       {"frames", "cut_links", "pieces", "max_displacement", "solver_iterations_mean",
+        "solver_solves_mean", "converged", "solver_factorisations", "timings_ms", "frame_ms"})
     ASSERT_TRUE(j.contains(key)) << key;  // a const json's [] must not meet a missing key
   EXPECT_EQ(j["frames"], 30);
+  EXPECT_EQ(j["solver_solves_mean"], 1.0);  // one body, nothing to touch: one solve a frame
   EXPECT_GT(j["cut_links"].get<long>(), 0);
   EXPECT_GE(j["solver_factorisations"].get<long>(), 1);  // the default Cholesky preconditioner
   EXPECT_EQ(j["pieces"], 2);
@@ -688,9 +689,14 @@ TEST(Cli, RunCutsASphereInTwoAndReportsEveryKey) {
   // One CSV row per frame after the header; surfaces at frames 0, 10, 20 and 30, closed.
   const std::string rows = cli::readText(csv);
   EXPECT_EQ(std::count(rows.begin(), rows.end(), '\n'), 31);
-  EXPECT_NE(
-      rows.substr(0, rows.find('\n')).find(",solver_iterations,converged,solver_factorisations"),
-      std::string::npos);
+  const std::string header = rows.substr(0, rows.find('\n'));
+  EXPECT_NE(header.find(",solver_iterations,converged,solver_factorisations"),
+            std::string::npos);
+  EXPECT_EQ(header.substr(header.rfind(',') + 1), "solver_solves");
+  // Every row ends with its frame's solves: 1 here.
+  std::istringstream lines(rows.substr(header.size() + 1));
+  for (std::string line; std::getline(lines, line);)
+    EXPECT_EQ(line.substr(line.rfind(',') + 1), "1") << line;
   for (const char* f :
        {"frame_00000.obj", "frame_00010.obj", "frame_00020.obj", "frame_00030.obj"}) {
     ASSERT_TRUE(fs::exists(dir / f)) << f;

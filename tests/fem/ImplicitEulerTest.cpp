@@ -10,6 +10,7 @@
 
 #include "FemBodies.h"
 #include "voxcut/core/Parallel.h"
+#include "voxcut/core/Timer.h"
 #include "voxcut/fem/ElasticModel.h"
 #include "voxcut/fem/ImplicitEuler.h"
 #include "voxcut/topology/CutTopology.h"
@@ -385,6 +386,48 @@ TEST(ImplicitEulerDynamics, BitIdenticalAtOneAndTwoThreads) {
       EXPECT_EQ(one[s].factorised, two[s].factorised);
       EXPECT_EQ(one[s].preconditioner, two[s].preconditioner);
       EXPECT_TRUE(one[s].converged);
+    }
+  }
+}
+
+// The step's parts (StepStatus::parts) are pieces of its own wall time: none negative, their
+// sum within the step's time as measured around it, the assembly the assembly's figure, and a
+// step that iterated spent time iterating and, but for Jacobi, setting up its preconditioner.
+TEST(ImplicitEulerDynamics, StepPartsAreTheStepsOwnTime) {
+  for (PreconditionerKind kind : {PreconditionerKind::Jacobi, PreconditionerKind::TwoLevel,
+                                  PreconditionerKind::Cholesky, PreconditionerKind::Multigrid,
+                                  PreconditionerKind::Automatic}) {
+    SCOPED_TRACE(preconditionerName(kind));
+    Body b = smallBody(0.2, 1e-4);
+    b.model.setFixed(nodesAtZero(b.octree, 0));
+    perturb(b.octree, 5e-4);
+    ImplicitEulerParams p;
+    p.gravity = Vec3d(0.3, -2.0, -9.81);
+    p.preconditioner = kind;
+    ImplicitEuler solver(p);
+    for (int s = 0; s < 6; ++s) {
+      const Timer around;
+      const StepStatus st = solver.step(b.model, b.octree);
+      const double wall = around.ms();
+      const StepParts& q = st.parts;
+      const double parts[] = {q.prepare, q.assembly, q.rigid, q.projection,
+                              q.setup,   q.iterations, q.advance};
+      double sum = 0.0;
+      for (double ms : parts) {
+        EXPECT_GE(ms, 0.0);
+        sum += ms;
+      }
+      EXPECT_LE(sum, wall);
+      EXPECT_EQ(q.assembly, st.assemblyMs);
+      EXPECT_LE(q.setup + q.iterations, st.solveMs);
+      ASSERT_GT(st.iterations, 0) << "step " << s;
+      // Jacobi's inverse diagonal comes with the assembly: it has nothing to set up.
+      if (kind == PreconditionerKind::Jacobi) {
+        EXPECT_EQ(q.setup, 0.0) << "step " << s;
+      } else {
+        EXPECT_GT(q.setup, 0.0) << "step " << s;
+      }
+      EXPECT_GT(q.iterations, 0.0) << "step " << s;
     }
   }
 }

@@ -184,8 +184,13 @@ TEST(TwoLevelPreconditioner, ApplyIsTheSymmetricVCycle) {
     const Eigen::VectorXd expected = u + upper.partialPivLu().solve(r - c.a * u);
 
     TwoLevelPreconditioner pre;
+    EXPECT_EQ(pre.coarseFactorEntries(), 0.0);
     ASSERT_TRUE(pre.setup(sp, agg, c.blocks, positions, true));
     EXPECT_EQ(pre.coarseSize(), t.cols());
+    // The factor's lower triangle: its diagonal at least, the dense triangle at most.
+    const auto m = static_cast<double>(t.cols());
+    EXPECT_GE(pre.coarseFactorEntries(), m);
+    EXPECT_LE(pre.coarseFactorEntries(), 0.5 * m * (m + 1.0));
     std::vector<Vec3d> z1, z2, serial;
     pre.apply(sp, agg, c.blocks, c.inverse, r1, z1, true);
     EXPECT_LE((flat(z1) - expected).norm(), 1e-9 * expected.norm());

@@ -91,6 +91,23 @@ TEST(Contact, BoxDroppedOnAPlaneComesToRestOnIt) {
   }
 }
 
+// A frame solves its body's step once while nothing is near, and again (up to three times)
+// where the contact set the step ends with differs from the one it started with: the landing.
+TEST(Contact, FramesCountTheStepsSolvedAgainForANewContactSet) {
+  World sim = simulationOf(droppedBox(0.3, kFloor));
+  int resolved = 0;
+  for (int f = 0; f < 150; ++f) {
+    const FrameReport r = sim.step();
+    EXPECT_GE(r.solverSolves, 1) << "frame " << f;
+    EXPECT_LE(r.solverSolves, 3) << "frame " << f;
+    if (f < 10) {
+      EXPECT_EQ(r.solverSolves, 1) << "frame " << f;  // 0.3 m up, falling
+    }
+    if (r.solverSolves > 1) ++resolved;
+  }
+  EXPECT_GT(resolved, 0);
+}
+
 TEST(Contact, BoxDroppedOnATableComesToRestOnTop) {
   const Landing l = land(0.3, kTable, 500);
   EXPECT_LT(l.deepest, 0.5 * l.voxel);

@@ -10,6 +10,14 @@ namespace {
 /// Digits of accuracy the solve asks for: 3 at a relative tolerance of 1e-3.
 double digits(double tolerance) { return std::clamp(-std::log10(tolerance), 1.0, 12.0); }
 
+/// One two-level V-cycle in fine products: its sweeps, and its coarse factor's two solves,
+/// which grow faster with the body than the fine matrix does.
+double twoLevelCycle(const AutomaticCosts& costs, const SystemSize& size) {
+  const double blocks = std::max<double>(1.0, static_cast<double>(size.blocks));
+  return costs.twoLevelIteration +
+         2.0 * costs.twoLevelCoarseEntry * size.twoLevelCoarseEntries / blocks;
+}
+
 }  // namespace
 
 int AutomaticChoice::slot(PreconditionerKind kind) {
@@ -29,7 +37,7 @@ double AutomaticChoice::stepWork(const StepWork& w, const SystemSize& size) cons
   } else if (w.used == PreconditionerKind::Cholesky) {
     work = iterations * (iteration + solve + (w.bridged ? costs_.bridgeIteration : 0.0));
   } else {  // the two-level V-cycle, chosen or standing in
-    work = iterations * (iteration + costs_.twoLevelIteration) + costs_.twoLevelSetup;
+    work = iterations * (iteration + twoLevelCycle(costs_, size)) + costs_.twoLevelSetup;
   }
   if (w.analysed) work += costs_.analysisBlock * size.factorBlocks / blocks;
   if (w.factorised) work += costs_.factorUpdate * size.factorUpdates / blocks;
@@ -59,7 +67,7 @@ double AutomaticChoice::prior(PreconditionerKind kind, const SystemSize& size, d
   const double rows = static_cast<double>(size.rows);
   const double twoLevelIterations = vcycles * std::max(1.5, std::sqrt(rows / 1500.0));
   const double twoLevel =
-      twoLevelIterations * (iteration + costs_.twoLevelIteration) + costs_.twoLevelSetup;
+      twoLevelIterations * (iteration + twoLevelCycle(costs_, size)) + costs_.twoLevelSetup;
   if (kind == PreconditionerKind::TwoLevel) return twoLevel;
   if (kind == PreconditionerKind::Multigrid)
     return vcycles * (iteration + costs_.vcycle) + costs_.fineRefresh +

@@ -47,6 +47,9 @@ struct AutomaticCosts {
   double coarseRefresh = 350.0;     ///< new coarse levels, in products
   double fineRefresh = 5.0;         ///< the fine smoother following the matrix, in products
   double twoLevelIteration = 2.5;   ///< one two-level V-cycle, in products
+  /// One entry of the two-level V-cycle's coarse factor in its two triangular solves per
+  /// V-cycle, in fine block products (an entry is one multiply-add of a scalar solve).
+  double twoLevelCoarseEntry = 0.0;
   double twoLevelSetup = 20.0;      ///< its coarse system, in products
   double bridgeIteration = 2.0;     ///< the bridge's sweeps beyond the factor's solve, products
   double switchRatio = 0.85;        ///< another kind must be expected below this fraction
@@ -76,6 +79,8 @@ struct SystemSize {
   bool newSparsity = false;           ///< the sparsity changed since the last step (a cut)
   double factorUpdates = 0.0;         ///< of a factorisation (BlockCholesky::updateCount)
   double factorBlocks = 0.0;          ///< of L below the diagonal
+  /// Entries of the two-level V-cycle's coarse factor at its last set-up (0: none yet).
+  double twoLevelCoarseEntries = 0.0;
 };
 
 /// The running choice among Cholesky, Multigrid and TwoLevel for one body (file comment).

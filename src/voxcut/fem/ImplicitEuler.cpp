@@ -74,7 +74,8 @@ void ImplicitEuler::resize(const ElasticModel& model) {
   for (auto* v : {&x_, &r_, &q_, &vr_, &shift_}) v->resize(free);
 }
 
-bool ImplicitEuler::startSolve(const ElasticModel& model, const BlockMatrixView& view) {
+bool ImplicitEuler::startSolve(const ElasticModel& model, const BlockMatrixView& view,
+                              StepParts& parts) {
   const bool threaded = model.threaded();
   const std::size_t rows = model.freeNodeCount();
   const std::vector<Vec3d>& rhs = assembly_.rhs();
@@ -90,11 +91,14 @@ bool ImplicitEuler::startSolve(const ElasticModel& model, const BlockMatrixView&
   // The rigid-mode correction (RigidCorrection.h) of the start, and again of the result: A
   // times the modes is made once for both. The warm start is split into its free pieces'
   // mass-weighted means (shift_) and what is left.
+  Timer timer;
   std::fill(shift_.begin(), shift_.end(), Vec3d::Zero());
   if (params_.rigidCorrection) {
     rigid_.setup(model, view, freePositions_, freeMasses_, massRow, contacts_.points(), &coupling);
     rigid_.freePieceMeans(x_, massRow, shift_);
   }
+  parts.rigid += timer.ms();
+  timer.restart();
   // r = b - A x0 (corrected); q holds x0 less its shift meanwhile.
   parallelFor(
       0, rows, 256,
@@ -117,7 +121,10 @@ bool ImplicitEuler::startSolve(const ElasticModel& model, const BlockMatrixView&
                             // hold no pair: X shift = 0)
     coupling.multiplySubtract(q_, r_, threaded);
   }
+  parts.projection += timer.ms();
+  timer.restart();
   if (params_.rigidCorrection) rigid_.correct(x_, r_);
+  parts.rigid += timer.ms();
   return projected;
 }
 
@@ -128,10 +135,13 @@ void ImplicitEuler::finishSolve(const ConjugateGradientStatus& cg, bool projecte
   status.converged = cg.converged;
   status.finite = cg.finite;
   const bool correctRigid = params_.rigidCorrection;
+  Timer timer;
   if (correctRigid && cg.finite) {
     rigid_.correct(x_, r_);
     for (const Vec3d& v : x_) status.finite = status.finite && v.allFinite();
   }
+  status.parts.rigid += timer.ms();
+  timer.restart();
   const int history = params_.projectionHistory;
   const std::vector<Vec3d>* kept = nullptr;
   if (status.finite && history > 0) {
@@ -145,6 +155,7 @@ void ImplicitEuler::finishSolve(const ConjugateGradientStatus& cg, bool projecte
     }
   }
   warmStart_.finishSolve(history, projected, cg.iterations, kept);
+  status.parts.advance += timer.ms();
 }
 
 StepStatus ImplicitEuler::solve(const ElasticModel& model) {
@@ -166,7 +177,7 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
     status.converged = trivial->converged;
     return status;
   }
-  const bool projected = startSolve(model, view);
+  const bool projected = startSolve(model, view, status.parts);
   // The conjugate gradients (linalg/ConjugateGradients.h) from this start and its residual,
   // on the preconditioner this step chooses (PreconditionerChoice.h).
   cg_.setOperator(view, threaded);
@@ -179,7 +190,10 @@ StepStatus ImplicitEuler::solve(const ElasticModel& model) {
                                             assembly_.diagonalInverse(),
                                             freePositions_,
                                             coarse ? &rigid_.modes() : nullptr};
+  Timer timer;
   const ConjugateGradientStatus cg = preconditioners_.iterate(cg_, inputs, bb, x_, r_, status);
+  // The preconditioner's set-up happens inside the iteration (once one is needed).
+  status.parts.iterations += std::max(0.0, timer.ms() - status.parts.setup);
   finishSolve(cg, projected, status);
   return status;
 }
@@ -208,6 +222,7 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
       model.elementCount() == octree.elementCount() && model.nodeCount() == octree.nodeCount(),
       "the model does not match the octree (missing updateTopology?)");
   VOXCUT_ASSERT(params_.timeStep > 0.0 && params_.maxIterations >= 0, "bad step settings");
+  Timer timer;
   resize(model);
   const bool threaded = model.threaded();
   const std::vector<std::uint32_t>& freeNodes = model.freeNodes();
@@ -224,20 +239,26 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
   }
   preconditioners_.beginStep(model, octree, params_);
   contacts_.prepare(model, octree, velocity_, params_.timeStep);
-  Timer timer;
+  const double prepareMs = timer.ms();
+  timer.restart();
   assembly_.assemble(model, octree, velocity_, contacts_, params_);
   const double assemblyMs = timer.ms();
   timer.restart();
   StepStatus status = solve(model);
   status.assemblyMs = assemblyMs;
   status.solveMs = timer.ms();
+  status.parts.prepare += prepareMs;
+  status.parts.assembly = assemblyMs;
+  timer.restart();
   preconditioners_.endStep(status);
   if (!status.finite) {
     warmStart_.forget();
     contacts_.finish(octree, velocity_, params_.timeStep, false);
+    status.parts.advance += timer.ms();
     return status;
   }
   advance(model, octree);
+  status.parts.advance += timer.ms();
   return status;
 }
 

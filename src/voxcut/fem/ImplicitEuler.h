@@ -133,8 +133,9 @@ class ImplicitEuler {
   StepStatus solve(const ElasticModel& model);
   /// The start of the solve from x_ (the warm start): the rigid-mode set-up, the start split
   /// into its free pieces' means (shift_) and the rest (q_), projected onto earlier solutions
-  /// where due, and its residual r_. Returns whether it was projected.
-  bool startSolve(const ElasticModel& model, const BlockMatrixView& view);
+  /// where due, and its residual r_; their times go to `parts`. Returns whether it was
+  /// projected.
+  bool startSolve(const ElasticModel& model, const BlockMatrixView& view, StepParts& parts);
   /// The end of a solve that ran `cg`: the rigid-mode correction of the result, the status,
   /// and the solution kept for later projections.
   void finishSolve(const ConjugateGradientStatus& cg, bool projected, StepStatus& status);

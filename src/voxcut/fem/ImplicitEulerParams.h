@@ -125,6 +125,21 @@ struct ImplicitEulerParams {
   MultigridParams multigrid;  ///< Multigrid only: the hierarchy's settings
 };
 
+/// Wall time of a step's parts, ms (docs/performance.md, "The step by its parts"); they add
+/// up to the step's time but for the few vector copies between them.
+struct StepParts {
+  double prepare = 0.0;     ///< velocities projected, the solver choice, contacts prepared
+  double assembly = 0.0;    ///< rotations, forces, element blocks, the reduced rows
+  /// The rigid-mode correction: the modes and their products with A, the start's and the
+  /// result's corrections.
+  double rigid = 0.0;
+  /// The start projected onto the earlier solutions, and its residual b - A x0.
+  double projection = 0.0;
+  double setup = 0.0;       ///< the preconditioner's set-up (a factor, coarse levels, smoother)
+  double iterations = 0.0;  ///< the conjugate-gradient iterations, preconditioning included
+  double advance = 0.0;     ///< the solution kept for later starts, prolonged, nodes moved
+};
+
 /// What one step did. The counts and the residual are the conjugate gradients'; the rigid-mode
 /// correction after them (ImplicitEulerParams::rigidCorrection) is a Galerkin projection, so
 /// it can only lower the error in the energy norm.
@@ -135,6 +150,7 @@ struct StepStatus {
   bool finite = true;       ///< false: a non-finite value appeared; nothing was moved
   double assemblyMs = 0.0;  ///< wall time of the assembly (rotations, forces, blocks), ms
   double solveMs = 0.0;     ///< wall time of the preconditioner set-up and the solve, ms
+  StepParts parts;          ///< the step's wall time by its parts
   bool factorised = false;  ///< Cholesky: this step computed a new factor
   /// Cholesky: the sparsity had changed since the factor (a cut) and the step was
   /// preconditioned by the earlier factor through the node map (FactorBridge.h)

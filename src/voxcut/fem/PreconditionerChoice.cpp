@@ -3,6 +3,8 @@
 #include <cmath>
 #include <limits>
 
+#include "voxcut/core/Timer.h"
+
 namespace voxcut {
 
 /// The preconditioner of one solve, through linalg's interface. setOperator, which the
@@ -49,6 +51,7 @@ class PreconditionerChoice::StepPreconditioner final : public LinearPrecondition
 
 bool PreconditionerChoice::StepPreconditioner::setOperator(const BlockMatrixView& view,
                                                            bool threaded) {
+  const Timer timer;
   PreconditionerChoice& s = choice_;
   const ElasticModel& model = in_.model;
   const BlockSparsity& sp = model.sparsity();
@@ -62,11 +65,14 @@ bool PreconditionerChoice::StepPreconditioner::setOperator(const BlockMatrixView
   }
   if (kind_ == PreconditionerKind::Cholesky) chooseCholesky(view.rows, threaded);
   if (kind_ == PreconditionerKind::Multigrid) chooseMultigrid(view, threaded);
-  if (kind_ == PreconditionerKind::TwoLevel)
+  if (kind_ == PreconditionerKind::TwoLevel) {
     (void)s.twoLevel_.setup(sp, model.aggregation(), in_.blocks, &in_.freePositions, threaded);
+    s.size_.twoLevelCoarseEntries = s.twoLevel_.coarseFactorEntries();
+  }
   status_.preconditioner = kind_;
   status_.bridged = bridged_;
   s.work_.bridged = s.work_.bridged || bridged_;
+  status_.parts.setup += timer.ms();
   return true;  // every kind above applies, the two-level V-cycle as smoothing alone at worst
 }
 
@@ -219,6 +225,7 @@ ConjugateGradientStatus PreconditionerChoice::iterate(ConjugateGradients& cg, co
     status.preconditioner = again.preconditioner;
     status.bridged = again.bridged;
     status.retried = true;
+    status.parts.setup += again.parts.setup;
     result = ConjugateGradientStatus{result.iterations + more.iterations, more.residual,
                                      more.converged, more.finite, more.preconditioned};
   }

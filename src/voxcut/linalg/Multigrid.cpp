@@ -252,6 +252,12 @@ std::vector<std::size_t> Multigrid::rowsPerLevel() const {
   return out;
 }
 
+std::vector<std::size_t> Multigrid::smootherBlocksPerLevel() const {
+  std::vector<std::size_t> out;
+  for (const auto& l : levels_) out.push_back(l->smoother.blocks.size());
+  return out;
+}
+
 std::vector<std::size_t> Multigrid::groupedRowsPerLevel() const {
   std::vector<std::size_t> out;
   for (const auto& l : levels_) out.push_back(l->smoother.groupedRows);

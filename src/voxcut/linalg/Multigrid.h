@@ -149,6 +149,11 @@ class Multigrid final : public LinearPreconditioner {
   [[nodiscard]] std::vector<std::size_t> rowsPerLevel() const;
   /// Rows relaxed in groups (weak rows) on each level, at the last setup.
   [[nodiscard]] std::vector<std::size_t> groupedRowsPerLevel() const;
+  /// Blocks each level's smoother sweeps over (its single-precision copy), fine first; the
+  /// coarsest level's is empty when it is factorised.
+  [[nodiscard]] std::vector<std::size_t> smootherBlocksPerLevel() const;
+  /// Blocks of the coarsest level's factor below the diagonal (0 when none).
+  [[nodiscard]] std::size_t coarsestFactorBlocks() const { return coarsest_.offDiagonalBlocks(); }
 
  private:
   struct Level;

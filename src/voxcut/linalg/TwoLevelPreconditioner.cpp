@@ -372,4 +372,9 @@ void TwoLevelPreconditioner::apply(const BlockSparsity& sp, const NodeAggregatio
   }
 }
 
+double TwoLevelPreconditioner::coarseFactorEntries() const {
+  if (!factor_ || !valid_) return 0.0;
+  return static_cast<double>(factor_->matrixL().nestedExpression().nonZeros());
+}
+
 }  // namespace voxcut

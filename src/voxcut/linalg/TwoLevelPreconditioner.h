@@ -107,6 +107,9 @@ class TwoLevelPreconditioner {
 
   /// Unknowns of the coarse system (3 or 6 per aggregate) at the last setup.
   [[nodiscard]] Eigen::Index coarseSize() const { return coarse_.rows(); }
+  /// Entries of the coarse factor L (its diagonal included; 0 before the first setup): a
+  /// V-cycle's two triangular solves read each once.
+  [[nodiscard]] double coarseFactorEntries() const;
 
  private:
   using LinkBlock = Eigen::Matrix<double, 3, 6>;

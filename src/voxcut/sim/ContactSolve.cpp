@@ -155,6 +155,7 @@ void World::Impl::recordSolve(const SimBody& b, StepStatus& status, FrameReport&
   const BodyId id = bodySlots.at(position);
   if (frame == failFrame && id == failBody) status.finite = false;  // sim/WorldTesting.h
   report.solverIterations += status.iterations;
+  report.solverSolves += 1;
   report.solverFactorisations += status.factorised ? 1 : 0;
   report.converged = report.converged && status.converged;
   if (!status.finite)

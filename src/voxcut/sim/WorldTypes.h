@@ -330,6 +330,9 @@ struct FrameReport {
   std::size_t positionedVoxels = 0;
   std::size_t testedLinks = 0;
   int solverIterations = 0;      ///< summed over bodies
+  /// Implicit steps solved, summed over bodies: one a body, more where the contact set a
+  /// step ended with differed from the one it was given and the step was solved again.
+  int solverSolves = 0;
   int solverFactorisations = 0;  ///< bodies whose step computed a new Cholesky factor
   bool converged = true;         ///< every body's solve converged
   /// Contacts at the frame's end: with obstacles and probes, between bodies and within one
