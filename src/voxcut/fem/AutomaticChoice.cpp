@@ -11,11 +11,15 @@ namespace {
 double digits(double tolerance) { return std::clamp(-std::log10(tolerance), 1.0, 12.0); }
 
 /// One two-level V-cycle in fine products: its sweeps, and its coarse factor's two solves,
-/// which grow faster with the body than the fine matrix does.
+/// which grow faster with the body than the fine matrix does. Before its first set-up the
+/// factor's entries per fine block are estimated from the rows (measured on the bunny: 0.24 at
+/// 430 rows, 0.48 at 4,700, 0.89 at 21,000).
 double twoLevelCycle(const AutomaticCosts& costs, const SystemSize& size) {
   const double blocks = std::max<double>(1.0, static_cast<double>(size.blocks));
-  return costs.twoLevelIteration +
-         2.0 * costs.twoLevelCoarseEntry * size.twoLevelCoarseEntries / blocks;
+  const double perBlock = size.twoLevelCoarseEntries > 0.0
+                              ? size.twoLevelCoarseEntries / blocks
+                              : 0.1 * std::pow(static_cast<double>(size.rows) / 100.0, 0.4);
+  return costs.twoLevelIteration + 2.0 * costs.twoLevelCoarseEntry * perBlock;
 }
 
 }  // namespace
@@ -56,21 +60,28 @@ double AutomaticChoice::observedWork(const StepWork& w, const SystemSize& size) 
 }
 
 double AutomaticChoice::prior(PreconditionerKind kind, const SystemSize& size, double tolerance,
-                              double cutRate) const {
+                              double cutRate, double contactRate) const {
   const double blocks = std::max<double>(1.0, static_cast<double>(size.blocks));
   const double iteration = 1.0 + costs_.iterationOverhead;
   const double c = std::clamp(cutRate, 0.0, 1.0);
+  const double touching = std::clamp(contactRate, 0.0, 1.0);
   // Measured on the bunny at 1e-3 and 1e-6 (docs/performance.md, "The automatic solver
   // choice"): 6 V-cycles a step at 1e-3, 7-8 at 1e-6, at every size; the two-level V-cycle
-  // as many on small bodies, growing with the rows beyond a few thousand.
+  // as many on small bodies, growing with the rows beyond a few thousand (11-12 iterations at
+  // 400 and 2,300 rows, 17-21 at 950, 4,500 and 8,300: the square root of the rows in
+  // thousands, at least 1.5, is the middle of that spread).
   const double vcycles = 4.0 + 0.6 * digits(tolerance);
   const double rows = static_cast<double>(size.rows);
-  const double twoLevelIterations = vcycles * std::max(1.5, std::sqrt(rows / 1500.0));
+  // Contacts change the matrix where they press, every step: more iterations, and coarse
+  // levels that go stale.
+  const double twoLevelIterations = vcycles * std::max(1.5, std::sqrt(rows / 1000.0)) *
+                                    (1.0 + costs_.contactTwoLevel * touching);
   const double twoLevel =
       twoLevelIterations * (iteration + twoLevelCycle(costs_, size)) + costs_.twoLevelSetup;
   if (kind == PreconditionerKind::TwoLevel) return twoLevel;
   if (kind == PreconditionerKind::Multigrid)
-    return vcycles * (iteration + costs_.vcycle) + costs_.fineRefresh +
+    return vcycles * (1.0 + costs_.contactVcycles * touching) * (iteration + costs_.vcycle) +
+           costs_.fineRefresh + touching * costs_.contactRefreshShare * costs_.coarseRefresh +
            structural(kind, size, cutRate);
   // Cholesky: a fresh factor of a slowly rotating body brings a step down to a couple of
   // iterations; how many steps it lasts falls with the digits asked for (measured: about 30
@@ -99,10 +110,15 @@ double AutomaticChoice::structural(PreconditionerKind kind, const SystemSize& si
 }
 
 PreconditionerKind AutomaticChoice::choose(const SystemSize& size, double tolerance) {
-  if (started_) cutRate_ += costs_.cutRateWeight * ((size.newSparsity ? 1.0 : 0.0) - cutRate_);
+  if (started_) {
+    cutRate_ += costs_.cutRateWeight * ((size.newSparsity ? 1.0 : 0.0) - cutRate_);
+    contactRate_ += costs_.cutRateWeight * ((size.contacts ? 1.0 : 0.0) - contactRate_);
+  } else {
+    contactRate_ = size.contacts ? 1.0 : 0.0;  // a body that starts in contact
+  }
   for (int k = 0; k < kKindCount; ++k) {
     const double structure = structural(kKinds[k], size, cutRate_);
-    prior_[k] = prior(kKinds[k], size, tolerance, cutRate_) - structure;
+    prior_[k] = prior(kKinds[k], size, tolerance, cutRate_, contactRate_) - structure;
     if (!seen_[k]) {
       expected_[k] = prior_[k] + structure;
       continue;

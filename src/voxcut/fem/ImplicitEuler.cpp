@@ -237,7 +237,7 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
     freePositions_[i] = octree.positions()[freeNodes[i]];
     freeMasses_[i] = model.nodeMass()[freeNodes[i]];
   }
-  preconditioners_.beginStep(model, octree, params_);
+  preconditioners_.beginStep(model, octree, params_, contacts_.any());
   contacts_.prepare(model, octree, velocity_, params_.timeStep);
   const double prepareMs = timer.ms();
   timer.restart();

@@ -172,7 +172,7 @@ void PreconditionerChoice::StepPreconditioner::apply(const std::vector<Vec3d>& r
 }
 
 void PreconditionerChoice::beginStep(const ElasticModel& model, const DeformationOctree& octree,
-                                     const ImplicitEulerParams& params) {
+                                     const ImplicitEulerParams& params, bool contacts) {
   const std::uint64_t revision = model.sparsityRevision();
   if (revision != stepRevision_) {
     stepRevision_ = revision;
@@ -183,6 +183,7 @@ void PreconditionerChoice::beginStep(const ElasticModel& model, const Deformatio
   const std::vector<std::uint32_t>& freeNodes = model.freeNodes();
   work_ = StepWork{};
   size_.newSparsity = stepped_ && stepsOnStructure_ == 0;
+  size_.contacts = contacts;
   stepped_ = true;
   automaticStep_ = params.preconditioner == PreconditionerKind::Automatic;
   stepKind_ = automaticStep_ ? chooseAutomatic(model, params.tolerance) : params.preconditioner;

@@ -61,11 +61,12 @@ class PreconditionerChoice {
   /// again.
   void forgetCostlySparsity() { costlyRows_ = 0; }
 
-  /// Before a step of `model` on `octree`: counts the steps on its sparsity, takes the free
-  /// nodes' grid coordinates for a new multigrid hierarchy, and maps the factor onto a new
-  /// sparsity (FactorBridge::prepare) unless the last step on the bridge wore it out.
+  /// Before a step of `model` on `octree` (with `contacts` or without): counts the steps on
+  /// its sparsity, takes the free nodes' grid coordinates for a new multigrid hierarchy, and
+  /// maps the factor onto a new sparsity (FactorBridge::prepare) unless the last step on the
+  /// bridge wore it out.
   void beginStep(const ElasticModel& model, const DeformationOctree& octree,
-                 const ImplicitEulerParams& params);
+                 const ImplicitEulerParams& params, bool contacts = false);
 
   /// Runs the conjugate gradients `cg` (operator, coupling and settings set) from x and its
   /// residual r on this step's preconditioner, and once more on one made for this step's

@@ -43,6 +43,8 @@ class StepContacts {
   }
   /// After prepare: every point contact of the step, by element.
   [[nodiscard]] const std::vector<PointContact>& points() const { return contacts_; }
+  /// Whether the next step has contacts (points or pairs).
+  [[nodiscard]] bool any() const { return !contacts_.empty() || !pairs_.empty(); }
   /// After prepare: the pairs' cross terms, by free row (empty without pairs).
   [[nodiscard]] const RowCoupling& coupling() const { return coupling_; }
 
