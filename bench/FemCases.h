@@ -57,12 +57,18 @@ inline std::vector<std::uint64_t> earCutLinks(const VoxelGrid& g) {
   return links;
 }
 
-/// The bunny at `resolution` of `material` (the deformation octree's default levels), its
-/// ear cut off first when `cut`, base fixed, under gravity; the caller sets the step.
-inline FemCase bunnyBody(int resolution, const ElasticMaterial& material, bool cut) {
+/// The bunny at `resolution` of `material` (the deformation octree's levels, its defaults
+/// unless given), its ear cut off first when `cut`, base fixed, under gravity; the caller sets
+/// the step.
+inline FemCase bunnyBody(int resolution, const ElasticMaterial& material, bool cut,
+                         int startLevel = DeformationOctreeParams{}.startLevel,
+                         int maxLevel = DeformationOctreeParams{}.maxLevel) {
   FemCase c;
   c.grid = voxelGrid("bunny", resolution);
-  c.octree = buildDeformationOctree(c.grid);
+  DeformationOctreeParams dp;
+  dp.startLevel = startLevel;
+  dp.maxLevel = maxLevel;
+  c.octree = buildDeformationOctree(c.grid, dp);
   if (cut) {
     const std::vector<std::uint64_t> links = earCutLinks(c.grid);
     for (std::uint64_t id : links)

@@ -22,6 +22,7 @@
 // These are models of the data each part moves at least, not counters.
 //
 //   build/release/bench/bench_step_parts [--sizes 173,241,301] [--runs 3] [--steps 20]
+//   build/release/bench/bench_step_parts --weights   # the automatic choice's weights
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
@@ -38,6 +39,7 @@
 #include "voxcut/core/Timer.h"
 #include "voxcut/linalg/BlockMatrix.h"
 #include "voxcut/linalg/Multigrid.h"
+#include "voxcut/linalg/TwoLevelPreconditioner.h"
 
 namespace voxcut {
 namespace {
@@ -258,7 +260,87 @@ struct Options {
   std::vector<int> sizes{173, 241, 301};
   int runs = 3;
   int steps = 20;
+  bool weights = false;
 };
+
+template <class F>
+double meanMs(int repeats, F&& f) {
+  const Timer t;
+  for (int k = 0; k < repeats; ++k) f();
+  return t.ms() / repeats;
+}
+
+/// --weights: what the automatic choice's weights (fem/AutomaticChoice.h, AutomaticCosts) are
+/// fitted to. On the bunny at bench_solver_choice's six sizes, after five multigrid steps, each
+/// preconditioner operation timed alone (one thread) and divided by one fine product's time
+/// on the same matrix: a V-cycle, new coarse levels, a new hierarchy beyond them, the fine
+/// smoother's refresh, the two-level V-cycle and its set-up, and its coarse factor's entries
+/// per fine block.
+void weightsTable() {
+  const ThreadLimit limit(1);
+  struct Size {
+    int resolution, startLevel, maxLevel;
+  };
+  constexpr Size kSizes[] = {{75, 3, 4},   {112, 3, 4}, {173, 3, 4},
+                             {241, 3, 4}, {166, 2, 3}, {250, 2, 3}};
+  std::printf("\n## The preconditioners' operations in fine products (one thread)\n\n");
+  std::printf("| nodes | free rows | fine blocks | product, ms | V-cycle | coarse levels anew | "
+              "hierarchy beyond them | fine smoother | two-level V-cycle | its set-up | its "
+              "coarse factor, entries per fine block |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const Size& z : kSizes) {
+    bench::FemCase c = bench::bunnyBody(z.resolution, {1e5, 0.3, 1000.0, 0.1, 0.01}, false,
+                                        z.startLevel, z.maxLevel);
+    c.params.timeStep = 0.01;
+    c.params.tolerance = 1e-6;
+    c.params.preconditioner = PreconditionerKind::Multigrid;
+    ImplicitEuler solver(c.params);
+    for (int k = 0; k < 5; ++k) (void)solver.step(c.model, c.octree);
+    const BlockSparsity& sp = c.model.sparsity();
+    const std::size_t rows = c.model.freeNodeCount();
+    const Eigen::SparseMatrix<double> a = solver.reducedMatrix(c.model);
+    std::vector<Eigen::Matrix3d> blocks(sp.blockCount());
+    for (std::size_t i = 0; i < rows; ++i)
+      for (std::uint32_t slot = sp.rowStart[i]; slot < sp.rowStart[i + 1]; ++slot)
+        blocks[slot] = a.block(3 * static_cast<Eigen::Index>(i),
+                               3 * static_cast<Eigen::Index>(sp.column[slot]), 3, 3);
+    std::vector<Eigen::Matrix3d> inverse(rows);
+    for (std::size_t i = 0; i < rows; ++i) inverse[i] = blocks[sp.diagonal[i]].inverse();
+    const BlockMatrixView view = sp.view(blocks);
+    std::vector<Vec3d> positions(rows);
+    std::vector<Index3> coords(rows);
+    for (std::size_t i = 0; i < rows; ++i) {
+      positions[i] = c.octree.positions()[c.model.freeNodes()[i]];
+      coords[i] = c.octree.nodeCoord(c.model.freeNodes()[i]);
+    }
+    std::vector<Vec3d> x(rows, Vec3d::Ones()), y(rows);
+    const int reps = std::max(5, static_cast<int>(200000 / std::max<std::size_t>(1, sp.blockCount())));
+    const double product = 1e3 * bestSeconds(4 * reps, [&] {
+      for (std::size_t i = 0; i < rows; ++i) y[i] = blockRowProduct(view, x.data(), i);
+    });
+    Multigrid mg;
+    const double build = meanMs(3, [&] {
+      mg.build(view, coords, c.params.multigrid, false);
+      (void)mg.setup(view, false);
+    });
+    const double refresh = meanMs(5, [&] { (void)mg.setup(view, false); });
+    const double fine = meanMs(reps, [&] { (void)mg.updateFine(view, false); });
+    const double vcycle = 1e3 * bestSeconds(reps, [&] { mg.apply(view, x, y, false); });
+    TwoLevelPreconditioner tl;
+    const double tlSetup = meanMs(5, [&] {
+      (void)tl.setup(sp, c.model.aggregation(), blocks, &positions, false);
+    });
+    const double tlApply = 1e3 * bestSeconds(reps, [&] {
+      tl.apply(sp, c.model.aggregation(), blocks, inverse, x, y, false);
+    });
+    std::printf("| %zu | %zu | %zu | %.3f | %.1f | %.0f | %.0f | %.1f | %.1f | %.0f | %.2f |\n",
+                c.model.nodeCount(), rows, sp.blockCount(), product, vcycle / product,
+                refresh / product, (build - refresh) / product, fine / product,
+                tlApply / product, tlSetup / product,
+                tl.coarseFactorEntries() / static_cast<double>(sp.blockCount()));
+    std::fflush(stdout);
+  }
+}
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -387,6 +469,9 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 100));
   app.add_option("--steps", o.steps, "measured steps per run, after 20 from rest")
       ->check(CLI::Range(1, 10000));
+  app.add_flag("--weights", o.weights,
+               "instead: the preconditioners' operations in fine products at the six sizes of "
+               "bench_solver_choice (what the automatic choice's weights are fitted to)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -406,7 +491,10 @@ int main(int argc, char** argv) {
                 before.bandwidth * 1e-9, after.bandwidth * 1e-9, rates.cacheBytes * 1e-6,
                 before.cacheBandwidth * 1e-9, after.cacheBandwidth * 1e-9,
                 before.blockRate * 1e-6, after.blockRate * 1e-6, 18.0 * rates.blockRate * 1e-9);
-    for (int res : o.sizes) voxcut::runSize(o, res, rates);
+    if (o.weights)
+      voxcut::weightsTable();
+    else
+      for (int res : o.sizes) voxcut::runSize(o, res, rates);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "bench_step_parts: error: %s\n", e.what());
     return 1;
