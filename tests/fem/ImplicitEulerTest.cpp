@@ -357,16 +357,27 @@ std::vector<std::uint8_t> nodesAtZero(const DeformationOctree& oc, int axis) {
   return fixed;
 }
 
-std::vector<Vec3d> runSteps(int threads, int steps, std::vector<StepStatus>& statuses,
-                            PreconditionerKind kind) {
-  ThreadLimit limit(threads);
+/// The small body fixed at x = 0, perturbed, and the settings that swing it under a skewed
+/// gravity with the preconditioner `kind`.
+Body swingingBody() {
   Body b = smallBody(0.2, 1e-4);
   b.model.setFixed(nodesAtZero(b.octree, 0));
   perturb(b.octree, 5e-4);
+  return b;
+}
+
+ImplicitEulerParams swingingParams(PreconditionerKind kind) {
   ImplicitEulerParams p;
   p.gravity = Vec3d(0.3, -2.0, -9.81);
   p.preconditioner = kind;
-  ImplicitEuler solver(p);
+  return p;
+}
+
+std::vector<Vec3d> runSteps(int threads, int steps, std::vector<StepStatus>& statuses,
+                            PreconditionerKind kind) {
+  ThreadLimit limit(threads);
+  Body b = swingingBody();
+  ImplicitEuler solver(swingingParams(kind));
   for (int s = 0; s < steps; ++s) statuses.push_back(solver.step(b.model, b.octree));
   return b.octree.positions();
 }
@@ -398,13 +409,8 @@ TEST(ImplicitEulerDynamics, StepPartsAreTheStepsOwnTime) {
                                   PreconditionerKind::Cholesky, PreconditionerKind::Multigrid,
                                   PreconditionerKind::Automatic}) {
     SCOPED_TRACE(preconditionerName(kind));
-    Body b = smallBody(0.2, 1e-4);
-    b.model.setFixed(nodesAtZero(b.octree, 0));
-    perturb(b.octree, 5e-4);
-    ImplicitEulerParams p;
-    p.gravity = Vec3d(0.3, -2.0, -9.81);
-    p.preconditioner = kind;
-    ImplicitEuler solver(p);
+    Body b = swingingBody();
+    ImplicitEuler solver(swingingParams(kind));
     for (int s = 0; s < 6; ++s) {
       const Timer around;
       const StepStatus st = solver.step(b.model, b.octree);
