@@ -44,16 +44,16 @@ struct AutomaticCosts {
   /// An iteration's own work beside its product and preconditioner (the conjugate
   /// gradients' vector updates, the rigid-mode and contact corrections), in products.
   double iterationOverhead = 2.0;
-  double vcycle = 5.0;              ///< one V-cycle, in products (measured 2.9-5.6)
-  /// A new multigrid hierarchy, in products (measured 110-280 alone; a cut's refined elements
+  double vcycle = 5.0;              ///< one V-cycle, in products (measured 2.9-6.4)
+  /// A new multigrid hierarchy, in products (measured 100-320 alone; a cut's refined elements
   /// make it dearer, and a blade cutting every step must keep the body off the multigrid)
   double hierarchyBuild = 700.0;
-  double coarseRefresh = 100.0;     ///< new coarse levels, in products (measured 44-130)
-  double fineRefresh = 5.0;         ///< the fine smoother following the matrix (2.4-6.5)
+  double coarseRefresh = 100.0;     ///< new coarse levels, in products (measured 40-136)
+  double fineRefresh = 5.0;         ///< the fine smoother following the matrix (2.4-9.7)
   /// One two-level V-cycle, in products, beside its coarse factor's solves (twoLevelCoarseEntry)
   double twoLevelIteration = 1.0;
   /// One entry of the two-level V-cycle's coarse factor, read in each of its two triangular
-  /// solves, in fine block products: with twoLevelIteration the V-cycle measured 2.2-7.7
+  /// solves, in fine block products: with twoLevelIteration the V-cycle measured 2.2-8.2
   /// products from 500 to 30,000 nodes, its coarse factor 0.24-0.89 entries per fine block.
   double twoLevelCoarseEntry = 4.0;
   double twoLevelSetup = 20.0;      ///< its coarse system, in products
