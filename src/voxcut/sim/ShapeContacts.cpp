@@ -76,7 +76,10 @@ bool World::Impl::correctActiveSet(const SimBody& b, const ContactShapes& shapes
     }
   }
   // Keys come out ascending: hits are in vertex order, shapes in order within a vertex.
-  // Vertices that end more than a fiftieth of a voxel inside a shape they had no contact with.
+  std::sort(edits.dropped.begin(), edits.dropped.end());
+  // Vertices that end more than a fiftieth of a voxel inside a shape they had no contact with,
+  // but for those dropped this frame (they pulled): forced and dropped, a key stays out, so
+  // forcing it again would only solve the same set once more.
   const double tolerance = 0.02 * b.cut.grid.voxelSize();
   ChunkedList<std::uint64_t> chunkForced(vertexChunks(shapes.vertices));
   ChunkedMax chunkDeepest(vertexChunks(shapes.vertices));
@@ -89,7 +92,9 @@ bool World::Impl::correctActiveSet(const SimBody& b, const ContactShapes& shapes
                            chunkDeepest.raise(ch, -gap);
                            if (!(gap < -tolerance)) continue;
                            const std::uint64_t key = v * shapeCount + s;
-                           if (!std::binary_search(inSet.begin(), inSet.end(), key))
+                           if (!std::binary_search(inSet.begin(), inSet.end(), key) &&
+                               !std::binary_search(edits.dropped.begin(), edits.dropped.end(),
+                                                   key))
                              chunkForced[ch].push_back(key);
                          }
                        });
@@ -98,7 +103,6 @@ bool World::Impl::correctActiveSet(const SimBody& b, const ContactShapes& shapes
   chunkForced.appendTo(edits.forced);
   if (edits.forced.size() != forcedBefore) changed = true;
   std::sort(edits.forced.begin(), edits.forced.end());
-  std::sort(edits.dropped.begin(), edits.dropped.end());
   // A key both forced and dropped (it went in, then pulled): left out.
   std::vector<std::uint64_t> forced;
   std::set_difference(edits.forced.begin(), edits.forced.end(), edits.dropped.begin(),
