@@ -4,6 +4,7 @@
 /// resolution, its base fixed, under gravity, and the scaling case of docs/performance.md,
 /// "Deformation solver at scale".
 
+#include <Eigen/SparseCore>
 #include <cstdint>
 #include <string>
 #include <utility>
@@ -81,6 +82,18 @@ inline FemCase bunnyBody(int resolution, const ElasticMaterial& material, bool c
   fixBox(c, Vec3d(-0.1, -0.02, -0.1), Vec3d(0.1, 0.004, 0.1));
   c.params.gravity = Vec3d(0, -9.81, 0);
   return c;
+}
+
+/// The 3x3 blocks of the reduced matrix `a` (ImplicitEuler::reducedMatrix) in the slot order of
+/// `sp`, its sparsity: the blocks a BlockMatrixView or a block factor of `sp` reads.
+inline std::vector<Eigen::Matrix3d> reducedBlocks(const BlockSparsity& sp,
+                                                  const Eigen::SparseMatrix<double>& a) {
+  std::vector<Eigen::Matrix3d> blocks(sp.blockCount());
+  for (std::size_t i = 0; i + 1 < sp.rowStart.size(); ++i)
+    for (std::uint32_t slot = sp.rowStart[i]; slot < sp.rowStart[i + 1]; ++slot)
+      blocks[slot] = a.block(3 * static_cast<Eigen::Index>(i),
+                             3 * static_cast<Eigen::Index>(sp.column[slot]), 3, 3);
+  return blocks;
 }
 
 /// The scaling case of docs/performance.md, "Deformation solver at scale": the bunny at

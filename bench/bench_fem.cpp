@@ -188,10 +188,7 @@ void DirectSolvers(benchmark::State& state) {
   Eigen::VectorXd bv = Eigen::Map<const Eigen::VectorXd>(b.data()->data(), 3 * rows);
   double analyseMs = 0.0, residual = 0.0, fill = 0.0;
   if (state.range(1) == 0) {
-    std::vector<Eigen::Matrix3d> blocks(sp.blockCount());
-    for (std::size_t i = 0; i < rows; ++i)
-      for (std::uint32_t slot = sp.rowStart[i]; slot < sp.rowStart[i + 1]; ++slot)
-        blocks[slot] = a.block(3 * i, 3 * sp.column[slot], 3, 3);
+    const std::vector<Eigen::Matrix3d> blocks = bench::reducedBlocks(sp, a);
     BlockCholesky chol;
     Timer t;
     chol.analyse(sp);

@@ -13,10 +13,10 @@
 // The machine's rates, measured twice in the same process before the runs (after one warm-up
 // measurement; the better of each pair is a rate the machine reached): the rate it reads
 // memory at (a dot product of two 128 MB arrays, one thread, the best of 5; the parts mostly
-// read), the same over arrays a quarter of the last-level cache's size, and its rate of 3x3 block products held in
-// cache (a block matrix of 295 kB times a vector, the product's own kernel,
-// linalg/BlockMatrix.h). Each part's bound is the larger of its bytes over the bandwidth (the
-// cache's where the part's data fits in three quarters of it) and its flops over the in-cache
+// read), the same over arrays a quarter of the last-level cache's size, and its rate of 3x3
+// block products held in cache (a block matrix of 295 kB times a vector, the product's own
+// kernel, linalg/BlockMatrix.h). Each part's bound is the larger of its bytes over the bandwidth
+// (the cache's where the part's data fits in three quarters of it) and its flops over the in-cache
 // rate, from a count of what it must read, write and compute (partWork below,
 // docs/performance.md).
 // These are models of the data each part moves at least, not counters.
@@ -46,10 +46,10 @@ namespace {
 
 /// The machine's measured rates.
 struct Rates {
-  double bandwidth = 0.0;  ///< bytes per second, streaming from memory, one thread
+  double bandwidth = 0.0;       ///< bytes per second, streaming from memory, one thread
   double cacheBandwidth = 0.0;  ///< the same for data that stays in the last-level cache
-  double blockRate = 0.0;  ///< 3x3 block products per second, in cache
-  double cacheBytes = 8e6;  ///< the last-level cache's size
+  double blockRate = 0.0;       ///< 3x3 block products per second, in cache
+  double cacheBytes = 8e6;      ///< the last-level cache's size
 
   /// The better of two measurements of each rate (each is a rate the machine reached).
   [[nodiscard]] Rates best(const Rates& o) const {
@@ -67,6 +67,14 @@ double bestSeconds(int repeats, F&& f) {
     best = std::min(best, t.ms() * 1e-3);
   }
   return best;
+}
+
+/// The best of `repeats` times of one product y = A x with `a` (ms).
+double productMs(const BlockMatrixView& a, const std::vector<Vec3d>& x, std::vector<Vec3d>& y,
+                 int repeats) {
+  return 1e3 * bestSeconds(repeats, [&] {
+           for (std::size_t i = 0; i < a.rows; ++i) y[i] = blockRowProduct(a, x.data(), i);
+         });
 }
 
 /// Bytes per second read by a dot product of two arrays of n doubles (four sums, so that the
@@ -158,41 +166,46 @@ struct Work {
 struct Structure {
   double nodes = 0, rows = 0, elements = 0, blocks = 0, sources = 0;
   std::vector<std::size_t> levelRows, levelBlocks;  ///< the multigrid's, fine first
-  double coarsestFactor = 0;                         ///< blocks of its factor below the diagonal
-  double elementBytes = 0;                           ///< one element's stored matrices
+  double coarsestFactor = 0;                        ///< blocks of its factor below the diagonal
+  double elementBytes = 0;                          ///< one element's stored matrices
 };
 
 /// The step's parts, in StepParts order.
-constexpr const char* kPartNames[] = {"prepare",    "assembly", "rigid modes", "projection",
-                                      "set-up",     "iterations", "advance"};
+constexpr const char* kPartNames[] = {"prepare", "assembly",   "rigid modes", "projection",
+                                      "set-up",  "iterations", "advance"};
 constexpr std::size_t kParts = 7;
 
 std::array<double, kParts> partArray(const StepParts& p) {
   return {p.prepare, p.assembly, p.rigid, p.projection, p.setup, p.iterations, p.advance};
 }
 
+constexpr double kVec = 24.0;  ///< bytes of one Vec3d
+
+/// One fine product A x: each block (72 bytes) and its column (4) read once; its row starts,
+/// x and y; 18 flops a block. Its data is all it reads.
+Work productWork(const Structure& s) {
+  const double matrix = s.blocks * 76.0 + s.rows * (4.0 + 2.0 * kVec);
+  return {matrix, 18.0 * s.blocks, matrix};
+}
+
 /// What each part must move and compute at least (the notes of docs/performance.md).
 std::array<Work, kParts> partWork(const Structure& s, double iterations, double history) {
-  const double vec = 24.0;  // one Vec3d
-  // One fine product A x: each block (72 bytes) and its column (4) read once; x and y.
-  const double matrix = s.blocks * 76.0 + s.rows * (4.0 + 2.0 * vec);
-  const Work product{matrix, 18.0 * s.blocks, matrix};
+  const double vec = kVec;
+  const Work product = productWork(s);
+  const double matrix = product.footprint;
   // One V-cycle: per level, the forward sweep, the residual and the backward sweep each read
   // the level's single-precision blocks (36 bytes) and columns (4); about six vector passes a
   // level (residual, correction, restriction, prolongation); the coarsest factor's two
-  // triangular solves.
-  Work vcycle;
+  // triangular solves. Its data: each level's blocks and four vectors, and the factor.
+  Work vcycle{2.0 * s.coarsestFactor * 76.0, 2.0 * 18.0 * s.coarsestFactor,
+              s.coarsestFactor * 76.0};
   for (std::size_t l = 0; l < s.levelRows.size(); ++l) {
     const double lb = static_cast<double>(s.levelBlocks[l]);
-    vcycle.bytes += 3.0 * lb * 40.0 + 6.0 * static_cast<double>(s.levelRows[l]) * vec;
+    const double lr = static_cast<double>(s.levelRows[l]);
+    vcycle.bytes += 3.0 * lb * 40.0 + 6.0 * lr * vec;
     vcycle.flops += 3.0 * 18.0 * lb;
+    vcycle.footprint += lb * 40.0 + 4.0 * lr * vec;
   }
-  vcycle.bytes += 2.0 * s.coarsestFactor * 76.0;
-  vcycle.flops += 2.0 * 18.0 * s.coarsestFactor;
-  double levels = s.coarsestFactor * 76.0;
-  for (std::size_t l = 0; l < s.levelRows.size(); ++l)
-    levels += static_cast<double>(s.levelBlocks[l]) * 40.0 +
-              4.0 * static_cast<double>(s.levelRows[l]) * vec;
   std::array<Work, kParts> w{};
   // prepare: velocities projected (prolongation read and written), positions and masses
   // gathered per free row.
@@ -217,13 +230,12 @@ std::array<Work, kParts> partWork(const Structure& s, double iterations, double 
           (history + 1.0) * product.flops, matrix + history * s.rows * vec};
   // set-up (the fine smoother following the matrix): the blocks read and their
   // single-precision copy written, the point inverses (about 100 flops a row).
-  w[4] = {s.blocks * (72.0 + 36.0 + 4.0) + s.rows * 72.0, 100.0 * s.rows,
-          s.blocks * (76.0 + 40.0)};
+  w[4] = {s.blocks * (72.0 + 36.0 + 4.0) + s.rows * 72.0, 100.0 * s.rows, s.blocks * (76.0 + 40.0)};
   // iterations: a product, a V-cycle and the conjugate gradients' vector work (about ten
   // vector passes) each.
   w[5] = {iterations * (product.bytes + vcycle.bytes + 10.0 * s.rows * vec),
           iterations * (product.flops + vcycle.flops + 30.0 * s.rows),
-          matrix + levels + 5.0 * s.rows * vec};
+          matrix + vcycle.footprint + 5.0 * s.rows * vec};
   // advance: the solution kept, prolonged, the positions moved.
   w[6] = {s.rows * 2.0 * vec + s.nodes * 4.0 * vec, 0.0, s.nodes * 3.0 * vec};
   return w;
@@ -233,13 +245,9 @@ std::array<Work, kParts> partWork(const Structure& s, double iterations, double 
 void hierarchy(const bench::FemCase& c, const DeformationOctree& octree,
                const ImplicitEuler& solver, Structure& s, double& productMs, double& vcycleMs) {
   const BlockSparsity& sp = c.model.sparsity();
-  const Eigen::SparseMatrix<double> a = solver.reducedMatrix(c.model);
   const std::size_t rows = c.model.freeNodeCount();
-  std::vector<Eigen::Matrix3d> blocks(sp.blockCount());
-  for (std::size_t i = 0; i < rows; ++i)
-    for (std::uint32_t slot = sp.rowStart[i]; slot < sp.rowStart[i + 1]; ++slot)
-      blocks[slot] = a.block(3 * static_cast<Eigen::Index>(i),
-                             3 * static_cast<Eigen::Index>(sp.column[slot]), 3, 3);
+  const std::vector<Eigen::Matrix3d> blocks =
+      bench::reducedBlocks(sp, solver.reducedMatrix(c.model));
   const BlockMatrixView view = sp.view(blocks);
   std::vector<Index3> coords(rows);
   for (std::size_t i = 0; i < rows; ++i) coords[i] = octree.nodeCoord(c.model.freeNodes()[i]);
@@ -250,9 +258,7 @@ void hierarchy(const bench::FemCase& c, const DeformationOctree& octree,
   s.levelBlocks = mg.smootherBlocksPerLevel();
   s.coarsestFactor = static_cast<double>(mg.coarsestFactorBlocks());
   std::vector<Vec3d> x(rows, Vec3d::Ones()), y(rows);
-  productMs = 1e3 * bestSeconds(20, [&] {
-    for (std::size_t i = 0; i < rows; ++i) y[i] = blockRowProduct(view, x.data(), i);
-  });
+  productMs = voxcut::productMs(view, x, y, 20);
   vcycleMs = 1e3 * bestSeconds(20, [&] { mg.apply(view, x, y, false); });
 }
 
@@ -281,12 +287,13 @@ void weightsTable() {
   struct Size {
     int resolution, startLevel, maxLevel;
   };
-  constexpr Size kSizes[] = {{75, 3, 4},   {112, 3, 4}, {173, 3, 4},
+  constexpr Size kSizes[] = {{75, 3, 4},  {112, 3, 4}, {173, 3, 4},
                              {241, 3, 4}, {166, 2, 3}, {250, 2, 3}};
   std::printf("\n## The preconditioners' operations in fine products (one thread)\n\n");
-  std::printf("| nodes | free rows | fine blocks | product, ms | V-cycle | coarse levels anew | "
-              "hierarchy beyond them | fine smoother | two-level V-cycle | its set-up | its "
-              "coarse factor, entries per fine block |\n");
+  std::printf(
+      "| nodes | free rows | fine blocks | product, ms | V-cycle | coarse levels anew | "
+      "hierarchy beyond them | fine smoother | two-level V-cycle | its set-up | its "
+      "coarse factor, entries per fine block |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Size& z : kSizes) {
     bench::FemCase c = bench::bunnyBody(z.resolution, {1e5, 0.3, 1000.0, 0.1, 0.01}, false,
@@ -298,12 +305,8 @@ void weightsTable() {
     for (int k = 0; k < 5; ++k) (void)solver.step(c.model, c.octree);
     const BlockSparsity& sp = c.model.sparsity();
     const std::size_t rows = c.model.freeNodeCount();
-    const Eigen::SparseMatrix<double> a = solver.reducedMatrix(c.model);
-    std::vector<Eigen::Matrix3d> blocks(sp.blockCount());
-    for (std::size_t i = 0; i < rows; ++i)
-      for (std::uint32_t slot = sp.rowStart[i]; slot < sp.rowStart[i + 1]; ++slot)
-        blocks[slot] = a.block(3 * static_cast<Eigen::Index>(i),
-                               3 * static_cast<Eigen::Index>(sp.column[slot]), 3, 3);
+    const std::vector<Eigen::Matrix3d> blocks =
+        bench::reducedBlocks(sp, solver.reducedMatrix(c.model));
     std::vector<Eigen::Matrix3d> inverse(rows);
     for (std::size_t i = 0; i < rows; ++i) inverse[i] = blocks[sp.diagonal[i]].inverse();
     const BlockMatrixView view = sp.view(blocks);
@@ -314,10 +317,9 @@ void weightsTable() {
       coords[i] = c.octree.nodeCoord(c.model.freeNodes()[i]);
     }
     std::vector<Vec3d> x(rows, Vec3d::Ones()), y(rows);
-    const int reps = std::max(5, static_cast<int>(200000 / std::max<std::size_t>(1, sp.blockCount())));
-    const double product = 1e3 * bestSeconds(4 * reps, [&] {
-      for (std::size_t i = 0; i < rows; ++i) y[i] = blockRowProduct(view, x.data(), i);
-    });
+    const int reps =
+        std::max(5, static_cast<int>(200000 / std::max<std::size_t>(1, sp.blockCount())));
+    const double product = productMs(view, x, y, 4 * reps);
     Multigrid mg;
     const double build = meanMs(3, [&] {
       mg.build(view, coords, c.params.multigrid, false);
@@ -327,17 +329,15 @@ void weightsTable() {
     const double fine = meanMs(reps, [&] { (void)mg.updateFine(view, false); });
     const double vcycle = 1e3 * bestSeconds(reps, [&] { mg.apply(view, x, y, false); });
     TwoLevelPreconditioner tl;
-    const double tlSetup = meanMs(5, [&] {
-      (void)tl.setup(sp, c.model.aggregation(), blocks, &positions, false);
-    });
+    const double tlSetup =
+        meanMs(5, [&] { (void)tl.setup(sp, c.model.aggregation(), blocks, &positions, false); });
     const double tlApply = 1e3 * bestSeconds(reps, [&] {
-      tl.apply(sp, c.model.aggregation(), blocks, inverse, x, y, false);
-    });
+                             tl.apply(sp, c.model.aggregation(), blocks, inverse, x, y, false);
+                           });
     std::printf("| %zu | %zu | %zu | %.3f | %.1f | %.0f | %.0f | %.1f | %.1f | %.0f | %.2f |\n",
                 c.model.nodeCount(), rows, sp.blockCount(), product, vcycle / product,
-                refresh / product, (build - refresh) / product, fine / product,
-                tlApply / product, tlSetup / product,
-                tl.coarseFactorEntries() / static_cast<double>(sp.blockCount()));
+                refresh / product, (build - refresh) / product, fine / product, tlApply / product,
+                tlSetup / product, tl.coarseFactorEntries() / static_cast<double>(sp.blockCount()));
     std::fflush(stdout);
   }
 }
@@ -398,8 +398,7 @@ void runSize(const Options& o, int resolution, const Rates& rates) {
   DeformationOctree octree;
   ImplicitEuler solver;
   for (int run = 0; run < o.runs; ++run) {
-    autoRuns.push_back(
-        runOnce(c, PreconditionerKind::Automatic, 8, o.steps, &octree, &solver));
+    autoRuns.push_back(runOnce(c, PreconditionerKind::Automatic, 8, o.steps, &octree, &solver));
     jacobiRuns.push_back(runOnce(c, PreconditionerKind::Jacobi, 0, o.steps));
   }
   Structure s;
@@ -444,8 +443,7 @@ void runSize(const Options& o, int resolution, const Rates& rates) {
   std::printf("| **step** | %s | | | | %.2f | %.1f |\n\n", spread(steps).c_str(), boundSum,
               median(steps) / boundSum);
   const std::size_t blocks = static_cast<std::size_t>(s.blocks);
-  const double matrix = s.blocks * 76.0 + s.rows * 52.0;
-  const Work product{matrix, 18.0 * s.blocks, matrix};
+  const Work product = productWork(s);
   std::printf("kernels: one fine product %.3f ms (bound %.3f, %zu blocks); one V-cycle %.3f ms\n",
               productMs, product.boundMs(rates), blocks, vcycleMs);
   std::printf("Jacobi-PCG from the previous dv: %s ms a step; auto %s times faster\n",
@@ -458,10 +456,11 @@ void runSize(const Options& o, int resolution, const Rates& rates) {
 
 int main(int argc, char** argv) {
   voxcut::Options o;
-  CLI::App app("One implicit Euler step of the bunny scaling case by its parts, against what "
-               "their arithmetic costs on this machine (docs/performance.md, \"The step by its "
-               "parts\").",
-               "bench_step_parts");
+  CLI::App app(
+      "One implicit Euler step of the bunny scaling case by its parts, against what "
+      "their arithmetic costs on this machine (docs/performance.md, \"The step by its "
+      "parts\").",
+      "bench_step_parts");
   app.add_option("--sizes", o.sizes, "bunny resolutions (173, 241, 301: 3.1k, 6.3k, 10.3k nodes)")
       ->delimiter(',')
       ->check(CLI::Range(8, 400));
@@ -485,12 +484,13 @@ int main(int argc, char** argv) {
     const voxcut::Rates after = voxcut::measureRates();
     const voxcut::Rates rates = before.best(after);
     std::printf("# The step by its parts (one thread)\n\n");
-    std::printf("machine (one thread, two measurements): memory %.1f / %.1f GB/s, last-level "
-                "cache (%.0f MB) %.1f / %.1f GB/s, in-cache 3x3 block products %.0f / %.0f M/s "
-                "(%.1f Gflop/s at best); the bounds use the better of each\n",
-                before.bandwidth * 1e-9, after.bandwidth * 1e-9, rates.cacheBytes * 1e-6,
-                before.cacheBandwidth * 1e-9, after.cacheBandwidth * 1e-9,
-                before.blockRate * 1e-6, after.blockRate * 1e-6, 18.0 * rates.blockRate * 1e-9);
+    std::printf(
+        "machine (one thread, two measurements): memory %.1f / %.1f GB/s, last-level "
+        "cache (%.0f MB) %.1f / %.1f GB/s, in-cache 3x3 block products %.0f / %.0f M/s "
+        "(%.1f Gflop/s at best); the bounds use the better of each\n",
+        before.bandwidth * 1e-9, after.bandwidth * 1e-9, rates.cacheBytes * 1e-6,
+        before.cacheBandwidth * 1e-9, after.cacheBandwidth * 1e-9, before.blockRate * 1e-6,
+        after.blockRate * 1e-6, 18.0 * rates.blockRate * 1e-9);
     if (o.weights)
       voxcut::weightsTable();
     else

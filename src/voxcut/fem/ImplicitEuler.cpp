@@ -247,7 +247,7 @@ StepStatus ImplicitEuler::step(const ElasticModel& model, DeformationOctree& oct
   StepStatus status = solve(model);
   status.assemblyMs = assemblyMs;
   status.solveMs = timer.ms();
-  status.parts.prepare += prepareMs;
+  status.parts.prepare = prepareMs;
   status.parts.assembly = assemblyMs;
   timer.restart();
   preconditioners_.endStep(status);
